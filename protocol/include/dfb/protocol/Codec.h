@@ -1,0 +1,97 @@
+#pragma once
+// Protocol v0 codec, shared by server and clients (docs/protocol.md): JSON text messages for
+// state and edits, a fixed binary header before each encoded frame. Every decoder validates and
+// returns an Error naming the offending field instead of throwing.
+
+#include <dfb/core/Result.h>
+#include <dfb/protocol/Rig.h>
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace dfb::protocol {
+
+constexpr int PROTOCOL_VERSION = 0;
+
+// ---- rig <-> JSON ----------------------------------------------------------------------------
+nlohmann::json toJson(const Light& light);
+nlohmann::json toJson(const Rig& rig);
+/// Parses and validates a whole rig (unknown fields are refused, ranges checked).
+Result<Rig> rigFromJson(const nlohmann::json& j);
+
+// ---- property paths ----------------------------------------------------------------------------
+/// One property change: `path` is "LIGHT.PROPERTY" (e.g. "key.intensity") or a rig-level
+/// property ("exposure"); `value` is the new JSON value.
+struct Change {
+    std::string path;
+    nlohmann::json value;
+};
+
+/// Applies one change to `rig` after validating it. On error the rig is unchanged.
+Status applyChange(Rig& rig, const Change& change);
+
+/// Applies all changes or none (validated on a copy first).
+Status applyChanges(Rig& rig, const std::vector<Change>& changes);
+
+/// Parses "PATH=VALUE" from a command line. VALUE is JSON if it parses as JSON, else a
+/// comma-separated list of numbers ("1,2,3"), else a string.
+Result<Change> parseAssignment(std::string_view text);
+
+// ---- messages ------------------------------------------------------------------------------------
+/// Client -> server: change properties. `seq` is the client's own counter, echoed in the ack.
+struct EditMessage {
+    uint64_t seq = 0;
+    std::vector<Change> changes;
+};
+/// Client -> server: introduce oneself (optional in v0).
+struct HelloMessage {
+    int protocol = PROTOCOL_VERSION;
+    std::string name;
+};
+using ClientMessage = std::variant<EditMessage, HelloMessage>;
+
+/// Parses one text message from a client. Errors name the field that was wrong.
+Result<ClientMessage> parseClientMessage(std::string_view text);
+
+std::string encodeEdit(const EditMessage& m);
+std::string encodeHello(const HelloMessage& m);
+/// Server -> client messages.
+std::string encodeWelcome(const nlohmann::json& session, const Rig& rig, uint64_t clientId);
+std::string encodeAck(uint64_t seq, uint64_t rigVersion);
+std::string encodeChange(uint64_t rigVersion, uint64_t byClient, const std::vector<Change>& changes);
+std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq);
+
+// ---- binary frames -----------------------------------------------------------------------------
+enum class Encoding : uint16_t { Jpeg = 1, Png = 2 };
+
+/// Fixed 32-byte little-endian header before the encoded image bytes of a binary frame message.
+///   offset size field
+///   0      4    magic "DFBF"
+///   4      2    header version (1)
+///   6      2    encoding (1 = JPEG, 2 = PNG)
+///   8      8    frame number (server-wide counter)
+///   16     8    rig version the frame shows
+///   24     4    width in pixels
+///   28     4    height in pixels
+/// followed by the encoded image (the rest of the message).
+struct FrameHeader {
+    Encoding encoding = Encoding::Jpeg;
+    uint64_t frameNumber = 0;
+    uint64_t rigVersion = 0;
+    uint32_t width = 0;
+    uint32_t height = 0;
+};
+constexpr size_t FRAME_HEADER_BYTES = 32;
+
+void writeFrameHeader(const FrameHeader& h, uint8_t* out);
+/// Validates magic, version and encoding; fails with Protocol on anything else.
+Result<FrameHeader> readFrameHeader(const uint8_t* data, size_t size);
+
+} // namespace dfb::protocol

@@ -1,0 +1,47 @@
+#pragma once
+// The light rig: the shared vocabulary of the server and every client (docs/protocol.md).
+// Plain data; JSON conversion and property-path edits are in Codec.h.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace dfb {
+
+using Vec3 = std::array<float, 3>;
+
+/// Light types. v0 renders spot lights only; the others are reserved names.
+enum class LightType { Spot };
+
+/// One light. Intensities follow glTF KHR_lights_punctual units (candela for spot lights).
+struct Light {
+    std::string name;                 ///< unique in the rig; [A-Za-z0-9_-]{1,64}
+    LightType type = LightType::Spot;
+    bool enabled = true;
+    Vec3 position{0.f, 3.f, 3.f};     ///< world space, scene units
+    Vec3 direction{0.f, -0.7071f, -0.7071f}; ///< world space, towards where the light points; normalised on set
+    Vec3 color{1.f, 1.f, 1.f};        ///< linear RGB, each >= 0
+    float intensityCd = 50.f;         ///< candela, >= 0
+    float coneAngleDeg = 35.f;        ///< outer half-angle of the cone, (0, 85] degrees
+    float penumbraDeg = 8.f;          ///< width of the soft edge inside the cone, [0, coneAngleDeg]
+    bool shadow = true;               ///< casts shadows
+    int shadowMapSize = 2048;         ///< shadow-map side in texels, power of two in [64, 8192]
+    float shadowBias = 1.5f;          ///< receiver offset along the normal, in shadow-map texels, [0, 16]
+};
+
+/// The whole rig plus the view settings that apply to the beauty image.
+struct Rig {
+    uint64_t version = 0;             ///< bumped by the server on every accepted change
+    float exposureStops = 0.f;        ///< exposure in stops (image * 2^exposure), [-20, 20]
+    std::vector<Light> lights;
+
+    Light* find(const std::string& name);
+    const Light* find(const std::string& name) const;
+};
+
+/// A rig suited to a scene whose bounding box is [bmin, bmax]: a key spot light above, in front
+/// and to the left casting shadows, and a soft fill from the right without shadows.
+Rig defaultRig(const Vec3& bmin, const Vec3& bmax);
+
+} // namespace dfb

@@ -1,0 +1,350 @@
+#include <dfb/protocol/Codec.h>
+
+#include <cmath>
+#include <cstring>
+#include <set>
+
+namespace dfb::protocol {
+namespace {
+
+using json = nlohmann::json;
+
+Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidValue, what); }
+
+bool validName(const std::string& n) {
+    if (n.empty() || n.size() > 64) return false;
+    for (char c : n) {
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) return false;
+    }
+    return true;
+}
+
+Result<float> getNumber(const json& v, const std::string& path, float lo, float hi) {
+    if (!v.is_number()) return invalid(path + ": expected a number, got " + std::string(v.type_name()));
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) return invalid(path + ": not a finite number");
+    if (d < lo || d > hi) {
+        return invalid(path + ": " + v.dump() + " is out of range [" + json(lo).dump() + ", " + json(hi).dump() + "]");
+    }
+    return float(d);
+}
+
+Result<Vec3> getVec3(const json& v, const std::string& path, float lo, float hi) {
+    if (!v.is_array() || v.size() != 3) return invalid(path + ": expected an array of 3 numbers");
+    Vec3 out{};
+    for (size_t i = 0; i < 3; ++i) {
+        auto n = getNumber(v[i], path + "[" + std::to_string(i) + "]", lo, hi);
+        if (!n) return n.error();
+        out[i] = n.value();
+    }
+    return out;
+}
+
+Result<bool> getBool(const json& v, const std::string& path) {
+    if (!v.is_boolean()) return invalid(path + ": expected true or false, got " + std::string(v.type_name()));
+    return v.get<bool>();
+}
+
+// Largest coordinate accepted: far beyond any scene, small enough that squares stay finite in float.
+constexpr float MAX_COORD = 1e7f;
+
+Status setLightProperty(Light& l, const std::string& prop, const json& v, const std::string& path) {
+    if (prop == "name") {
+        if (!v.is_string() || !validName(v.get<std::string>())) {
+            return invalid(path + ": a name is 1-64 characters of letters, digits, '_' or '-'");
+        }
+        l.name = v.get<std::string>();
+    } else if (prop == "type") {
+        if (v != "spot") return invalid(path + ": unknown light type " + v.dump() + " (v0 supports \"spot\")");
+        l.type = LightType::Spot;
+    } else if (prop == "enabled") {
+        auto b = getBool(v, path);
+        if (!b) return b.error();
+        l.enabled = b.value();
+    } else if (prop == "position") {
+        auto p = getVec3(v, path, -MAX_COORD, MAX_COORD);
+        if (!p) return p.error();
+        l.position = p.value();
+    } else if (prop == "direction") {
+        auto d = getVec3(v, path, -MAX_COORD, MAX_COORD);
+        if (!d) return d.error();
+        const Vec3 a = d.value();
+        const float len = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        if (!(len > 1e-12f) || !std::isfinite(len)) return invalid(path + ": direction must not be zero");
+        l.direction = {a[0] / len, a[1] / len, a[2] / len};
+    } else if (prop == "color") {
+        auto c = getVec3(v, path, 0.f, 1e6f);
+        if (!c) return c.error();
+        l.color = c.value();
+    } else if (prop == "intensity") {
+        auto n = getNumber(v, path, 0.f, 1e12f);
+        if (!n) return n.error();
+        l.intensityCd = n.value();
+    } else if (prop == "coneAngle") {
+        auto n = getNumber(v, path, 0.1f, 85.f);
+        if (!n) return n.error();
+        l.coneAngleDeg = n.value();
+        l.penumbraDeg = std::min(l.penumbraDeg, l.coneAngleDeg);
+    } else if (prop == "penumbra") {
+        auto n = getNumber(v, path, 0.f, 85.f);
+        if (!n) return n.error();
+        if (n.value() > l.coneAngleDeg) return invalid(path + ": penumbra must not exceed coneAngle");
+        l.penumbraDeg = n.value();
+    } else if (prop == "shadow") {
+        auto b = getBool(v, path);
+        if (!b) return b.error();
+        l.shadow = b.value();
+    } else if (prop == "shadowMapSize") {
+        if (!v.is_number_integer()) return invalid(path + ": expected an integer");
+        const int64_t s = v.get<int64_t>();
+        if (s < 64 || s > 8192 || (s & (s - 1)) != 0) return invalid(path + ": must be a power of two in [64, 8192]");
+        l.shadowMapSize = int(s);
+    } else if (prop == "shadowBias") {
+        auto n = getNumber(v, path, 0.f, 16.f);
+        if (!n) return n.error();
+        l.shadowBias = n.value();
+    } else {
+        return invalid(path + ": unknown light property '" + prop + "'");
+    }
+    return okStatus();
+}
+
+Result<Light> lightFromJson(const json& j, const std::string& where) {
+    if (!j.is_object()) return invalid(where + ": a light must be an object");
+    Light l;
+    // coneAngle before penumbra, so that a penumbra within a wider new cone validates.
+    if (j.contains("coneAngle")) {
+        if (auto s = setLightProperty(l, "coneAngle", j["coneAngle"], where + ".coneAngle"); !s) return s.error();
+    }
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        if (it.key() == "coneAngle") continue;
+        if (auto s = setLightProperty(l, it.key(), it.value(), where + "." + it.key()); !s) return s.error();
+    }
+    if (l.name.empty()) return invalid(where + ": a light needs a name");
+    return l;
+}
+
+std::string lightTypeName(LightType) { return "spot"; }
+
+} // namespace
+
+json toJson(const Light& l) {
+    return json{{"name", l.name},         {"type", lightTypeName(l.type)}, {"enabled", l.enabled},
+                {"position", l.position}, {"direction", l.direction},      {"color", l.color},
+                {"intensity", l.intensityCd}, {"coneAngle", l.coneAngleDeg}, {"penumbra", l.penumbraDeg},
+                {"shadow", l.shadow},     {"shadowMapSize", l.shadowMapSize}, {"shadowBias", l.shadowBias}};
+}
+
+json toJson(const Rig& rig) {
+    json lights = json::array();
+    for (const Light& l : rig.lights) lights.push_back(toJson(l));
+    return json{{"version", rig.version}, {"exposure", rig.exposureStops}, {"lights", lights}};
+}
+
+Result<Rig> rigFromJson(const json& j) {
+    if (!j.is_object()) return invalid("rig: expected an object");
+    Rig rig;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        if (it.key() == "version") {
+            if (!it->is_number_unsigned()) return invalid("rig.version: expected a non-negative integer");
+            rig.version = it->get<uint64_t>();
+        } else if (it.key() == "exposure") {
+            auto n = getNumber(*it, "rig.exposure", -20.f, 20.f);
+            if (!n) return n.error();
+            rig.exposureStops = n.value();
+        } else if (it.key() == "lights") {
+            if (!it->is_array()) return invalid("rig.lights: expected an array");
+            std::set<std::string> names;
+            for (size_t i = 0; i < it->size(); ++i) {
+                auto l = lightFromJson((*it)[i], "rig.lights[" + std::to_string(i) + "]");
+                if (!l) return l.error();
+                if (!names.insert(l->name).second) return invalid("rig.lights: duplicate light name '" + l->name + "'");
+                rig.lights.push_back(l.value());
+            }
+        } else {
+            return invalid("rig: unknown field '" + it.key() + "'");
+        }
+    }
+    return rig;
+}
+
+Status applyChange(Rig& rig, const Change& c) {
+    if (c.path == "exposure") {
+        auto n = getNumber(c.value, c.path, -20.f, 20.f);
+        if (!n) return n.error();
+        rig.exposureStops = n.value();
+        return okStatus();
+    }
+    const size_t dot = c.path.find('.');
+    if (dot == std::string::npos || dot == 0 || dot + 1 == c.path.size()) {
+        return invalid("path '" + c.path + "': expected LIGHT.PROPERTY or 'exposure'");
+    }
+    const std::string lightName = c.path.substr(0, dot), prop = c.path.substr(dot + 1);
+    Light* l = rig.find(lightName);
+    if (!l) return makeError(ErrorCode::MissingData, "path '" + c.path + "': no light named '" + lightName + "'");
+    Light copy = *l;
+    if (auto s = setLightProperty(copy, prop, c.value, c.path); !s) return s;
+    if (prop == "name" && copy.name != lightName && rig.find(copy.name)) {
+        return invalid(c.path + ": a light named '" + copy.name + "' already exists");
+    }
+    *l = copy;
+    return okStatus();
+}
+
+Status applyChanges(Rig& rig, const std::vector<Change>& changes) {
+    Rig copy = rig;
+    for (const Change& c : changes) {
+        if (auto s = applyChange(copy, c); !s) return s;
+    }
+    rig = std::move(copy);
+    return okStatus();
+}
+
+Result<Change> parseAssignment(std::string_view text) {
+    const size_t eq = text.find('=');
+    if (eq == std::string_view::npos || eq == 0) return invalid("'" + std::string(text) + "': expected PATH=VALUE");
+    Change c;
+    c.path = std::string(text.substr(0, eq));
+    const std::string rhs(text.substr(eq + 1));
+    json v = json::parse(rhs, nullptr, false);
+    if (!v.is_discarded()) {
+        c.value = v;
+        return c;
+    }
+    if (rhs.find(',') != std::string::npos) {
+        json arr = json::array();
+        size_t start = 0;
+        while (start <= rhs.size()) {
+            size_t end = rhs.find(',', start);
+            if (end == std::string::npos) end = rhs.size();
+            json n = json::parse(rhs.substr(start, end - start), nullptr, false);
+            if (n.is_discarded() || !n.is_number()) {
+                return invalid("'" + std::string(text) + "': list items must be numbers");
+            }
+            arr.push_back(n);
+            start = end + 1;
+        }
+        c.value = arr;
+        return c;
+    }
+    c.value = rhs;
+    return c;
+}
+
+Result<ClientMessage> parseClientMessage(std::string_view text) {
+    json j = json::parse(text, nullptr, false);
+    if (j.is_discarded()) return makeError(ErrorCode::Protocol, "message is not valid JSON");
+    if (!j.is_object()) return makeError(ErrorCode::Protocol, "message must be a JSON object");
+    if (!j.contains("type") || !j["type"].is_string()) {
+        return makeError(ErrorCode::Protocol, "message needs a string field 'type'");
+    }
+    const std::string type = j["type"];
+    if (type == "edit") {
+        EditMessage m;
+        if (!j.contains("seq") || !j["seq"].is_number_unsigned()) {
+            return makeError(ErrorCode::Protocol, "edit.seq: expected a non-negative integer");
+        }
+        m.seq = j["seq"].get<uint64_t>();
+        if (!j.contains("changes") || !j["changes"].is_array() || j["changes"].empty()) {
+            return makeError(ErrorCode::Protocol, "edit.changes: expected a non-empty array");
+        }
+        for (size_t i = 0; i < j["changes"].size(); ++i) {
+            const json& c = j["changes"][i];
+            const std::string where = "edit.changes[" + std::to_string(i) + "]";
+            if (!c.is_object() || !c.contains("path") || !c["path"].is_string() || !c.contains("value")) {
+                return makeError(ErrorCode::Protocol, where + ": expected {\"path\": string, \"value\": ...}");
+            }
+            m.changes.push_back({c["path"].get<std::string>(), c["value"]});
+        }
+        return ClientMessage{m};
+    }
+    if (type == "hello") {
+        HelloMessage m;
+        if (j.contains("protocol")) {
+            if (!j["protocol"].is_number_integer()) return makeError(ErrorCode::Protocol, "hello.protocol: expected an integer");
+            m.protocol = j["protocol"].get<int>();
+            if (m.protocol != PROTOCOL_VERSION) {
+                return makeError(ErrorCode::Protocol, "hello.protocol: version " + std::to_string(m.protocol) +
+                                                          " is not supported (server speaks " +
+                                                          std::to_string(PROTOCOL_VERSION) + ")");
+            }
+        }
+        if (j.contains("name")) {
+            if (!j["name"].is_string()) return makeError(ErrorCode::Protocol, "hello.name: expected a string");
+            m.name = j["name"].get<std::string>().substr(0, 64);
+        }
+        return ClientMessage{m};
+    }
+    return makeError(ErrorCode::Protocol, "unknown message type '" + type + "'");
+}
+
+std::string encodeEdit(const EditMessage& m) {
+    json changes = json::array();
+    for (const Change& c : m.changes) changes.push_back({{"path", c.path}, {"value", c.value}});
+    return json{{"type", "edit"}, {"seq", m.seq}, {"changes", changes}}.dump();
+}
+
+std::string encodeHello(const HelloMessage& m) {
+    return json{{"type", "hello"}, {"protocol", m.protocol}, {"name", m.name}}.dump();
+}
+
+std::string encodeWelcome(const json& session, const Rig& rig, uint64_t clientId) {
+    return json{{"type", "welcome"}, {"protocol", PROTOCOL_VERSION}, {"client", clientId},
+                {"session", session}, {"rig", toJson(rig)}}
+        .dump();
+}
+
+std::string encodeAck(uint64_t seq, uint64_t rigVersion) {
+    return json{{"type", "ack"}, {"seq", seq}, {"rigVersion", rigVersion}}.dump();
+}
+
+std::string encodeChange(uint64_t rigVersion, uint64_t byClient, const std::vector<Change>& changes) {
+    json arr = json::array();
+    for (const Change& c : changes) arr.push_back({{"path", c.path}, {"value", c.value}});
+    return json{{"type", "change"}, {"rigVersion", rigVersion}, {"by", byClient}, {"changes", arr}}.dump();
+}
+
+std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq) {
+    json j{{"type", "error"}, {"code", toString(code)}, {"message", message}};
+    if (seq) j["seq"] = *seq;
+    return j.dump();
+}
+
+namespace {
+void put16(uint8_t* p, uint16_t v) { p[0] = uint8_t(v); p[1] = uint8_t(v >> 8); }
+void put32(uint8_t* p, uint32_t v) { for (int i = 0; i < 4; ++i) p[i] = uint8_t(v >> (8 * i)); }
+void put64(uint8_t* p, uint64_t v) { for (int i = 0; i < 8; ++i) p[i] = uint8_t(v >> (8 * i)); }
+uint16_t get16(const uint8_t* p) { return uint16_t(p[0] | (p[1] << 8)); }
+uint32_t get32(const uint8_t* p) { uint32_t v = 0; for (int i = 3; i >= 0; --i) v = (v << 8) | p[i]; return v; }
+uint64_t get64(const uint8_t* p) { uint64_t v = 0; for (int i = 7; i >= 0; --i) v = (v << 8) | p[i]; return v; }
+constexpr uint16_t FRAME_HEADER_VERSION = 1;
+} // namespace
+
+void writeFrameHeader(const FrameHeader& h, uint8_t* out) {
+    std::memcpy(out, "DFBF", 4);
+    put16(out + 4, FRAME_HEADER_VERSION);
+    put16(out + 6, static_cast<uint16_t>(h.encoding));
+    put64(out + 8, h.frameNumber);
+    put64(out + 16, h.rigVersion);
+    put32(out + 24, h.width);
+    put32(out + 28, h.height);
+}
+
+Result<FrameHeader> readFrameHeader(const uint8_t* data, size_t size) {
+    if (size < FRAME_HEADER_BYTES) return makeError(ErrorCode::Protocol, "frame message shorter than its header");
+    if (std::memcmp(data, "DFBF", 4) != 0) return makeError(ErrorCode::Protocol, "frame message has a bad magic");
+    if (get16(data + 4) != FRAME_HEADER_VERSION) {
+        return makeError(ErrorCode::Protocol, "frame header version " + std::to_string(get16(data + 4)) + " is not supported");
+    }
+    FrameHeader h;
+    const uint16_t enc = get16(data + 6);
+    if (enc != 1 && enc != 2) return makeError(ErrorCode::Protocol, "frame has unknown encoding " + std::to_string(enc));
+    h.encoding = static_cast<Encoding>(enc);
+    h.frameNumber = get64(data + 8);
+    h.rigVersion = get64(data + 16);
+    h.width = get32(data + 24);
+    h.height = get32(data + 28);
+    return h;
+}
+
+} // namespace dfb::protocol

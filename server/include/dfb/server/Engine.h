@@ -1,0 +1,66 @@
+#pragma once
+// The relighting engine: relights a deep framebuffer on the GPU through headless EGL
+// (DESIGN section 6). Public interface free of GL types; the GL implementation is in src/engine.
+//
+// Threading: an Engine owns a GL context that is current on the thread that created it. Create,
+// use and destroy it on one thread (the server's render thread).
+
+#include <dfb/core/Result.h>
+#include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/protocol/Rig.h>
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace dfb {
+
+/// An 8-bit RGBA image, row 0 at the top: pixel (x, y) starts at byte `(y * width + x) * 4`.
+struct Image8 {
+    int width = 0;
+    int height = 0;
+    std::vector<uint8_t> rgba;
+};
+
+/// Triangles that cast shadows, in world space: 3 indices per triangle into `positions`.
+struct ShadowGeometry {
+    std::vector<glm::vec3> positions;
+    std::vector<uint32_t> indices;
+};
+
+/// Where the time of one render went, in milliseconds of wall time (GPU work is waited for at
+/// each stage boundary, so the split is honest on llvmpipe and on discrete GPUs).
+struct FrameStats {
+    double shadowMs = 0;
+    double shadeMs = 0;
+    double compositeMs = 0;
+    double readbackMs = 0;
+    int shadowMapsRendered = 0;
+    int lightsShaded = 0;
+};
+
+class Engine {
+public:
+    /// Uploads the G-buffer and the shadow casters once. Fails with GpuError when no GL 4.5 core
+    /// context can be created or a shader fails to build, InvalidValue for an empty buffer.
+    static Result<std::unique_ptr<Engine>> create(const DeepBuffer& gbuffer, const ShadowGeometry& casters);
+    virtual ~Engine() = default;
+
+    /// Renders the beauty image for `rig`. Re-renders only what changed since the last call:
+    /// a light whose position, direction, cone or shadow settings changed gets a new shadow map;
+    /// any other change of a light re-shades only that light; the others come from the cache.
+    virtual Result<Image8> render(const Rig& rig, FrameStats* stats = nullptr) = 0;
+
+    /// "renderer | GL version | EGL platform".
+    virtual std::string deviceDescription() const = 0;
+    virtual int width() const = 0;
+    virtual int height() const = 0;
+
+protected:
+    Engine() = default;
+};
+
+} // namespace dfb

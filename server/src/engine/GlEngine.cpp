@@ -1,0 +1,379 @@
+// The GL implementation of Engine (DESIGN section 6): G-buffer textures uploaded once, per-light
+// cached shadow maps and float contribution images, a sum of contributions (light linearity,
+// paper 004 section 4.3) plus emission, then exposure and sRGB.
+
+#include <dfb/server/Engine.h>
+
+#include "UniformBlocks.h"
+
+#include <dfb/gl/Context.h>
+#include <dfb/gl/Objects.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <map>
+
+namespace dfb::shaders {
+std::string_view serverShader(std::string_view name);
+}
+
+namespace dfb {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+glm::vec3 toGlm(const Vec3& v) { return {v[0], v[1], v[2]}; }
+
+// What a light's shadow map depends on; any difference re-renders it.
+bool sameShadowInputs(const Light& a, const Light& b) {
+    return a.position == b.position && a.direction == b.direction && a.coneAngleDeg == b.coneAngleDeg &&
+           a.shadow == b.shadow && a.shadowMapSize == b.shadowMapSize;
+}
+
+// What a light's contribution image depends on, besides its shadow map.
+bool sameShadingInputs(const Light& a, const Light& b) {
+    return sameShadowInputs(a, b) && a.color == b.color && a.intensityCd == b.intensityCd &&
+           a.penumbraDeg == b.penumbraDeg && a.shadowBias == b.shadowBias && a.type == b.type;
+}
+
+struct LightCache {
+    Light params;
+    bool hasShadow = false;
+    bool hasContribution = false;
+    int shadowSize = 0;
+    gl::Texture shadowMap;
+    gl::Framebuffer shadowFb;
+    gl::Texture contribution;
+    gl::Framebuffer contributionFb;
+    glm::mat4 worldToLightClip{1.f};
+};
+
+class GlEngine final : public Engine {
+public:
+    Status init(const DeepBuffer& g, const ShadowGeometry& casters);
+    Result<Image8> render(const Rig& rig, FrameStats* stats) override;
+    std::string deviceDescription() const override { return mContext->description(); }
+    int width() const override { return mWidth; }
+    int height() const override { return mHeight; }
+
+private:
+    Result<gl::Program> program(const char* vert, const char* frag);
+    glm::mat4 lightViewProj(const Light& l) const;
+    Status renderShadow(LightCache& c);
+    Status shade(LightCache& c);
+
+    std::unique_ptr<gl::Context> mContext;
+    int mWidth = 0, mHeight = 0;
+    glm::vec3 mCameraPosition{0.f};
+    glm::vec3 mSceneMin{0.f}, mSceneMax{0.f};
+    gl::Texture mP, mN, mNg, mAlbedo, mBrdf, mEmission;
+    gl::Buffer mCasterVbo, mCasterIbo;
+    gl::VertexArray mCasterVao, mEmptyVao;
+    GLsizei mCasterIndexCount = 0;
+    gl::Buffer mLightUbo, mViewUbo;
+    gl::Program mShadowProgram, mSpotProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
+    gl::Texture mAccum, mLdr;
+    gl::Framebuffer mAccumFb, mLdrFb;
+    std::map<std::string, LightCache> mLights;
+};
+
+Result<gl::Program> GlEngine::program(const char* vert, const char* frag) {
+    return gl::buildProgram({{GL_VERTEX_SHADER, vert, shaders::serverShader(vert)},
+                             {GL_FRAGMENT_SHADER, frag, shaders::serverShader(frag)}});
+}
+
+gl::Texture uploadLayer(GLenum internalFormat, int w, int h, const std::vector<float>& data, int comps,
+                        const std::vector<float>* alpha) {
+    // Pad to RGBA: three-component float textures are slow paths on some drivers.
+    std::vector<float> rgba(size_t(w) * size_t(h) * 4, 0.f);
+    for (size_t i = 0; i < size_t(w) * size_t(h); ++i) {
+        for (int c = 0; c < comps; ++c) rgba[i * 4 + size_t(c)] = data[i * size_t(comps) + size_t(c)];
+        if (alpha) rgba[i * 4 + 3] = (*alpha)[i];
+    }
+    gl::Texture t = gl::makeTexture2D(internalFormat, w, h);
+    // Row 0 of the deep buffer (top) goes to GL row 0: every pass is per pixel, so the image is
+    // simply rendered top-down and read back without a flip.
+    glTextureSubImage2D(t.id(), 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, rgba.data());
+    return t;
+}
+
+Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
+    if (g.width <= 0 || g.height <= 0) return makeError(ErrorCode::InvalidValue, "engine: empty deep buffer");
+    auto ctx = gl::Context::create();
+    if (!ctx) return ctx.error();
+    mContext = std::move(ctx.value());
+    mWidth = g.width;
+    mHeight = g.height;
+    mCameraPosition = g.camera.position();
+
+    mP = uploadLayer(GL_RGBA32F, mWidth, mHeight, g.P, 3, &g.A);
+    mN = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.N, 3, nullptr);
+    mNg = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.Ng, 3, nullptr);
+    mAlbedo = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.albedo, 3, nullptr);
+    mBrdf = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.brdf, 4, nullptr);
+    mEmission = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.emission, 3, nullptr);
+
+    // Shadow casters.
+    mSceneMin = glm::vec3(1e30f);
+    mSceneMax = glm::vec3(-1e30f);
+    for (const glm::vec3& p : casters.positions) {
+        mSceneMin = glm::min(mSceneMin, p);
+        mSceneMax = glm::max(mSceneMax, p);
+    }
+    // Receivers bound the scene too (a shot may be relit with fewer casters than it shows).
+    for (size_t i = 0; i < g.pixelCount(); ++i) {
+        if (g.A[i] <= 0.f) continue;
+        glm::vec3 p(g.P[i * 3], g.P[i * 3 + 1], g.P[i * 3 + 2]);
+        mSceneMin = glm::min(mSceneMin, p);
+        mSceneMax = glm::max(mSceneMax, p);
+    }
+    if (mSceneMin.x > mSceneMax.x) mSceneMin = mSceneMax = glm::vec3(0.f);
+    mCasterVbo = gl::makeBuffer(casters.positions.data(), casters.positions.size() * sizeof(glm::vec3));
+    mCasterIbo = gl::makeBuffer(casters.indices.data(), casters.indices.size() * sizeof(uint32_t));
+    mCasterIndexCount = GLsizei(casters.indices.size());
+    GLuint vao = 0;
+    glCreateVertexArrays(1, &vao);
+    mCasterVao = gl::VertexArray(vao);
+    glVertexArrayVertexBuffer(vao, 0, mCasterVbo.id(), 0, sizeof(glm::vec3));
+    glVertexArrayElementBuffer(vao, mCasterIbo.id());
+    glEnableVertexArrayAttrib(vao, 0);
+    glVertexArrayAttribFormat(vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
+    glVertexArrayAttribBinding(vao, 0, 0);
+    glCreateVertexArrays(1, &vao);
+    mEmptyVao = gl::VertexArray(vao);
+
+    mLightUbo = gl::makeBuffer(nullptr, sizeof(engine::LightBlock), GL_DYNAMIC_STORAGE_BIT);
+    mViewUbo = gl::makeBuffer(nullptr, sizeof(engine::ViewBlock), GL_DYNAMIC_STORAGE_BIT);
+
+    struct P {
+        gl::Program* out;
+        const char* vert;
+        const char* frag;
+    } programs[] = {{&mShadowProgram, "shadow_depth.vert", "shadow_depth.frag"},
+                    {&mSpotProgram, "common_fullscreen.vert", "relight_spot.frag"},
+                    {&mAddProgram, "common_fullscreen.vert", "composite_add.frag"},
+                    {&mEmissionProgram, "common_fullscreen.vert", "composite_emission.frag"},
+                    {&mTonemapProgram, "common_fullscreen.vert", "composite_tonemap.frag"}};
+    for (P& p : programs) {
+        auto r = program(p.vert, p.frag);
+        if (!r) return r.error();
+        *p.out = std::move(r.value());
+    }
+
+    mAccum = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
+    mLdr = gl::makeTexture2D(GL_RGBA8, mWidth, mHeight);
+    GLuint fb = 0;
+    glCreateFramebuffers(1, &fb);
+    mAccumFb = gl::Framebuffer(fb);
+    glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, mAccum.id(), 0);
+    if (auto s = gl::checkFramebuffer(fb, "accumulation"); !s) return s;
+    glCreateFramebuffers(1, &fb);
+    mLdrFb = gl::Framebuffer(fb);
+    glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, mLdr.id(), 0);
+    if (auto s = gl::checkFramebuffer(fb, "8-bit output"); !s) return s;
+    return mContext->check("engine initialisation");
+}
+
+glm::mat4 GlEngine::lightViewProj(const Light& l) const {
+    const glm::vec3 pos = toGlm(l.position);
+    const glm::vec3 axis = glm::normalize(toGlm(l.direction));
+    glm::vec3 up(0, 1, 0);
+    if (std::abs(glm::dot(up, axis)) > 0.99f) up = glm::vec3(1, 0, 0);
+    const glm::mat4 view = glm::lookAt(pos, pos + axis, up);
+    // Near/far from the scene's bounds seen from the light: tight planes keep depth precision.
+    float farthest = 0.f;
+    for (int i = 0; i < 8; ++i) {
+        glm::vec3 c((i & 1) ? mSceneMax.x : mSceneMin.x, (i & 2) ? mSceneMax.y : mSceneMin.y,
+                    (i & 4) ? mSceneMax.z : mSceneMin.z);
+        farthest = std::max(farthest, glm::length(c - pos));
+    }
+    const float zfar = std::max(farthest * 1.01f, 1e-3f);
+    const float znear = std::max(zfar * 1e-4f, 1e-5f);
+    // The frustum's half-angle must contain the cone's; a square map circumscribes the circle.
+    const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
+    return glm::perspective(fovy, 1.f, znear, zfar) * view;
+}
+
+Status GlEngine::renderShadow(LightCache& c) {
+    const Light& l = c.params;
+    if (!c.shadowMap || c.shadowSize != l.shadowMapSize) {
+        c.shadowSize = l.shadowMapSize;
+        c.shadowMap = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, c.shadowSize, c.shadowSize);
+        glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+        glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+        GLuint fb = 0;
+        glCreateFramebuffers(1, &fb);
+        c.shadowFb = gl::Framebuffer(fb);
+        glNamedFramebufferTexture(fb, GL_DEPTH_ATTACHMENT, c.shadowMap.id(), 0);
+        glNamedFramebufferDrawBuffer(fb, GL_NONE);
+        if (auto s = gl::checkFramebuffer(fb, ("shadow map of light '" + l.name + "'").c_str()); !s) return s;
+    }
+    c.worldToLightClip = lightViewProj(l);
+    engine::LightBlock block{};
+    block.worldToLightClip = c.worldToLightClip;
+    glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
+    glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
+
+    glBindFramebuffer(GL_FRAMEBUFFER, c.shadowFb.id());
+    glViewport(0, 0, c.shadowSize, c.shadowSize);
+    const float one = 1.f;
+    glClearNamedFramebufferfv(c.shadowFb.id(), GL_DEPTH, 0, &one);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    glDisable(GL_CULL_FACE); // casters are not assumed closed
+    glDisable(GL_BLEND);
+    // Slope-scaled offset against self-shadowing acne; receivers add a normal offset too.
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(1.5f, 2.f);
+    glUseProgram(mShadowProgram.id());
+    glBindVertexArray(mCasterVao.id());
+    glDrawElements(GL_TRIANGLES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    glDisable(GL_DEPTH_TEST);
+    c.hasShadow = true;
+    return okStatus();
+}
+
+Status GlEngine::shade(LightCache& c) {
+    const Light& l = c.params;
+    if (!c.contribution) {
+        c.contribution = gl::makeTexture2D(GL_RGBA16F, mWidth, mHeight);
+        GLuint fb = 0;
+        glCreateFramebuffers(1, &fb);
+        c.contributionFb = gl::Framebuffer(fb);
+        glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, c.contribution.id(), 0);
+        if (auto s = gl::checkFramebuffer(fb, ("contribution of light '" + l.name + "'").c_str()); !s) return s;
+    }
+    engine::LightBlock block{};
+    block.worldToLightClip = c.worldToLightClip;
+    block.lightPosition = glm::vec4(toGlm(l.position), 1.f);
+    block.lightAxis = glm::vec4(glm::normalize(toGlm(l.direction)), 0.f);
+    block.lightRadiance = glm::vec4(toGlm(l.color) * l.intensityCd, 0.f);
+    const float outer = glm::radians(l.coneAngleDeg);
+    const float inner = glm::radians(std::max(l.coneAngleDeg - l.penumbraDeg, 0.f));
+    const bool shadowed = l.shadow;
+    // Normal offset: `shadowBias` shadow-map texels, whose world size grows linearly with distance.
+    const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
+    const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(std::max(l.shadowMapSize, 1));
+    block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
+                                shadowed ? 1.f : 0.f, l.shadowBias * texelPerDistance);
+    block.lightShadow = glm::vec4(1.f / float(std::max(l.shadowMapSize, 1)), 0.f, 0.f, 0.f);
+    glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
+    glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
+
+    glBindFramebuffer(GL_FRAMEBUFFER, c.contributionFb.id());
+    glViewport(0, 0, mWidth, mHeight);
+    glDisable(GL_BLEND);
+    glDisable(GL_DEPTH_TEST);
+    glUseProgram(mSpotProgram.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_N, mN.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_NG, mNg.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_ALBEDO, mAlbedo.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_BRDF, mBrdf.id());
+    // An unshadowed light still needs a complete texture on the shadow unit: reuse its own or any.
+    glBindTextureUnit(engine::TEX_SHADOW_MAP, c.shadowMap ? c.shadowMap.id() : 0);
+    glBindVertexArray(mEmptyVao.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    c.hasContribution = true;
+    return okStatus();
+}
+
+Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
+    FrameStats local;
+    FrameStats& st = stats ? *stats : local;
+    st = FrameStats{};
+
+    engine::ViewBlock view{glm::vec4(mCameraPosition, 1.f), glm::vec4(std::exp2(rig.exposureStops), 0, 0, 0)};
+    glNamedBufferSubData(mViewUbo.id(), 0, sizeof view, &view);
+    glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_VIEW, mViewUbo.id());
+
+    // Forget lights that left the rig (their GL objects are released here).
+    for (auto it = mLights.begin(); it != mLights.end();) {
+        it = rig.find(it->first) ? std::next(it) : mLights.erase(it);
+    }
+
+    auto t = Clock::now();
+    for (const Light& l : rig.lights) {
+        if (!l.enabled) continue;
+        LightCache& c = mLights[l.name];
+        const bool shadowValid = c.hasShadow && sameShadowInputs(c.params, l);
+        if (l.shadow && !shadowValid) {
+            c.params = l;
+            c.hasContribution = false;
+            if (auto s = renderShadow(c); !s) return s.error();
+            ++st.shadowMapsRendered;
+        } else if (!l.shadow && !sameShadowInputs(c.params, l)) {
+            c.worldToLightClip = lightViewProj(l);
+            c.hasShadow = false;
+            c.hasContribution = false;
+        }
+    }
+    glFinish();
+    st.shadowMs = msSince(t);
+
+    t = Clock::now();
+    for (const Light& l : rig.lights) {
+        if (!l.enabled) continue;
+        LightCache& c = mLights[l.name];
+        if (c.hasContribution && sameShadingInputs(c.params, l)) continue;
+        c.params = l;
+        if (auto s = shade(c); !s) return s.error();
+        ++st.lightsShaded;
+    }
+    glFinish();
+    st.shadeMs = msSince(t);
+
+    t = Clock::now();
+    glBindFramebuffer(GL_FRAMEBUFFER, mAccumFb.id());
+    glViewport(0, 0, mWidth, mHeight);
+    glBindVertexArray(mEmptyVao.id());
+    glDisable(GL_BLEND);
+    glUseProgram(mEmissionProgram.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_EMISSION, mEmission.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_ONE, GL_ONE);
+    glUseProgram(mAddProgram.id());
+    for (const Light& l : rig.lights) {
+        if (!l.enabled) continue;
+        glBindTextureUnit(engine::TEX_INPUT, mLights[l.name].contribution.id());
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
+    glDisable(GL_BLEND);
+    glBindFramebuffer(GL_FRAMEBUFFER, mLdrFb.id());
+    glUseProgram(mTonemapProgram.id());
+    glBindTextureUnit(engine::TEX_INPUT, mAccum.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glFinish();
+    st.compositeMs = msSince(t);
+
+    t = Clock::now();
+    Image8 img;
+    img.width = mWidth;
+    img.height = mHeight;
+    img.rgba.resize(size_t(mWidth) * size_t(mHeight) * 4);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, mLdrFb.id());
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, mWidth, mHeight, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
+    st.readbackMs = msSince(t);
+    if (auto s = mContext->check("relight frame"); !s) return s.error();
+    return img;
+}
+
+} // namespace
+
+Result<std::unique_ptr<Engine>> Engine::create(const DeepBuffer& gbuffer, const ShadowGeometry& casters) {
+    auto e = std::make_unique<GlEngine>();
+    if (auto s = e->init(gbuffer, casters); !s) return s.error();
+    return std::unique_ptr<Engine>(std::move(e));
+}
+
+} // namespace dfb

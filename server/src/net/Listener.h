@@ -1,0 +1,28 @@
+#pragma once
+// Accepts TCP connections and starts an HttpSession for each.
+
+#include "net/Beast.h"
+#include "net/SharedState.h"
+
+#include <memory>
+
+namespace dfb::net {
+
+class Listener : public std::enable_shared_from_this<Listener> {
+public:
+    Listener(asio::io_context& ioc, std::shared_ptr<SharedState> state) : mIoc(ioc), mAcceptor(ioc), mState(std::move(state)) {}
+    /// Binds and listens; port 0 picks a free port (see port()).
+    Status open(const tcp::endpoint& endpoint);
+    unsigned short port() const { return mAcceptor.local_endpoint().port(); }
+    void run() { doAccept(); }
+
+private:
+    void doAccept();
+    void onAccept(error_code ec, tcp::socket socket);
+
+    asio::io_context& mIoc;
+    tcp::acceptor mAcceptor;
+    std::shared_ptr<SharedState> mState;
+};
+
+} // namespace dfb::net

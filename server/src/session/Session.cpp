@@ -1,0 +1,43 @@
+#include "session/Session.h"
+
+namespace dfb {
+
+Session::Session(const DeepBuffer& shot, std::string shotPath, Rig initialRig) : mRig(std::move(initialRig)) {
+    auto mat = [](const glm::mat4& m) {
+        nlohmann::json a = nlohmann::json::array();
+        for (int c = 0; c < 4; ++c)
+            for (int r = 0; r < 4; ++r) a.push_back(m[c][r]);
+        return a; // column-major, as glm and WebGL store matrices
+    };
+    mDescription = {{"shot", shotPath},
+                    {"source", shot.sourcePath},
+                    {"width", shot.width},
+                    {"height", shot.height},
+                    {"camera",
+                     {{"name", shot.camera.name},
+                      {"yfov", shot.camera.yfovRadians},
+                      {"aspect", shot.camera.aspect},
+                      {"near", shot.camera.znear},
+                      {"far", shot.camera.zfar},
+                      {"worldToCamera", mat(shot.camera.worldToCamera)},
+                      {"worldToNDC", mat(shot.camera.worldToNDC)}}},
+                    {"objects", shot.objectNames}};
+}
+
+Result<uint64_t> Session::applyEdit(const std::vector<protocol::Change>& changes) {
+    std::lock_guard lock(mMutex);
+    if (auto s = protocol::applyChanges(mRig, changes); !s) return s.error();
+    return ++mRig.version;
+}
+
+Rig Session::rig() const {
+    std::lock_guard lock(mMutex);
+    return mRig;
+}
+
+uint64_t Session::rigVersion() const {
+    std::lock_guard lock(mMutex);
+    return mRig.version;
+}
+
+} // namespace dfb
