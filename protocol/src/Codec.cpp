@@ -19,7 +19,7 @@ bool validName(const std::string& n) {
     return true;
 }
 
-Result<float> getNumber(const json& v, const std::string& path, float lo, float hi) {
+Result<float> getNumber(const json& v, const std::string& path, double lo, double hi) {
     if (!v.is_number()) return invalid(path + ": expected a number, got " + std::string(v.type_name()));
     const double d = v.get<double>();
     if (!std::isfinite(d)) return invalid(path + ": not a finite number");
@@ -29,7 +29,7 @@ Result<float> getNumber(const json& v, const std::string& path, float lo, float 
     return float(d);
 }
 
-Result<Vec3> getVec3(const json& v, const std::string& path, float lo, float hi) {
+Result<Vec3> getVec3(const json& v, const std::string& path, double lo, double hi) {
     if (!v.is_array() || v.size() != 3) return invalid(path + ": expected an array of 3 numbers");
     Vec3 out{};
     for (size_t i = 0; i < 3; ++i) {
@@ -46,7 +46,7 @@ Result<bool> getBool(const json& v, const std::string& path) {
 }
 
 // Largest coordinate accepted: far beyond any scene, small enough that squares stay finite in float.
-constexpr float MAX_COORD = 1e7f;
+constexpr double MAX_COORD = 1e7;
 
 Status setLightProperty(Light& l, const std::string& prop, const json& v, const std::string& path) {
     if (prop == "name") {
@@ -71,22 +71,23 @@ Status setLightProperty(Light& l, const std::string& prop, const json& v, const 
         const Vec3 a = d.value();
         const float len = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
         if (!(len > 1e-12f) || !std::isfinite(len)) return invalid(path + ": direction must not be zero");
-        l.direction = {a[0] / len, a[1] / len, a[2] / len};
+        // Already-unit directions are kept bit for bit, so a rig survives a JSON round trip.
+        l.direction = std::abs(len - 1.f) < 1e-6f ? a : Vec3{a[0] / len, a[1] / len, a[2] / len};
     } else if (prop == "color") {
-        auto c = getVec3(v, path, 0.f, 1e6f);
+        auto c = getVec3(v, path, 0.0, 1e6);
         if (!c) return c.error();
         l.color = c.value();
     } else if (prop == "intensity") {
-        auto n = getNumber(v, path, 0.f, 1e12f);
+        auto n = getNumber(v, path, 0.0, 1e12);
         if (!n) return n.error();
         l.intensityCd = n.value();
     } else if (prop == "coneAngle") {
-        auto n = getNumber(v, path, 0.1f, 85.f);
+        auto n = getNumber(v, path, 0.1, 85.0);
         if (!n) return n.error();
         l.coneAngleDeg = n.value();
         l.penumbraDeg = std::min(l.penumbraDeg, l.coneAngleDeg);
     } else if (prop == "penumbra") {
-        auto n = getNumber(v, path, 0.f, 85.f);
+        auto n = getNumber(v, path, 0.0, 85.0);
         if (!n) return n.error();
         if (n.value() > l.coneAngleDeg) return invalid(path + ": penumbra must not exceed coneAngle");
         l.penumbraDeg = n.value();
@@ -100,7 +101,7 @@ Status setLightProperty(Light& l, const std::string& prop, const json& v, const 
         if (s < 64 || s > 8192 || (s & (s - 1)) != 0) return invalid(path + ": must be a power of two in [64, 8192]");
         l.shadowMapSize = int(s);
     } else if (prop == "shadowBias") {
-        auto n = getNumber(v, path, 0.f, 16.f);
+        auto n = getNumber(v, path, 0.0, 16.0);
         if (!n) return n.error();
         l.shadowBias = n.value();
     } else {
@@ -149,7 +150,7 @@ Result<Rig> rigFromJson(const json& j) {
             if (!it->is_number_unsigned()) return invalid("rig.version: expected a non-negative integer");
             rig.version = it->get<uint64_t>();
         } else if (it.key() == "exposure") {
-            auto n = getNumber(*it, "rig.exposure", -20.f, 20.f);
+            auto n = getNumber(*it, "rig.exposure", -20.0, 20.0);
             if (!n) return n.error();
             rig.exposureStops = n.value();
         } else if (it.key() == "lights") {
@@ -170,7 +171,7 @@ Result<Rig> rigFromJson(const json& j) {
 
 Status applyChange(Rig& rig, const Change& c) {
     if (c.path == "exposure") {
-        auto n = getNumber(c.value, c.path, -20.f, 20.f);
+        auto n = getNumber(c.value, c.path, -20.0, 20.0);
         if (!n) return n.error();
         rig.exposureStops = n.value();
         return okStatus();

@@ -131,8 +131,13 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         mSceneMax = glm::max(mSceneMax, p);
     }
     if (mSceneMin.x > mSceneMax.x) mSceneMin = mSceneMax = glm::vec3(0.f);
-    mCasterVbo = gl::makeBuffer(casters.positions.data(), casters.positions.size() * sizeof(glm::vec3));
-    mCasterIbo = gl::makeBuffer(casters.indices.data(), casters.indices.size() * sizeof(uint32_t));
+    // Zero-sized buffer storage is a GL error: a shot without casters gets one dummy element.
+    const glm::vec3 dummyVertex(0.f);
+    const uint32_t dummyIndex = 0;
+    mCasterVbo = casters.positions.empty() ? gl::makeBuffer(&dummyVertex, sizeof dummyVertex)
+                                           : gl::makeBuffer(casters.positions.data(), casters.positions.size() * sizeof(glm::vec3));
+    mCasterIbo = casters.indices.empty() ? gl::makeBuffer(&dummyIndex, sizeof dummyIndex)
+                                         : gl::makeBuffer(casters.indices.data(), casters.indices.size() * sizeof(uint32_t));
     mCasterIndexCount = GLsizei(casters.indices.size());
     GLuint vao = 0;
     glCreateVertexArrays(1, &vao);
@@ -233,7 +238,7 @@ Status GlEngine::renderShadow(LightCache& c) {
     glPolygonOffset(1.5f, 2.f);
     glUseProgram(mShadowProgram.id());
     glBindVertexArray(mCasterVao.id());
-    glDrawElements(GL_TRIANGLES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+    if (mCasterIndexCount > 0) glDrawElements(GL_TRIANGLES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
     c.hasShadow = true;

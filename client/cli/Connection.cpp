@@ -1,0 +1,152 @@
+#include "Connection.h"
+
+#include <utility> // before Boost 1.74's asio, which uses std::exchange without it
+
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+
+#include <sys/socket.h>
+#include <sys/time.h>
+
+namespace dfb::client {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+
+Result<Url> parseUrl(const std::string& text) {
+    std::string rest = text;
+    for (const char* scheme : {"http://", "ws://"}) {
+        if (rest.rfind(scheme, 0) == 0) rest = rest.substr(std::strlen(scheme));
+    }
+    if (rest.rfind("https://", 0) == 0 || rest.rfind("wss://", 0) == 0) {
+        return makeError(ErrorCode::InvalidValue, "'" + text + "': TLS is not supported; use http:// or ws://");
+    }
+    Url u;
+    const size_t slash = rest.find('/');
+    u.path = slash == std::string::npos ? "/" : rest.substr(slash);
+    const std::string hostPort = rest.substr(0, slash);
+    if (hostPort.empty()) return makeError(ErrorCode::InvalidValue, "'" + text + "': no host");
+    if (hostPort[0] == '[') { // [v6]:port
+        const size_t close = hostPort.find(']');
+        if (close == std::string::npos) return makeError(ErrorCode::InvalidValue, "'" + text + "': bad IPv6 host");
+        u.host = hostPort.substr(1, close - 1);
+        u.port = close + 1 < hostPort.size() && hostPort[close + 1] == ':' ? hostPort.substr(close + 2) : "8080";
+    } else {
+        const size_t colon = hostPort.rfind(':');
+        u.host = hostPort.substr(0, colon);
+        u.port = colon == std::string::npos ? "8080" : hostPort.substr(colon + 1);
+    }
+    if (u.port.empty() || u.port.find_first_not_of("0123456789") != std::string::npos) {
+        return makeError(ErrorCode::InvalidValue, "'" + text + "': bad port");
+    }
+    return u;
+}
+
+namespace {
+// Blocking sockets with a receive/send deadline: sync Beast calls then fail instead of hanging.
+void setDeadline(tcp::socket& s, std::chrono::milliseconds timeout) {
+    timeval tv{};
+    tv.tv_sec = static_cast<time_t>(timeout.count() / 1000);
+    tv.tv_usec = static_cast<suseconds_t>((timeout.count() % 1000) * 1000);
+    ::setsockopt(s.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    ::setsockopt(s.native_handle(), SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+}
+
+Error netError(const std::string& what, const beast::error_code& ec) {
+    std::string m = ec.message();
+    if (ec == asio::error::would_block || ec == asio::error::try_again || ec == asio::error::timed_out) {
+        m = "timed out";
+    }
+    return makeError(ErrorCode::Network, what + ": " + m);
+}
+} // namespace
+
+struct Connection::Impl {
+    asio::io_context ioc;
+    websocket::stream<tcp::socket> ws{ioc};
+    beast::flat_buffer buffer;
+};
+
+Connection::Connection(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
+Connection::~Connection() { close(); }
+
+Result<std::unique_ptr<Connection>> Connection::open(const Url& url, std::chrono::milliseconds timeout) {
+    auto impl = std::make_unique<Impl>();
+    beast::error_code ec;
+    tcp::resolver resolver(impl->ioc);
+    auto results = resolver.resolve(url.host, url.port, ec);
+    if (ec) return netError("resolving " + url.host, ec);
+    asio::connect(impl->ws.next_layer(), results, ec);
+    if (ec) return netError("connecting to " + url.host + ":" + url.port, ec);
+    setDeadline(impl->ws.next_layer(), timeout);
+    impl->ws.read_message_max(256u << 20);
+    impl->ws.handshake(url.host + ":" + url.port, "/v1/ws", ec);
+    if (ec) return netError("WebSocket handshake with " + url.host + ":" + url.port, ec);
+    return std::unique_ptr<Connection>(new Connection(std::move(impl)));
+}
+
+Status Connection::sendText(const std::string& text) {
+    beast::error_code ec;
+    mImpl->ws.text(true);
+    mImpl->ws.write(asio::buffer(text), ec);
+    if (ec) return netError("sending", ec);
+    return okStatus();
+}
+
+Result<ServerMessage> Connection::receive() {
+    beast::error_code ec;
+    mImpl->buffer.consume(mImpl->buffer.size());
+    mImpl->ws.read(mImpl->buffer, ec);
+    if (ec) return netError("receiving", ec);
+    if (mImpl->ws.got_text()) {
+        auto j = nlohmann::json::parse(beast::buffers_to_string(mImpl->buffer.data()), nullptr, false);
+        if (j.is_discarded() || !j.is_object()) return makeError(ErrorCode::Protocol, "server sent invalid JSON");
+        return ServerMessage{TextMessage{std::move(j)}};
+    }
+    const auto* data = static_cast<const uint8_t*>(mImpl->buffer.data().data());
+    const size_t size = mImpl->buffer.size();
+    auto h = protocol::readFrameHeader(data, size);
+    if (!h) return h.error();
+    FrameMessage f{h.value(), std::vector<uint8_t>(data + protocol::FRAME_HEADER_BYTES, data + size)};
+    return ServerMessage{std::move(f)};
+}
+
+void Connection::close() {
+    if (!mImpl || !mImpl->ws.is_open()) return;
+    beast::error_code ec;
+    mImpl->ws.close(websocket::close_code::normal, ec);
+}
+
+Result<std::string> httpGet(const Url& url, const std::string& target, std::chrono::milliseconds timeout) {
+    asio::io_context ioc;
+    beast::error_code ec;
+    tcp::resolver resolver(ioc);
+    auto results = resolver.resolve(url.host, url.port, ec);
+    if (ec) return netError("resolving " + url.host, ec);
+    tcp::socket socket(ioc);
+    asio::connect(socket, results, ec);
+    if (ec) return netError("connecting to " + url.host + ":" + url.port, ec);
+    setDeadline(socket, timeout);
+    http::request<http::empty_body> req{http::verb::get, target, 11};
+    req.set(http::field::host, url.host);
+    req.set(http::field::user_agent, "dfb-client");
+    http::write(socket, req, ec);
+    if (ec) return netError("GET " + target, ec);
+    beast::flat_buffer buffer;
+    http::response_parser<http::string_body> parser;
+    parser.body_limit(512u << 20);
+    http::read(socket, buffer, parser, ec);
+    if (ec) return netError("GET " + target, ec);
+    auto res = parser.release();
+    if (res.result_int() / 100 != 2) {
+        return makeError(ErrorCode::Protocol, "GET " + target + ": HTTP " + std::to_string(res.result_int()) + ": " + res.body());
+    }
+    return std::move(res.body());
+}
+
+} // namespace dfb::client

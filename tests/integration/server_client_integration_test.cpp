@@ -1,0 +1,331 @@
+// End to end over loopback: the real dfb-server on a baked shot of the default scene, driven by
+// the real dfb-client. Moving the key light must move its lit region and the bunny's shadow to
+// where the light's geometry puts them; malformed messages get an error and the server keeps
+// serving; bad inputs give clear errors and non-zero exits.
+
+#include "support/Process.h"
+#include "support/RayCaster.h"
+
+#include <dfb/gbuffer/ExrIO.h>
+#include <dfb/gbuffer/Scene.h>
+
+#include <utility> // Boost 1.74 asio needs std::exchange declared first
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+using namespace dfb;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string SHOT = DFB_TEST_DATA "/tabletop_320.exr";
+const std::string SCENE = DFB_SOURCE_DIR "/scenes/tabletop.glb";
+
+std::string vec(const glm::vec3& v) {
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "%.6f,%.6f,%.6f", double(v.x), double(v.y), double(v.z));
+    return buf;
+}
+
+struct Gray {
+    int width = 0, height = 0;
+    std::vector<float> lum; // linear-ish 0..1 (sRGB code values / 255, averaged)
+    float at(int x, int y) const { return lum[size_t(y) * width + x]; }
+};
+
+Gray readGray(const std::string& path) {
+    Gray g;
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) return g;
+    const auto& spec = in->spec();
+    g.width = spec.width;
+    g.height = spec.height;
+    std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
+    in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data());
+    g.lum.resize(size_t(g.width) * g.height);
+    for (size_t i = 0; i < g.lum.size(); ++i) {
+        g.lum[i] = (px[i * spec.nchannels] + px[i * spec.nchannels + 1] + px[i * spec.nchannels + 2]) / 3.f;
+    }
+    return g;
+}
+
+class ServerClient : public ::testing::Test {
+protected:
+    void SetUp() override {
+        ASSERT_TRUE(std::filesystem::exists(SHOT)) << "run the bake_tabletop_fixture test first";
+        auto shot = readDeepBuffer(SHOT);
+        ASSERT_TRUE(shot.ok()) << shot.error().toString();
+        mShot = std::move(shot.value());
+        mServer = std::make_unique<test::Process>(std::vector<std::string>{DFB_SERVER_EXE, SHOT, "--port", "0"});
+        auto m = mServer->waitForLine(std::regex(R"(listening on (http://127\.0\.0\.1:(\d+)/))"), 60s);
+        ASSERT_TRUE(m.has_value()) << "server did not start:\n" << mServer->output();
+        mUrl = (*m)[1];
+        mPort = (*m)[2];
+        mDir = std::filesystem::temp_directory_path() / ("dfb_it_" + std::to_string(::getpid()));
+        std::filesystem::create_directories(mDir);
+    }
+    void TearDown() override {
+        if (mServer) mServer->stop();
+        std::filesystem::remove_all(mDir);
+    }
+
+    // Runs dfb-client; returns its exit code and output.
+    std::pair<int, std::string> client(std::vector<std::string> args) {
+        args.insert(args.begin(), {DFB_CLIENT_EXE, mUrl});
+        return test::run(args, 60s);
+    }
+
+    Gray frameAfter(const std::vector<std::string>& sets, const std::string& name) {
+        std::vector<std::string> args;
+        for (const auto& s : sets) args.insert(args.end(), {"--set", s});
+        const std::string path = (mDir / name).string();
+        args.insert(args.end(), {"--frame", path});
+        auto [rc, out] = client(args);
+        EXPECT_EQ(rc, 0) << out;
+        return readGray(path);
+    }
+
+    uint32_t objectId(const std::string& name) const {
+        for (size_t i = 0; i < mShot.objectNames.size(); ++i)
+            if (mShot.objectNames[i] == name) return uint32_t(i + 1);
+        return 0;
+    }
+
+    DeepBuffer mShot;
+    std::unique_ptr<test::Process> mServer;
+    std::string mUrl, mPort;
+    std::filesystem::path mDir;
+};
+
+} // namespace
+
+TEST_F(ServerClient, ClientPrintsTheRig) {
+    auto [rc, out] = client({"--rig"});
+    ASSERT_EQ(rc, 0) << out;
+    auto j = nlohmann::json::parse(out.substr(0, out.rfind('}') + 1), nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << out;
+    ASSERT_TRUE(j["lights"].is_array());
+    EXPECT_EQ(j["lights"][0]["name"], "key");
+    EXPECT_EQ(j["lights"][0]["shadow"], true);
+}
+
+TEST_F(ServerClient, MovingTheKeyLightMovesTheLitRegionAndTheBunnyShadow) {
+    auto scene = loadScene(SCENE);
+    ASSERT_TRUE(scene.ok()) << scene.error().toString();
+    const uint32_t bunnyId = objectId("bunny"), tableId = objectId("table");
+    ASSERT_NE(bunnyId, 0u);
+    ASSERT_NE(tableId, 0u);
+    // Reference visibility: every object but the table, ray cast with Embree. `bunnyOnly` tells
+    // the bunny's shadow apart from the others'.
+    test::RayCaster occluders, bunnyOnly;
+    Bounds bunny;
+    for (const MeshPart& p : scene->parts) {
+        if (p.objectId == tableId) continue;
+        occluders.addMesh(p.positions, p.indices);
+        if (p.objectId == bunnyId) {
+            bunnyOnly.addMesh(p.positions, p.indices);
+            for (const auto& v : p.positions) bunny.extend(v);
+        }
+    }
+    occluders.commit();
+    bunnyOnly.commit();
+    const glm::vec3 bunnyBase(bunny.center().x, 0.f, bunny.center().z);
+
+    // A key light above, in front and to the left of the bunny, aimed at its base; the fill is
+    // off so that the image holds this light alone. Then the light moves right by 1.2 m with the
+    // same direction.
+    const glm::vec3 L1 = bunnyBase + glm::vec3(-1.8f, 4.2f, 2.0f);
+    const glm::vec3 D = glm::normalize(bunnyBase - L1);
+    const glm::vec3 L2 = L1 + glm::vec3(1.2f, 0.f, 0.f);
+    const float coneDeg = 20.f, penumbraDeg = 2.f;
+    const std::vector<std::string> setup = {"fill.enabled=false", "key.coneAngle=20", "key.penumbra=2",
+                                            "key.direction=" + vec(D)};
+    auto with = [&](std::vector<std::string> extra) {
+        std::vector<std::string> all = setup;
+        all.insert(all.end(), extra.begin(), extra.end());
+        return all;
+    };
+    const Gray aOn = frameAfter(with({"key.position=" + vec(L1), "key.shadow=true"}), "a_on.png");
+    const Gray aOff = frameAfter({"key.shadow=false"}, "a_off.png");
+    const Gray bOn = frameAfter({"key.position=" + vec(L2), "key.shadow=true"}, "b_on.png");
+    const Gray bOff = frameAfter({"key.shadow=false"}, "b_off.png");
+    ASSERT_EQ(aOn.width, mShot.width);
+    ASSERT_EQ(bOff.height, mShot.height);
+    const int W = mShot.width, H = mShot.height;
+
+    // Per table pixel: predicted from the G-buffer position and the light's geometry, measured
+    // from the served images. Pixels within 1 degree of the cone's soft edge are not judged.
+    enum { Unknown, No, Yes };
+    struct Masks {
+        std::vector<int> litPred, litMeas, shadowPred, shadowMeas, bunnyShadowPred;
+    };
+    auto masks = [&](const glm::vec3& L, const Gray& on, const Gray& off) {
+        Masks m;
+        const size_t n = size_t(W) * H;
+        for (auto* v : {&m.litPred, &m.litMeas, &m.shadowPred, &m.shadowMeas, &m.bunnyShadowPred}) v->assign(n, Unknown);
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x) {
+                const size_t i = size_t(y) * W + x;
+                if (mShot.objectId[i] != tableId) continue;
+                const glm::vec3 P = mShot.position(x, y);
+                const float angle = glm::degrees(std::acos(glm::dot(glm::normalize(P - L), D)));
+                const float edge = coneDeg - 0.5f * penumbraDeg;
+                if (std::abs(angle - edge) < 1.f) continue;
+                m.litPred[i] = angle < edge ? Yes : No;
+                m.litMeas[i] = off.at(x, y) > 0.02f ? Yes : No;
+                if (m.litPred[i] == Yes && off.at(x, y) > 0.02f) {
+                    m.shadowPred[i] = occluders.occluded(P, L) ? Yes : No;
+                    m.bunnyShadowPred[i] = bunnyOnly.occluded(P, L) ? Yes : No;
+                    m.shadowMeas[i] = off.at(x, y) - on.at(x, y) > 0.5f * off.at(x, y) ? Yes : No;
+                }
+            }
+        return m;
+    };
+    // Intersection over union of the Yes pixels, over pixels both masks judge.
+    auto iou = [](const std::vector<int>& a, const std::vector<int>& b) {
+        size_t inter = 0, uni = 0;
+        for (size_t i = 0; i < a.size(); ++i) {
+            if (a[i] == Unknown || b[i] == Unknown) continue;
+            inter += a[i] == Yes && b[i] == Yes;
+            uni += a[i] == Yes || b[i] == Yes;
+        }
+        return uni ? double(inter) / double(uni) : 0.0;
+    };
+    auto count = [](const std::vector<int>& a) { return std::count(a.begin(), a.end(), int(Yes)); };
+    auto centroid = [&](const std::vector<int>& a) {
+        glm::dvec2 c(0.0);
+        size_t k = 0;
+        for (size_t i = 0; i < a.size(); ++i)
+            if (a[i] == Yes) { c += glm::dvec2(double(i % W), double(i / W)); ++k; }
+        return k ? c / double(k) : c;
+    };
+    const Masks A = masks(L1, aOn, aOff), B = masks(L2, bOn, bOff);
+    ASSERT_GT(count(A.litPred), 1000);
+    ASSERT_GT(count(A.bunnyShadowPred), 50) << "the bunny must cast a shadow on the table";
+    ASSERT_GT(count(B.bunnyShadowPred), 50);
+
+    const double litA = iou(A.litMeas, A.litPred), litB = iou(B.litMeas, B.litPred);
+    const double litStale = iou(B.litMeas, A.litPred);
+    const double shA = iou(A.shadowMeas, A.shadowPred), shB = iou(B.shadowMeas, B.shadowPred);
+    // The old light position's shadow, judged on the new frame's pixels.
+    Masks stale = B;
+    stale.shadowPred = masks(L1, bOn, bOff).shadowPred;
+    const double shStale = iou(B.shadowMeas, stale.shadowPred);
+    // The measured bunny shadow: shadowed pixels, less those only the other objects can shadow.
+    auto bunnyShadowMeas = [&](const Masks& m) {
+        std::vector<int> r = m.shadowMeas;
+        for (size_t i = 0; i < r.size(); ++i)
+            if (m.shadowPred[i] == Yes && m.bunnyShadowPred[i] == No) r[i] = No;
+        return r;
+    };
+    const glm::dvec2 shMoveMeas = centroid(bunnyShadowMeas(B)) - centroid(bunnyShadowMeas(A));
+    const glm::dvec2 bunnyMovePred = centroid(B.bunnyShadowPred) - centroid(A.bunnyShadowPred);
+    std::printf("lit region IoU with prediction: before move %.3f, after move %.3f (vs the old position %.3f)\n", litA,
+                litB, litStale);
+    std::printf("shadow IoU with Embree reference: before move %.3f, after move %.3f (vs the old position %.3f)\n", shA,
+                shB, shStale);
+    std::printf("bunny shadow centroid moved (%.1f, %.1f) px; Embree predicts (%.1f, %.1f) px\n", shMoveMeas.x,
+                shMoveMeas.y, bunnyMovePred.x, bunnyMovePred.y);
+
+    // The lit region is where the cone says, before and after; after the move it is no longer
+    // where it was.
+    EXPECT_GT(litA, 0.97);
+    EXPECT_GT(litB, 0.97);
+    EXPECT_LT(litStale, 0.8);
+    // Shadows agree with ray casting (PCF softens a pixel or two at 320x180), and they moved.
+    EXPECT_GT(shA, 0.8);
+    EXPECT_GT(shB, 0.8);
+    EXPECT_LT(shStale, shB - 0.15);
+    // Moving the light right moves the bunny's shadow left, by about the predicted amount.
+    EXPECT_LT(bunnyMovePred.x, -2.0);
+    EXPECT_LT(shMoveMeas.x, 0.5 * bunnyMovePred.x);
+}
+
+TEST_F(ServerClient, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
+    namespace beast = boost::beast;
+    boost::asio::io_context ioc;
+    beast::websocket::stream<boost::asio::ip::tcp::socket> ws(ioc);
+    boost::asio::ip::tcp::resolver resolver(ioc);
+    boost::asio::connect(ws.next_layer(), resolver.resolve("127.0.0.1", mPort));
+    ws.handshake("127.0.0.1", "/v1/ws");
+    auto nextText = [&]() {
+        for (;;) {
+            beast::flat_buffer buf;
+            ws.read(buf);
+            if (ws.got_text()) return nlohmann::json::parse(beast::buffers_to_string(buf.data()));
+        }
+    };
+    EXPECT_EQ(nextText()["type"], "welcome");
+    for (const std::string bad : {"{{{ not json", R"({"type":"edit"})", R"({"type":"edit","seq":5,"changes":[{"path":"key.intensity","value":"lots"}]})",
+                                  R"({"type":"warp"})"}) {
+        ws.text(true);
+        ws.write(boost::asio::buffer(bad));
+        auto reply = nextText();
+        EXPECT_EQ(reply["type"], "error") << bad;
+        EXPECT_FALSE(reply["message"].get<std::string>().empty());
+    }
+    // The third message named its sequence number: the error names it back.
+    ws.write(boost::asio::buffer(std::string(R"({"type":"edit","seq":6,"changes":[{"path":"key.coneAngle","value":400}]})")));
+    auto reply = nextText();
+    EXPECT_EQ(reply["type"], "error");
+    EXPECT_EQ(reply["seq"], 6);
+    ws.write(boost::asio::buffer(std::string(R"({"type":"edit","seq":7,"changes":[{"path":"key.intensity","value":10}]})")));
+    reply = nextText();
+    EXPECT_EQ(reply["type"], "ack");
+    EXPECT_EQ(reply["seq"], 7);
+    ws.close(beast::websocket::close_code::normal);
+    // Still serving plain HTTP too.
+    auto [rc, out] = client({"--rig"});
+    EXPECT_EQ(rc, 0) << out;
+}
+
+TEST(BadInput, ProgramsExitWithClearMessages) {
+    const auto dir = std::filesystem::temp_directory_path() / ("dfb_bad_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string notGltf = (dir / "scene.glb").string();
+    std::ofstream(notGltf) << "hello";
+    {
+        auto [rc, out] = test::run({DFB_BAKE_EXE, "/no/such.glb", "-o", (dir / "x.exr").string()});
+        EXPECT_EQ(rc, 2);
+        EXPECT_NE(out.find("no such file"), std::string::npos) << out;
+    }
+    {
+        auto [rc, out] = test::run({DFB_BAKE_EXE, notGltf, "-o", (dir / "x.exr").string()});
+        EXPECT_EQ(rc, 2);
+        EXPECT_NE(out.find("not a glTF"), std::string::npos) << out;
+    }
+    {
+        auto [rc, out] = test::run({DFB_SERVER_EXE, "/no/such.exr", "--port", "0"});
+        EXPECT_EQ(rc, 2);
+        EXPECT_NE(out.find("/no/such.exr"), std::string::npos) << out;
+    }
+    {
+        auto [rc, out] = test::run({DFB_SERVER_EXE, notGltf, "--port", "0"});
+        EXPECT_EQ(rc, 2);
+        EXPECT_NE(out.find("not an OpenEXR file"), std::string::npos) << out;
+    }
+    {
+        auto [rc, out] = test::run({DFB_SERVER_EXE, SHOT, "--scene", notGltf, "--port", "0"});
+        EXPECT_EQ(rc, 2);
+        EXPECT_NE(out.find("not a glTF"), std::string::npos) << out;
+    }
+    {
+        auto [rc, out] = test::run({DFB_CLIENT_EXE, "http://127.0.0.1:1", "--rig", "--timeout", "2"});
+        EXPECT_EQ(rc, 2) << out;
+    }
+    {
+        auto [rc, out] = test::run({DFB_CLIENT_EXE, "http://127.0.0.1:1", "--set", "broken"});
+        EXPECT_EQ(rc, 1) << out;
+    }
+    std::filesystem::remove_all(dir);
+}

@@ -1,0 +1,117 @@
+// Protocol v0 codec: valid messages parse, invalid ones are refused with the field named, edits
+// are all-or-nothing, frame headers round-trip.
+
+#include <dfb/protocol/Codec.h>
+
+#include <gtest/gtest.h>
+
+using namespace dfb;
+using namespace dfb::protocol;
+
+namespace {
+Rig testRig() { return defaultRig({-1, 0, -1}, {1, 1, 1}); }
+} // namespace
+
+TEST(Codec, ParsesEdit) {
+    auto m = parseClientMessage(R"({"type":"edit","seq":7,"changes":[{"path":"key.intensity","value":500}]})");
+    ASSERT_TRUE(m.ok()) << m.error().toString();
+    auto* e = std::get_if<EditMessage>(&m.value());
+    ASSERT_NE(e, nullptr);
+    EXPECT_EQ(e->seq, 7u);
+    ASSERT_EQ(e->changes.size(), 1u);
+    EXPECT_EQ(e->changes[0].path, "key.intensity");
+    EXPECT_EQ(e->changes[0].value, 500);
+}
+
+TEST(Codec, RefusesMalformedMessagesNamingTheProblem) {
+    struct Case { const char* text; const char* mentions; };
+    for (const Case& c : {Case{"not json", "JSON"}, Case{"[1,2]", "object"}, Case{R"({"seq":1})", "type"},
+                          Case{R"({"type":"dance"})", "dance"}, Case{R"({"type":"edit","seq":-1,"changes":[]})", "seq"},
+                          Case{R"({"type":"edit","seq":1,"changes":[]})", "changes"},
+                          Case{R"({"type":"edit","seq":1,"changes":[{"value":1}]})", "changes[0]"},
+                          Case{R"({"type":"hello","protocol":99})", "protocol"}}) {
+        auto m = parseClientMessage(c.text);
+        ASSERT_FALSE(m.ok()) << c.text;
+        EXPECT_EQ(m.error().code, ErrorCode::Protocol) << c.text;
+        EXPECT_NE(m.error().message.find(c.mentions), std::string::npos) << c.text << " -> " << m.error().message;
+    }
+}
+
+TEST(Codec, AppliesChangesAndValidatesValues) {
+    Rig rig = testRig();
+    ASSERT_TRUE(applyChange(rig, {"key.intensity", 500}).ok());
+    EXPECT_FLOAT_EQ(rig.find("key")->intensityCd, 500.f);
+    ASSERT_TRUE(applyChange(rig, {"key.position", {1, 2, 3}}).ok());
+    EXPECT_EQ(rig.find("key")->position, (Vec3{1, 2, 3}));
+    ASSERT_TRUE(applyChange(rig, {"key.direction", {0, -2, 0}}).ok());
+    EXPECT_EQ(rig.find("key")->direction, (Vec3{0, -1, 0})); // normalised
+    ASSERT_TRUE(applyChange(rig, {"exposure", 1.5}).ok());
+    EXPECT_FLOAT_EQ(rig.exposureStops, 1.5f);
+
+    const Rig before = rig;
+    for (const Change& bad : {Change{"key.intensity", -1}, Change{"key.intensity", "bright"},
+                              Change{"key.position", {1, 2}}, Change{"key.coneAngle", 120},
+                              Change{"key.direction", {0, 0, 0}}, Change{"nobody.intensity", 1},
+                              Change{"key.unknown", 1}, Change{"key", 1}, Change{"key.shadowMapSize", 1000},
+                              Change{"key.color", {1, nlohmann::json(nullptr), 1}}}) {
+        auto s = applyChange(rig, bad);
+        EXPECT_FALSE(s.ok()) << bad.path << " = " << bad.value.dump();
+        if (!s.ok()) {
+            EXPECT_NE(s.error().message.find(bad.path.substr(0, 3)), std::string::npos) << s.error().message;
+        }
+    }
+    EXPECT_EQ(toJson(rig), toJson(before)); // nothing changed
+}
+
+TEST(Codec, EditsAreAllOrNothing) {
+    Rig rig = testRig();
+    const float before = rig.find("key")->intensityCd;
+    auto s = applyChanges(rig, {{"key.intensity", 1234}, {"key.coneAngle", 999}});
+    EXPECT_FALSE(s.ok());
+    EXPECT_FLOAT_EQ(rig.find("key")->intensityCd, before);
+}
+
+TEST(Codec, RigJsonRoundTrips) {
+    Rig rig = testRig();
+    rig.version = 42;
+    auto back = rigFromJson(toJson(rig));
+    ASSERT_TRUE(back.ok()) << back.error().toString();
+    EXPECT_EQ(toJson(back.value()), toJson(rig));
+    auto bad = rigFromJson(nlohmann::json{{"lights", {{{"name", "a"}}, {{"name", "a"}}}}});
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().message.find("duplicate"), std::string::npos);
+}
+
+TEST(Codec, ParsesCommandLineAssignments) {
+    auto a = parseAssignment("key.position=1,2.5,-3");
+    ASSERT_TRUE(a.ok());
+    EXPECT_EQ(a->value, nlohmann::json({1, 2.5, -3}));
+    auto b = parseAssignment("key.intensity=500");
+    ASSERT_TRUE(b.ok());
+    EXPECT_EQ(b->value, 500);
+    auto c = parseAssignment("key.shadow=false");
+    ASSERT_TRUE(c.ok());
+    EXPECT_EQ(c->value, false);
+    EXPECT_FALSE(parseAssignment("novalue").ok());
+    EXPECT_FALSE(parseAssignment("key.position=1,x,3").ok());
+}
+
+TEST(Codec, FrameHeaderRoundTripsAndRejectsGarbage) {
+    FrameHeader h;
+    h.encoding = Encoding::Png;
+    h.frameNumber = 0x0102030405060708ull;
+    h.rigVersion = 99;
+    h.width = 1920;
+    h.height = 1080;
+    uint8_t buf[FRAME_HEADER_BYTES];
+    writeFrameHeader(h, buf);
+    auto r = readFrameHeader(buf, sizeof buf);
+    ASSERT_TRUE(r.ok());
+    EXPECT_EQ(r->frameNumber, h.frameNumber);
+    EXPECT_EQ(r->rigVersion, 99u);
+    EXPECT_EQ(r->width, 1920u);
+    EXPECT_EQ(r->encoding, Encoding::Png);
+    EXPECT_FALSE(readFrameHeader(buf, 10).ok());
+    buf[0] = 'X';
+    EXPECT_FALSE(readFrameHeader(buf, sizeof buf).ok());
+}

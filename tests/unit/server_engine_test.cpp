@@ -1,0 +1,134 @@
+// The relight engine through real EGL: a Lambertian plane under a spot light matches the closed
+// form, shadows darken what is behind a blocker, and the cache re-renders only what changed.
+
+#include <dfb/server/Engine.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+
+using namespace dfb;
+
+namespace {
+
+// A 64x64 shot looking straight down at the plane y = 0, covering x, z in [-2, 2].
+DeepBuffer planeShot(float albedo) {
+    DeepBuffer b;
+    b.allocate(64, 64);
+    for (int y = 0; y < 64; ++y)
+        for (int x = 0; x < 64; ++x) {
+            const size_t i = size_t(y) * 64 + x;
+            b.P[i * 3 + 0] = -2.f + 4.f * (x + 0.5f) / 64.f;
+            b.P[i * 3 + 1] = 0.f;
+            b.P[i * 3 + 2] = -2.f + 4.f * (y + 0.5f) / 64.f;
+            b.N[i * 3 + 1] = 1.f;
+            b.Ng[i * 3 + 1] = 1.f;
+            for (int c = 0; c < 3; ++c) b.albedo[i * 3 + c] = albedo;
+            b.brdf[i * 4 + 0] = 0.f; // dielectric
+            b.brdf[i * 4 + 1] = 1.f; // fully rough
+            b.brdf[i * 4 + 2] = 0.f; // no specular: a pure Lambertian surface
+            b.brdf[i * 4 + 3] = 1.f;
+            b.A[i] = 1.f;
+            b.objectId[i] = 1;
+        }
+    b.camera.worldToCamera = glm::lookAt(glm::vec3(0, 10, 0), glm::vec3(0), glm::vec3(0, 0, -1));
+    return b;
+}
+
+double srgbToLinear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
+Rig spotRig() {
+    Rig rig;
+    Light l;
+    l.name = "key";
+    l.position = {0.3f, 2.f, -0.2f};
+    l.direction = {0.f, -1.f, 0.f};
+    l.intensityCd = 6.f;
+    l.coneAngleDeg = 70.f;
+    l.penumbraDeg = 0.5f;
+    l.shadow = false;
+    rig.lights.push_back(l);
+    return rig;
+}
+
+} // namespace
+
+TEST(Engine, LambertPlaneMatchesClosedForm) {
+    const float albedo = 0.5f;
+    auto engine = Engine::create(planeShot(albedo), ShadowGeometry{});
+    ASSERT_TRUE(engine.ok()) << engine.error().toString();
+    const Rig rig = spotRig();
+    auto img = engine.value()->render(rig);
+    ASSERT_TRUE(img.ok()) << img.error().toString();
+    const Light& l = rig.lights[0];
+    int checked = 0;
+    for (int y = 4; y < 64; y += 8)
+        for (int x = 4; x < 64; x += 8) {
+            const glm::vec3 p(-2.f + 4.f * (x + 0.5f) / 64.f, 0.f, -2.f + 4.f * (y + 0.5f) / 64.f);
+            const glm::vec3 toLight = glm::vec3(l.position[0], l.position[1], l.position[2]) - p;
+            const float d = glm::length(toLight);
+            const float cosTheta = toLight.y / d;
+            // Inside the cone's full-intensity core only.
+            if (std::acos(cosTheta) > glm::radians(l.coneAngleDeg - l.penumbraDeg - 2.f)) continue;
+            const double expected = albedo / M_PI * l.intensityCd * cosTheta / (d * d);
+            if (expected > 0.95) continue; // clipped by the 8-bit output
+            const double got = srgbToLinear(img->rgba[(size_t(y) * 64 + x) * 4] / 255.0);
+            // 8-bit sRGB quantisation: half a code value is at most ~1.5% of the value above 0.05.
+            EXPECT_NEAR(got, expected, 0.015 * expected + 0.002) << "pixel " << x << "," << y;
+            ++checked;
+        }
+    EXPECT_GT(checked, 20);
+}
+
+TEST(Engine, BlockerCastsAShadowOnlyWhereExpected) {
+    // A small square blocker 1 unit above the plane, under a light straight above it.
+    ShadowGeometry g;
+    g.positions = {{-0.25f, 1.f, -0.25f}, {0.25f, 1.f, -0.25f}, {0.25f, 1.f, 0.25f}, {-0.25f, 1.f, 0.25f}};
+    g.indices = {0, 1, 2, 0, 2, 3};
+    auto engine = Engine::create(planeShot(0.5f), g);
+    ASSERT_TRUE(engine.ok()) << engine.error().toString();
+    Rig rig = spotRig();
+    rig.lights[0].position = {0.f, 2.f, 0.f};
+    rig.lights[0].shadow = true;
+    auto img = engine.value()->render(rig);
+    ASSERT_TRUE(img.ok()) << img.error().toString();
+    auto at = [&](float wx, float wz) {
+        const int x = int((wx + 2.f) / 4.f * 64.f), y = int((wz + 2.f) / 4.f * 64.f);
+        return img->rgba[(size_t(y) * 64 + x) * 4];
+    };
+    // The shadow of a 0.5 square at height 1 from height 2 is a 1.0 square on the plane.
+    EXPECT_LT(at(0.f, 0.f), 5) << "centre of the shadow must be dark";
+    EXPECT_LT(at(0.4f, 0.4f), 5) << "inside the projected shadow";
+    EXPECT_GT(at(0.7f, 0.7f), 100) << "outside the projected shadow";
+    EXPECT_GT(at(-0.7f, 0.f), 100);
+}
+
+TEST(Engine, CacheRerendersOnlyWhatChanged) {
+    ShadowGeometry g;
+    g.positions = {{-0.25f, 1.f, -0.25f}, {0.25f, 1.f, -0.25f}, {0.25f, 1.f, 0.25f}};
+    g.indices = {0, 1, 2};
+    auto engine = Engine::create(planeShot(0.5f), g);
+    ASSERT_TRUE(engine.ok()) << engine.error().toString();
+    Rig rig = spotRig();
+    rig.lights[0].shadow = true;
+    Light fill = rig.lights[0];
+    fill.name = "fill";
+    fill.position = {-1.f, 2.f, 0.f};
+    rig.lights.push_back(fill);
+    FrameStats st;
+    ASSERT_TRUE(engine.value()->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 2);
+    EXPECT_EQ(st.lightsShaded, 2);
+    ASSERT_TRUE(engine.value()->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 0);
+    EXPECT_EQ(st.lightsShaded, 0);
+    rig.lights[1].intensityCd *= 2.f; // shading only
+    ASSERT_TRUE(engine.value()->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 0);
+    EXPECT_EQ(st.lightsShaded, 1);
+    rig.lights[0].position[0] += 0.1f; // shadow map and shading of that light only
+    ASSERT_TRUE(engine.value()->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 1);
+    EXPECT_EQ(st.lightsShaded, 1);
+}
