@@ -4,6 +4,8 @@
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/ExrIO.h>
 
+#include "support/Assets.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -62,7 +64,8 @@ TEST(BakeCamera, PositionsReprojectToTheirPixelAfterEXRRoundTrip) {
 }
 
 TEST(BakeCamera, RealAssetWithoutCameraIsFramedAutomatically) {
-    auto scene = loadScene(std::string(DFB_ASSETS_DIR) + "/stanford-bunny-lowres.glb");
+    DFB_REQUIRE_ASSETS();
+    auto scene = loadScene(test::assetPath("stanford-bunny-lowres.glb"));
     ASSERT_TRUE(scene.ok()) << scene.error().toString();
     BakeOptions o;
     o.width = 64;
@@ -84,7 +87,8 @@ TEST(BakeCamera, RealAssetWithoutCameraIsFramedAutomatically) {
 }
 
 TEST(BakeCamera, UnknownCameraNameListsTheCameras) {
-    auto scene = loadScene(std::string(DFB_ASSETS_DIR) + "/Cameras.glb");
+    DFB_REQUIRE_ASSETS();
+    auto scene = loadScene(test::assetPath("Cameras.glb"));
     ASSERT_TRUE(scene.ok()) << scene.error().toString();
     BakeOptions o;
     o.cameraName = "nope";

@@ -2,6 +2,8 @@
 
 #include <dfb/gbuffer/Scene.h>
 
+#include "support/Assets.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -20,18 +22,20 @@ TEST(Scene, LoadsBundledTabletop) {
 }
 
 TEST(Scene, InstancedAssetTriangleCountsMatchTheAssetsReadme) {
+    DFB_REQUIRE_ASSETS();
     // Counts from ../shared/assets/README.md (mesh nodes x mesh triangles).
     struct Case { const char* file; size_t triangles; };
     for (const Case& c : {Case{"CesiumMilkTruck.glb", 3624}, Case{"Box.glb", 12}, Case{"CornellBox-Original.glb", 36},
                           Case{"VulkanSamples-SubpassScene.glb", 23388}}) {
-        auto s = loadScene(std::string(DFB_ASSETS_DIR) + "/" + c.file);
+        auto s = loadScene(test::assetPath(c.file));
         ASSERT_TRUE(s.ok()) << s.error().toString();
         EXPECT_EQ(s->triangleCount(), c.triangles) << c.file;
     }
 }
 
 TEST(Scene, CamerasAreFound) {
-    auto s = loadScene(std::string(DFB_ASSETS_DIR) + "/CornellBox-Original.glb");
+    DFB_REQUIRE_ASSETS();
+    auto s = loadScene(test::assetPath("CornellBox-Original.glb"));
     ASSERT_TRUE(s.ok());
     ASSERT_EQ(s->cameras.size(), 1u);
     EXPECT_EQ(s->cameras[0].name, "CornellCamera");

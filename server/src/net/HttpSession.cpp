@@ -81,6 +81,7 @@ void HttpSession::handle(http::request<http::string_body>&& req) {
         return send(makeResponse(req, http::status::ok, "text/html; charset=utf-8", std::string(web::asset("index.html"))));
     }
     if (path == "/healthz") return send(makeResponse(req, http::status::ok, "text/plain", "ok\n"));
+    if (path == "/favicon.ico") return send(makeResponse(req, http::status::no_content, "image/x-icon", ""));
     if (path == "/v1/rig") {
         return send(makeResponse(req, http::status::ok, "application/json", protocol::toJson(mState->session().rig()).dump(2)));
     }
