@@ -2,30 +2,43 @@
 
 namespace dfb {
 
+bool DeepBuffer::isFlat() const {
+    if (sampleOffset.size() != pixelCount() + 1) return false;
+    for (size_t p = 0; p < pixelCount(); ++p)
+        if (sampleOffset[p] != p) return false;
+    return sampleOffset.back() == pixelCount();
+}
+
 void DeepBuffer::allocate(int w, int h) {
+    allocateSamples(w, h, std::vector<uint32_t>(size_t(w) * size_t(h), 1u));
+}
+
+void DeepBuffer::allocateSamples(int w, int h, const std::vector<uint32_t>& counts) {
     width = w;
     height = h;
-    const size_t n = pixelCount();
+    sampleOffset.assign(size_t(w) * size_t(h) + 1, 0);
+    for (size_t p = 0; p < counts.size(); ++p) sampleOffset[p + 1] = sampleOffset[p] + counts[p];
+    const size_t n = sampleOffset.back();
     P.assign(n * 3, 0.f);
     N.assign(n * 3, 0.f);
     Ng.assign(n * 3, 0.f);
+    T.assign(n * 4, 0.f);
     Z.assign(n, 0.f);
     albedo.assign(n * 3, 0.f);
     brdf.assign(n * 4, 0.f);
+    sheen.assign(n * 4, 0.f);
+    coat.assign(n * 2, 0.f);
     emission.assign(n * 3, 0.f);
     A.assign(n, 0.f);
     objectId.assign(n, 0);
     materialId.assign(n, 0);
 }
 
-glm::vec3 DeepBuffer::position(int x, int y) const {
-    const size_t i = (static_cast<size_t>(y) * width + x) * 3;
-    return {P[i], P[i + 1], P[i + 2]};
-}
-
-glm::vec3 DeepBuffer::normal(int x, int y) const {
-    const size_t i = (static_cast<size_t>(y) * width + x) * 3;
-    return {N[i], N[i + 1], N[i + 2]};
+float DeepBuffer::coverage(int x, int y) const {
+    float a = 0.f;
+    const size_t p = size_t(y) * size_t(width) + size_t(x);
+    for (uint32_t s = sampleOffset[p]; s < sampleOffset[p + 1]; ++s) a += A[s];
+    return a;
 }
 
 } // namespace dfb

@@ -1,15 +1,18 @@
 #include <dfb/gbuffer/ExrIO.h>
 
 #include <ImfChannelList.h>
+#include <ImfDeepFrameBuffer.h>
+#include <ImfDeepScanLineInputFile.h>
+#include <ImfDeepScanLineOutputFile.h>
+#include <ImfFloatAttribute.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfIntAttribute.h>
-#include <ImfFloatAttribute.h>
 #include <ImfOutputFile.h>
+#include <ImfPartType.h>
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
-#include <ImfStringVectorAttribute.h>
 #include <ImfTestFile.h>
 #include <Iex.h>
 #include <Imath/half.h>
@@ -22,8 +25,8 @@
 #include <filesystem>
 #include <functional>
 #include <set>
-#include <unistd.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 namespace dfb {
 namespace {
@@ -32,15 +35,15 @@ namespace {
 struct ChannelSpec {
     const char* name;
     Imf::PixelType fileType;
-    int component;   // index within the layer's components
-    int components;  // components per pixel in the layer
+    int component;  // index within the layer's components
+    int components; // components per sample in the layer
     bool required;
     std::function<char*(DeepBuffer&)> base;
 };
 
-// The channel table of format v1 (docs/gbuffer-format.md). Positions and depth are float for
-// precision over large scenes; directions, colours and lobe parameters are half.
-std::vector<ChannelSpec> channelSpecs() {
+// The channel table of format v2 (docs/gbuffer-format.md). Positions and depth are float for
+// precision over large scenes; directions, colours and lobe parameters are half; ids are uint.
+const std::vector<ChannelSpec>& channelSpecs() {
     using PT = Imf::PixelType;
     auto f = [](std::vector<float> DeepBuffer::*m) {
         return [m](DeepBuffer& b) { return reinterpret_cast<char*>((b.*m).data()); };
@@ -48,7 +51,7 @@ std::vector<ChannelSpec> channelSpecs() {
     auto u = [](std::vector<uint32_t> DeepBuffer::*m) {
         return [m](DeepBuffer& b) { return reinterpret_cast<char*>((b.*m).data()); };
     };
-    return {
+    static const std::vector<ChannelSpec> specs = {
         {"P.X", PT::FLOAT, 0, 3, true, f(&DeepBuffer::P)},
         {"P.Y", PT::FLOAT, 1, 3, true, f(&DeepBuffer::P)},
         {"P.Z", PT::FLOAT, 2, 3, true, f(&DeepBuffer::P)},
@@ -58,6 +61,10 @@ std::vector<ChannelSpec> channelSpecs() {
         {"Ng.X", PT::HALF, 0, 3, false, f(&DeepBuffer::Ng)},
         {"Ng.Y", PT::HALF, 1, 3, false, f(&DeepBuffer::Ng)},
         {"Ng.Z", PT::HALF, 2, 3, false, f(&DeepBuffer::Ng)},
+        {"T.X", PT::HALF, 0, 4, false, f(&DeepBuffer::T)},
+        {"T.Y", PT::HALF, 1, 4, false, f(&DeepBuffer::T)},
+        {"T.Z", PT::HALF, 2, 4, false, f(&DeepBuffer::T)},
+        {"T.W", PT::HALF, 3, 4, false, f(&DeepBuffer::T)},
         {"Z", PT::FLOAT, 0, 1, true, f(&DeepBuffer::Z)},
         {"albedo.R", PT::HALF, 0, 3, true, f(&DeepBuffer::albedo)},
         {"albedo.G", PT::HALF, 1, 3, true, f(&DeepBuffer::albedo)},
@@ -66,6 +73,12 @@ std::vector<ChannelSpec> channelSpecs() {
         {"brdf.roughness", PT::HALF, 1, 4, true, f(&DeepBuffer::brdf)},
         {"brdf.specular", PT::HALF, 2, 4, false, f(&DeepBuffer::brdf)},
         {"brdf.occlusion", PT::HALF, 3, 4, false, f(&DeepBuffer::brdf)},
+        {"sheen.R", PT::HALF, 0, 4, false, f(&DeepBuffer::sheen)},
+        {"sheen.G", PT::HALF, 1, 4, false, f(&DeepBuffer::sheen)},
+        {"sheen.B", PT::HALF, 2, 4, false, f(&DeepBuffer::sheen)},
+        {"sheen.roughness", PT::HALF, 3, 4, false, f(&DeepBuffer::sheen)},
+        {"coat.weight", PT::HALF, 0, 2, false, f(&DeepBuffer::coat)},
+        {"coat.roughness", PT::HALF, 1, 2, false, f(&DeepBuffer::coat)},
         {"emission.R", PT::HALF, 0, 3, false, f(&DeepBuffer::emission)},
         {"emission.G", PT::HALF, 1, 3, false, f(&DeepBuffer::emission)},
         {"emission.B", PT::HALF, 2, 3, false, f(&DeepBuffer::emission)},
@@ -73,6 +86,7 @@ std::vector<ChannelSpec> channelSpecs() {
         {"id.object", PT::UINT, 0, 1, true, u(&DeepBuffer::objectId)},
         {"id.material", PT::UINT, 0, 1, true, u(&DeepBuffer::materialId)},
     };
+    return specs;
 }
 
 Imath::M44f toImath(const glm::mat4& m) {
@@ -93,55 +107,307 @@ glm::mat4 toGlm(const Imath::M44f& m) {
 
 // Largest accepted image side. A shot is a single frame; 32k covers any plate while rejecting
 // corrupt headers that would otherwise make us allocate terabytes.
-constexpr int MAX_SIDE = 32768;
+constexpr long MAX_SIDE = 32768;
+
+void writeHeaderAttributes(Imf::Header& header, const DeepBuffer& b) {
+    Imf::addWorldToCamera(header, toImath(b.camera.worldToCamera));
+    Imf::addWorldToNDC(header, toImath(b.camera.worldToNDC));
+    header.insert("dfb.formatVersion", Imf::IntAttribute(GBUFFER_FORMAT_VERSION));
+    header.insert("dfb.samplesPerPixel", Imf::IntAttribute(b.samplesPerPixel));
+    header.insert("dfb.camera.name", Imf::StringAttribute(b.camera.name));
+    header.insert("dfb.camera.projection", Imf::StringAttribute(b.camera.orthographic ? "orthographic" : "perspective"));
+    header.insert("dfb.camera.yfov", Imf::FloatAttribute(b.camera.yfovRadians));
+    header.insert("dfb.camera.ymag", Imf::FloatAttribute(b.camera.ymag));
+    header.insert("dfb.camera.aspect", Imf::FloatAttribute(b.camera.aspect));
+    header.insert("dfb.camera.near", Imf::FloatAttribute(b.camera.znear));
+    header.insert("dfb.camera.far", Imf::FloatAttribute(b.camera.zfar));
+    header.insert("dfb.source", Imf::StringAttribute(b.sourcePath));
+    header.insert("dfb.sourceSha256", Imf::StringAttribute(b.sourceSha256));
+    nlohmann::json manifest = {{"objects", b.objectNames}, {"materials", b.materialNames}};
+    header.insert("dfb.manifest", Imf::StringAttribute(manifest.dump()));
+    for (const ChannelSpec& c : channelSpecs()) header.channels().insert(c.name, Imf::Channel(c.fileType));
+}
+
+// Samples of one channel in the file's type: half channels are staged (OpenEXR output needs
+// slices of the channel's own type), float and uint point into the layer with a stride.
+struct Staged {
+    std::vector<half> halves;
+    char* base = nullptr;
+    size_t stride = 0; // bytes between consecutive samples
+};
+
+Staged stage(const ChannelSpec& c, DeepBuffer& b) {
+    Staged s;
+    const size_t n = b.sampleCount();
+    const size_t elem = c.fileType == Imf::UINT ? sizeof(uint32_t) : sizeof(float);
+    char* base = c.base(b) + elem * size_t(c.component);
+    if (c.fileType == Imf::HALF) {
+        const float* src = reinterpret_cast<const float*>(base);
+        s.halves.resize(n);
+        for (size_t i = 0; i < n; ++i) s.halves[i] = half(src[i * size_t(c.components)]);
+        s.base = reinterpret_cast<char*>(s.halves.data());
+        s.stride = sizeof(half);
+    } else {
+        s.base = base;
+        s.stride = elem * size_t(c.components);
+    }
+    return s;
+}
+
+Status writeFlat(const DeepBuffer& b, const std::string& tmp) {
+    Imf::Header header(b.width, b.height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    writeHeaderAttributes(header, b);
+    DeepBuffer& mb = const_cast<DeepBuffer&>(b); // slices take char*; we only read from them
+    std::vector<Staged> staged;
+    staged.reserve(channelSpecs().size());
+    Imf::FrameBuffer fb;
+    for (const ChannelSpec& c : channelSpecs()) {
+        staged.push_back(stage(c, mb));
+        fb.insert(c.name, Imf::Slice(c.fileType, staged.back().base, staged.back().stride,
+                                     staged.back().stride * size_t(b.width)));
+    }
+    Imf::OutputFile file(tmp.c_str(), header);
+    file.setFrameBuffer(fb);
+    file.writePixels(b.height);
+    return okStatus();
+}
+
+Status writeDeep(const DeepBuffer& b, const std::string& tmp) {
+    Imf::Header header(b.width, b.height);
+    header.setType(Imf::DEEPSCANLINE);
+    header.compression() = Imf::ZIPS_COMPRESSION;
+    writeHeaderAttributes(header, b);
+    DeepBuffer& mb = const_cast<DeepBuffer&>(b);
+    const size_t np = b.pixelCount();
+    std::vector<uint32_t> counts(np);
+    for (size_t p = 0; p < np; ++p) counts[p] = b.sampleOffset[p + 1] - b.sampleOffset[p];
+    Imf::DeepFrameBuffer fb;
+    fb.insertSampleCountSlice(Imf::Slice(Imf::UINT, reinterpret_cast<char*>(counts.data()), sizeof(uint32_t),
+                                         sizeof(uint32_t) * size_t(b.width)));
+    std::vector<Staged> staged;
+    std::vector<std::vector<char*>> pointers;
+    staged.reserve(channelSpecs().size());
+    pointers.reserve(channelSpecs().size());
+    for (const ChannelSpec& c : channelSpecs()) {
+        staged.push_back(stage(c, mb));
+        auto& ptrs = pointers.emplace_back(np);
+        for (size_t p = 0; p < np; ++p) ptrs[p] = staged.back().base + staged.back().stride * b.sampleOffset[p];
+        // DeepSlice: base points at a per-pixel array of sample pointers (OpenEXR ImfDeepFrameBuffer.h).
+        fb.insert(c.name, Imf::DeepSlice(c.fileType, reinterpret_cast<char*>(ptrs.data()), sizeof(char*),
+                                         sizeof(char*) * size_t(b.width), staged.back().stride));
+    }
+    Imf::DeepScanLineOutputFile file(tmp.c_str(), header);
+    file.setFrameBuffer(fb);
+    file.writePixels(b.height);
+    return okStatus();
+}
+
+Error fileError(ErrorCode code, const std::string& path, const std::string& what) {
+    return makeError(code, path + ": " + what);
+}
+
+// Reads the header attributes shared by flat and deep files.
+Status readHeaderAttributes(const Imf::Header& h, const std::string& path, DeepBuffer& b) {
+    if (const auto* a = h.findTypedAttribute<Imf::M44fAttribute>("worldToCamera")) {
+        b.camera.worldToCamera = toGlm(a->value());
+    } else {
+        return fileError(ErrorCode::MissingData, path, "header attribute 'worldToCamera' is missing");
+    }
+    if (const auto* a = h.findTypedAttribute<Imf::M44fAttribute>("worldToNDC")) {
+        b.camera.worldToNDC = toGlm(a->value());
+    } else {
+        return fileError(ErrorCode::MissingData, path, "header attribute 'worldToNDC' is missing");
+    }
+    if (const auto* a = h.findTypedAttribute<Imf::IntAttribute>("dfb.formatVersion")) {
+        if (a->value() < 1 || a->value() > GBUFFER_FORMAT_VERSION) {
+            return fileError(ErrorCode::InvalidFile, path, "format version " + std::to_string(a->value()) +
+                                                               " is not supported (this build reads 1.." +
+                                                               std::to_string(GBUFFER_FORMAT_VERSION) + ")");
+        }
+    }
+    if (const auto* a = h.findTypedAttribute<Imf::IntAttribute>("dfb.samplesPerPixel")) {
+        if (a->value() < 1 || a->value() > MAX_SAMPLES_PER_PIXEL) {
+            return fileError(ErrorCode::InvalidValue, path, "dfb.samplesPerPixel " + std::to_string(a->value()) +
+                                                                " is out of range [1, " +
+                                                                std::to_string(MAX_SAMPLES_PER_PIXEL) + "]");
+        }
+        b.samplesPerPixel = a->value();
+    }
+    auto getFloat = [&](const char* name, float& out) {
+        if (const auto* a = h.findTypedAttribute<Imf::FloatAttribute>(name)) out = a->value();
+    };
+    getFloat("dfb.camera.yfov", b.camera.yfovRadians);
+    getFloat("dfb.camera.ymag", b.camera.ymag);
+    getFloat("dfb.camera.aspect", b.camera.aspect);
+    getFloat("dfb.camera.near", b.camera.znear);
+    getFloat("dfb.camera.far", b.camera.zfar);
+    auto getString = [&](const char* name, std::string& out) {
+        if (const auto* a = h.findTypedAttribute<Imf::StringAttribute>(name)) out = a->value();
+    };
+    std::string projection;
+    getString("dfb.camera.projection", projection);
+    b.camera.orthographic = projection == "orthographic";
+    getString("dfb.camera.name", b.camera.name);
+    getString("dfb.source", b.sourcePath);
+    getString("dfb.sourceSha256", b.sourceSha256);
+    if (const auto* a = h.findTypedAttribute<Imf::StringAttribute>("dfb.manifest")) {
+        auto j = nlohmann::json::parse(a->value(), nullptr, false);
+        if (j.is_discarded() || !j.is_object()) {
+            return fileError(ErrorCode::InvalidFile, path, "header attribute 'dfb.manifest' is not valid JSON");
+        }
+        try {
+            b.objectNames = j.value("objects", std::vector<std::string>{});
+            b.materialNames = j.value("materials", std::vector<std::string>{});
+        } catch (const nlohmann::json::exception&) {
+            return fileError(ErrorCode::InvalidFile, path, "'dfb.manifest' lists are not string arrays");
+        }
+    }
+    return okStatus();
+}
+
+// Checks every channel the table requires and the types of those present; collects the absent.
+Status checkChannels(const Imf::Header& h, const std::string& path, std::set<std::string>& missing) {
+    for (const ChannelSpec& c : channelSpecs()) {
+        const Imf::Channel* ch = h.channels().findChannel(c.name);
+        if (!ch) {
+            if (c.required) return fileError(ErrorCode::MissingData, path, std::string("required channel '") + c.name + "' is missing");
+            missing.insert(c.name);
+            continue;
+        }
+        const bool wantUint = c.fileType == Imf::UINT;
+        if (wantUint != (ch->type == Imf::UINT)) {
+            return fileError(ErrorCode::InvalidFile, path, std::string("channel '") + c.name + "' has the wrong type (" +
+                                                               (wantUint ? "uint expected" : "half or float expected") + ")");
+        }
+        if (ch->xSampling != 1 || ch->ySampling != 1) {
+            return fileError(ErrorCode::InvalidFile, path, std::string("channel '") + c.name + "' is subsampled");
+        }
+    }
+    return okStatus();
+}
+
+Result<Imath::Box2i> checkWindow(const Imf::Header& h, const std::string& path) {
+    const Imath::Box2i dw = h.dataWindow();
+    const long w = long(dw.max.x) - dw.min.x + 1;
+    const long hgt = long(dw.max.y) - dw.min.y + 1;
+    if (w <= 0 || hgt <= 0 || w > MAX_SIDE || hgt > MAX_SIDE) {
+        return fileError(ErrorCode::InvalidValue, path, "absurd image size " + std::to_string(w) + "x" + std::to_string(hgt));
+    }
+    if (dw != h.displayWindow()) return fileError(ErrorCode::InvalidFile, path, "data window differs from display window");
+    return dw;
+}
+
+Status readFlat(const std::string& path, DeepBuffer& b, std::set<std::string>& missing) {
+    Imf::InputFile file(path.c_str());
+    const Imf::Header& h = file.header();
+    auto dw = checkWindow(h, path);
+    if (!dw) return dw.error();
+    if (auto s = checkChannels(h, path, missing); !s) return s;
+    if (auto s = readHeaderAttributes(h, path, b); !s) return s;
+    const long w = long(dw->max.x) - dw->min.x + 1, hgt = long(dw->max.y) - dw->min.y + 1;
+    b.allocate(int(w), int(hgt));
+    Imf::FrameBuffer fb;
+    for (const ChannelSpec& c : channelSpecs()) {
+        if (missing.count(c.name)) continue;
+        const bool isUint = c.fileType == Imf::UINT;
+        const size_t elem = isUint ? sizeof(uint32_t) : sizeof(float);
+        char* base = c.base(b) + elem * size_t(c.component);
+        // Slices are addressed from the data window origin (OpenEXR's base-pointer rule); the
+        // reader converts half to float.
+        base -= (long(dw->min.y) * w + dw->min.x) * long(elem * size_t(c.components));
+        fb.insert(c.name, Imf::Slice(isUint ? Imf::UINT : Imf::FLOAT, base, elem * size_t(c.components),
+                                     elem * size_t(c.components) * size_t(w)));
+    }
+    file.setFrameBuffer(fb);
+    file.readPixels(dw->min.y, dw->max.y);
+    return okStatus();
+}
+
+Status readDeep(const std::string& path, DeepBuffer& b, std::set<std::string>& missing) {
+    Imf::DeepScanLineInputFile file(path.c_str());
+    const Imf::Header& h = file.header();
+    auto dw = checkWindow(h, path);
+    if (!dw) return dw.error();
+    if (auto s = checkChannels(h, path, missing); !s) return s;
+    if (auto s = readHeaderAttributes(h, path, b); !s) return s;
+    const long w = long(dw->max.x) - dw->min.x + 1, hgt = long(dw->max.y) - dw->min.y + 1;
+    const size_t np = size_t(w) * size_t(hgt);
+    std::vector<uint32_t> counts(np);
+    const long origin = long(dw->min.y) * w + dw->min.x;
+    // OpenEXR's deep read: one frame buffer with the count slice and every channel's pointer
+    // array, set once; read the counts, allocate, fill the pointers, then read the samples.
+    struct Stage {
+        const ChannelSpec* spec;
+        std::vector<half> halves;
+        std::vector<char*> ptrs;
+    };
+    std::vector<Stage> stages;
+    stages.reserve(channelSpecs().size());
+    Imf::DeepFrameBuffer fb;
+    fb.insertSampleCountSlice(Imf::Slice(Imf::UINT, reinterpret_cast<char*>(counts.data() - origin), sizeof(uint32_t),
+                                         sizeof(uint32_t) * size_t(w)));
+    for (const ChannelSpec& c : channelSpecs()) {
+        if (missing.count(c.name)) continue;
+        Stage& st = stages.emplace_back();
+        st.spec = &c;
+        st.ptrs.resize(np);
+        const size_t stride = c.fileType == Imf::HALF ? sizeof(half) : c.fileType == Imf::UINT ? sizeof(uint32_t) * size_t(c.components)
+                                                                                               : sizeof(float) * size_t(c.components);
+        fb.insert(c.name, Imf::DeepSlice(c.fileType, reinterpret_cast<char*>(st.ptrs.data() - origin), sizeof(char*),
+                                         sizeof(char*) * size_t(w), stride));
+    }
+    file.setFrameBuffer(fb);
+    file.readPixelSampleCounts(dw->min.y, dw->max.y);
+    uint64_t total = 0;
+    for (size_t p = 0; p < np; ++p) {
+        if (counts[p] > uint32_t(MAX_SAMPLES_PER_PIXEL)) {
+            return fileError(ErrorCode::InvalidValue, path, "pixel (" + std::to_string(p % size_t(w)) + ", " +
+                                                                std::to_string(p / size_t(w)) + ") has " +
+                                                                std::to_string(counts[p]) + " samples (at most " +
+                                                                std::to_string(MAX_SAMPLES_PER_PIXEL) + " allowed)");
+        }
+        total += counts[p];
+    }
+    b.allocateSamples(int(w), int(hgt), counts);
+    for (Stage& st : stages) {
+        const ChannelSpec& c = *st.spec;
+        size_t stride;
+        char* base;
+        if (c.fileType == Imf::HALF) {
+            st.halves.resize(size_t(total));
+            base = reinterpret_cast<char*>(st.halves.data());
+            stride = sizeof(half);
+        } else {
+            const size_t elem = c.fileType == Imf::UINT ? sizeof(uint32_t) : sizeof(float);
+            base = c.base(b) + elem * size_t(c.component);
+            stride = elem * size_t(c.components);
+        }
+        for (size_t p = 0; p < np; ++p) st.ptrs[p] = base + stride * b.sampleOffset[p];
+    }
+    file.readPixels(dw->min.y, dw->max.y);
+    for (Stage& st : stages) {
+        if (st.spec->fileType != Imf::HALF) continue;
+        float* dst = reinterpret_cast<float*>(st.spec->base(b)) + st.spec->component;
+        for (size_t i = 0; i < st.halves.size(); ++i) dst[i * size_t(st.spec->components)] = float(st.halves[i]);
+    }
+    return okStatus();
+}
 
 } // namespace
 
 Status writeDeepBuffer(const DeepBuffer& b, const std::string& path) {
-    if (b.width <= 0 || b.height <= 0 || b.P.size() != b.pixelCount() * 3) {
+    if (b.width <= 0 || b.height <= 0 || b.sampleOffset.size() != b.pixelCount() + 1 ||
+        b.P.size() != b.sampleCount() * 3) {
         return makeError(ErrorCode::InvalidValue, "refusing to write " + path + ": deep buffer is empty or inconsistent");
     }
     const std::string tmp = path + ".tmp" + std::to_string(::getpid());
     try {
-        Imf::Header header(b.width, b.height);
-        header.compression() = Imf::ZIP_COMPRESSION;
-        Imf::addWorldToCamera(header, toImath(b.camera.worldToCamera));
-        Imf::addWorldToNDC(header, toImath(b.camera.worldToNDC));
-        header.insert("dfb.formatVersion", Imf::IntAttribute(GBUFFER_FORMAT_VERSION));
-        header.insert("dfb.camera.name", Imf::StringAttribute(b.camera.name));
-        header.insert("dfb.camera.yfov", Imf::FloatAttribute(b.camera.yfovRadians));
-        header.insert("dfb.camera.aspect", Imf::FloatAttribute(b.camera.aspect));
-        header.insert("dfb.camera.near", Imf::FloatAttribute(b.camera.znear));
-        header.insert("dfb.camera.far", Imf::FloatAttribute(b.camera.zfar));
-        header.insert("dfb.source", Imf::StringAttribute(b.sourcePath));
-        nlohmann::json manifest = {{"objects", b.objectNames}, {"materials", b.materialNames}};
-        header.insert("dfb.manifest", Imf::StringAttribute(manifest.dump()));
-
-        Imf::FrameBuffer fb;
-        DeepBuffer& mb = const_cast<DeepBuffer&>(b); // slices take char*; we only read from them
-        // OutputFile needs slices of the channel's own type (only InputFile converts), so half
-        // channels are staged in half buffers.
-        std::vector<std::vector<half>> halves;
-        halves.reserve(channelSpecs().size());
-        for (const ChannelSpec& c : channelSpecs()) {
-            header.channels().insert(c.name, Imf::Channel(c.fileType));
-            const bool isUint = c.fileType == Imf::UINT;
-            const size_t elem = isUint ? sizeof(uint32_t) : sizeof(float);
-            char* base = c.base(mb) + elem * c.component;
-            if (c.fileType == Imf::HALF) {
-                const float* src = reinterpret_cast<const float*>(base);
-                auto& h = halves.emplace_back(b.pixelCount());
-                for (size_t i = 0; i < h.size(); ++i) h[i] = half(src[i * size_t(c.components)]);
-                fb.insert(c.name, Imf::Slice(Imf::HALF, reinterpret_cast<char*>(h.data()), sizeof(half),
-                                             sizeof(half) * size_t(b.width)));
-                continue;
-            }
-            fb.insert(c.name, Imf::Slice(isUint ? Imf::UINT : Imf::FLOAT, base, elem * c.components,
-                                         elem * c.components * b.width));
+        Status s = b.isFlat() ? writeFlat(b, tmp) : writeDeep(b, tmp);
+        if (!s) {
+            std::remove(tmp.c_str());
+            return s;
         }
-        Imf::OutputFile file(tmp.c_str(), header);
-        file.setFrameBuffer(fb);
-        file.writePixels(b.height);
     } catch (const std::exception& e) {
         std::remove(tmp.c_str());
         return makeError(ErrorCode::IoError, "writing " + path + ": " + e.what());
@@ -157,125 +423,60 @@ Status writeDeepBuffer(const DeepBuffer& b, const std::string& path) {
 
 Result<DeepBuffer> readDeepBuffer(const std::string& path) {
     struct stat st{};
-    if (::stat(path.c_str(), &st) != 0) {
-        return makeError(ErrorCode::FileNotFound, path + ": no such file");
-    }
+    if (::stat(path.c_str(), &st) != 0) return makeError(ErrorCode::FileNotFound, path + ": no such file");
     DeepBuffer b;
     std::set<std::string> missing;
     try {
-        if (!Imf::isOpenExrFile(path.c_str())) {
+        bool tiled = false, deep = false, multiPart = false;
+        if (!Imf::isOpenExrFile(path.c_str(), tiled, deep, multiPart)) {
             return makeError(ErrorCode::InvalidFile, path + ": not an OpenEXR file");
         }
-        Imf::InputFile file(path.c_str());
-        const Imf::Header& h = file.header();
-        const Imath::Box2i dw = h.dataWindow();
-        const Imath::Box2i disp = h.displayWindow();
-        const long w = long(dw.max.x) - dw.min.x + 1;
-        const long hgt = long(dw.max.y) - dw.min.y + 1;
-        if (w <= 0 || hgt <= 0 || w > MAX_SIDE || hgt > MAX_SIDE) {
-            return makeError(ErrorCode::InvalidValue, path + ": absurd image size " + std::to_string(w) +
-                                                          "x" + std::to_string(hgt));
-        }
-        if (dw != disp) {
-            return makeError(ErrorCode::InvalidFile, path + ": data window differs from display window");
-        }
-        b.allocate(int(w), int(hgt));
-
-        Imf::FrameBuffer fb;
-        for (const ChannelSpec& c : channelSpecs()) {
-            const Imf::Channel* ch = h.channels().findChannel(c.name);
-            if (!ch) missing.insert(c.name);
-            if (!ch) {
-                if (c.required) {
-                    return makeError(ErrorCode::MissingData, path + ": required channel '" + c.name + "' is missing");
-                }
-                continue;
-            }
-            const bool wantUint = c.fileType == Imf::UINT;
-            if (wantUint != (ch->type == Imf::UINT)) {
-                return makeError(ErrorCode::InvalidFile, path + ": channel '" + c.name + "' has the wrong type (" +
-                                                             (wantUint ? "uint expected" : "half or float expected") + ")");
-            }
-            if (ch->xSampling != 1 || ch->ySampling != 1) {
-                return makeError(ErrorCode::InvalidFile, path + ": channel '" + c.name + "' is subsampled");
-            }
-            const size_t elem = wantUint ? sizeof(uint32_t) : sizeof(float);
-            char* base = c.base(b) + elem * c.component;
-            // Slices are addressed from the data window origin (OpenEXR's base-pointer rule).
-            base -= (long(dw.min.y) * w + dw.min.x) * long(elem * c.components);
-            fb.insert(c.name, Imf::Slice(wantUint ? Imf::UINT : Imf::FLOAT, base, elem * c.components,
-                                         elem * c.components * size_t(w)));
-        }
-        file.setFrameBuffer(fb);
-        file.readPixels(dw.min.y, dw.max.y);
-
-        if (const auto* a = h.findTypedAttribute<Imf::M44fAttribute>("worldToCamera")) {
-            b.camera.worldToCamera = toGlm(a->value());
-        } else {
-            return makeError(ErrorCode::MissingData, path + ": header attribute 'worldToCamera' is missing");
-        }
-        if (const auto* a = h.findTypedAttribute<Imf::M44fAttribute>("worldToNDC")) {
-            b.camera.worldToNDC = toGlm(a->value());
-        } else {
-            return makeError(ErrorCode::MissingData, path + ": header attribute 'worldToNDC' is missing");
-        }
-        if (const auto* a = h.findTypedAttribute<Imf::IntAttribute>("dfb.formatVersion")) {
-            if (a->value() != GBUFFER_FORMAT_VERSION) {
-                return makeError(ErrorCode::InvalidFile, path + ": format version " + std::to_string(a->value()) +
-                                                             " is not supported (this build reads " +
-                                                             std::to_string(GBUFFER_FORMAT_VERSION) + ")");
-            }
-        }
-        auto getFloat = [&](const char* name, float& out) {
-            if (const auto* a = h.findTypedAttribute<Imf::FloatAttribute>(name)) out = a->value();
-        };
-        getFloat("dfb.camera.yfov", b.camera.yfovRadians);
-        getFloat("dfb.camera.aspect", b.camera.aspect);
-        getFloat("dfb.camera.near", b.camera.znear);
-        getFloat("dfb.camera.far", b.camera.zfar);
-        if (const auto* a = h.findTypedAttribute<Imf::StringAttribute>("dfb.camera.name")) b.camera.name = a->value();
-        if (const auto* a = h.findTypedAttribute<Imf::StringAttribute>("dfb.source")) b.sourcePath = a->value();
-        if (const auto* a = h.findTypedAttribute<Imf::StringAttribute>("dfb.manifest")) {
-            auto j = nlohmann::json::parse(a->value(), nullptr, false);
-            if (j.is_discarded() || !j.is_object()) {
-                return makeError(ErrorCode::InvalidFile, path + ": header attribute 'dfb.manifest' is not valid JSON");
-            }
-            try {
-                b.objectNames = j.value("objects", std::vector<std::string>{});
-                b.materialNames = j.value("materials", std::vector<std::string>{});
-            } catch (const nlohmann::json::exception&) {
-                return makeError(ErrorCode::InvalidFile, path + ": 'dfb.manifest' lists are not string arrays");
-            }
-        }
+        if (tiled) return makeError(ErrorCode::InvalidFile, path + ": tiled EXR files are not supported (write scanlines)");
+        Status s = deep ? readDeep(path, b, missing) : readFlat(path, b, missing);
+        if (!s) return s.error();
     } catch (const std::exception& e) {
         return makeError(ErrorCode::InvalidFile, path + ": " + e.what());
     }
 
     // Optional channels take their documented defaults (docs/gbuffer-format.md).
-    for (size_t i = 0; i < b.pixelCount(); ++i) {
-        if (b.A[i] <= 0.f) continue;
+    for (size_t i = 0; i < b.sampleCount(); ++i) {
         if (missing.count("brdf.specular")) b.brdf[i * 4 + 2] = 0.5f;
         if (missing.count("brdf.occlusion")) b.brdf[i * 4 + 3] = 1.f;
         if (missing.count("Ng.X")) {
             for (int c = 0; c < 3; ++c) b.Ng[i * 3 + c] = b.N[i * 3 + c];
         }
+        if (missing.count("T.X")) {
+            const glm::vec3 n = b.normal(i);
+            const glm::vec3 a = std::abs(n.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+            const glm::vec3 t = glm::length(n) > 0.f ? glm::normalize(glm::cross(a, n)) : glm::vec3(1, 0, 0);
+            b.T[i * 4] = t.x;
+            b.T[i * 4 + 1] = t.y;
+            b.T[i * 4 + 2] = t.z;
+            b.T[i * 4 + 3] = 1.f;
+        }
     }
 
-    // Covered pixels must have finite geometry: the relight loop would otherwise spread NaNs.
+    // Covered samples must have finite geometry: the relight loop would otherwise spread NaNs.
     for (int y = 0; y < b.height; ++y) {
         for (int x = 0; x < b.width; ++x) {
-            const size_t i = size_t(y) * b.width + x;
-            const float a = b.A[i];
-            if (!std::isfinite(a) || a < 0.f || a > 1.f + 1e-3f) {
-                return makeError(ErrorCode::InvalidValue, path + ": coverage A at pixel (" + std::to_string(x) + ", " +
-                                                              std::to_string(y) + ") is out of [0,1]");
-            }
-            if (a <= 0.f) continue;
-            for (int c = 0; c < 3; ++c) {
-                if (!std::isfinite(b.P[i * 3 + c]) || !std::isfinite(b.N[i * 3 + c])) {
-                    return makeError(ErrorCode::InvalidValue, path + ": non-finite P or N at pixel (" +
-                                                                  std::to_string(x) + ", " + std::to_string(y) + ")");
+            float sum = 0.f;
+            for (uint32_t s = b.firstSample(x, y); s < b.firstSample(x, y) + b.pixelSamples(x, y); ++s) {
+                const float a = b.A[s];
+                const std::string where = " at pixel (" + std::to_string(x) + ", " + std::to_string(y) + ")";
+                if (!std::isfinite(a) || a < 0.f || a > 1.f + 1e-3f) {
+                    return makeError(ErrorCode::InvalidValue, path + ": coverage A" + where + " is out of [0,1]");
                 }
+                sum += a;
+                if (a <= 0.f) continue;
+                for (int c = 0; c < 3; ++c) {
+                    if (!std::isfinite(b.P[s * 3 + c]) || !std::isfinite(b.N[s * 3 + c])) {
+                        return makeError(ErrorCode::InvalidValue, path + ": non-finite P or N" + where);
+                    }
+                }
+            }
+            if (sum > 1.f + 1e-2f) {
+                return makeError(ErrorCode::InvalidValue, path + ": coverages at pixel (" + std::to_string(x) + ", " +
+                                                              std::to_string(y) + ") add up to more than 1");
             }
         }
     }

@@ -2,6 +2,9 @@
 
 #include <tiny_gltf.h>
 
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
@@ -130,6 +133,93 @@ Result<std::vector<uint32_t>> readIndices(const tinygltf::Model& m, int accessor
     return out;
 }
 
+struct ImageDecodeState {
+    bool decode = true;
+    std::string error;
+};
+
+// tinygltf image callback: decodes PNG/JPEG (any format OpenImageIO reads) to 8-bit RGBA.
+bool decodeImage(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
+                 const unsigned char* bytes, int size, void* user) {
+    auto* state = static_cast<ImageDecodeState*>(user);
+    if (!state->decode) return true;
+    std::string ext = ".png";
+    if (image->mimeType == "image/jpeg" || (size >= 2 && bytes[0] == 0xFF && bytes[1] == 0xD8)) ext = ".jpg";
+    else if (image->mimeType == "image/webp") ext = ".webp";
+    OIIO::Filesystem::IOMemReader proxy(const_cast<unsigned char*>(bytes), size_t(size));
+    // No config spec: with one, OpenImageIO 2.4 ignores the proxy and looks for a real file.
+    auto in = OIIO::ImageInput::open("image" + ext, nullptr, &proxy);
+    if (!in) {
+        state->error = "image " + std::to_string(index) + " ('" + image->name + "') cannot be decoded: " + OIIO::geterror();
+        if (err) *err = state->error;
+        return false;
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    // Refuse absurd sizes before allocating (a corrupt header must not exhaust memory).
+    if (spec.width <= 0 || spec.height <= 0 || spec.width > 32768 || spec.height > 32768) {
+        state->error = "image " + std::to_string(index) + " has an absurd size";
+        return false;
+    }
+    const int nc = spec.nchannels;
+    std::vector<uint8_t> pixels(size_t(spec.width) * size_t(spec.height) * size_t(nc));
+    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::UINT8, pixels.data())) {
+        state->error = "image " + std::to_string(index) + " ('" + image->name + "') is corrupt: " + in->geterror();
+        return false;
+    }
+    image->width = spec.width;
+    image->height = spec.height;
+    image->component = 4;
+    image->bits = 8;
+    image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+    image->image.resize(size_t(spec.width) * size_t(spec.height) * 4);
+    for (size_t i = 0; i < size_t(spec.width) * size_t(spec.height); ++i) {
+        const uint8_t* p = &pixels[i * size_t(nc)];
+        uint8_t* q = &image->image[i * 4];
+        if (nc >= 3) { q[0] = p[0]; q[1] = p[1]; q[2] = p[2]; }
+        else { q[0] = q[1] = q[2] = p[0]; }
+        q[3] = nc == 4 ? p[3] : nc == 2 ? p[1] : 255;
+    }
+    return true;
+}
+
+// Per-vertex tangents from UV gradients, accumulated over the triangles and orthogonalised
+// against the normal (Lengyel's method). glTF asks for MikkTSpace; Debian packages no MikkTSpace
+// library, and this gives the same frame on well-parameterised meshes (it differs on UV seams and
+// degenerate triangles, where MikkTSpace splits vertices). Without UVs, any frame orthogonal to
+// the normal is used (w = 1).
+void generateTangents(MeshPart& part, const std::vector<glm::vec2>& uv) {
+    const size_t nv = part.positions.size();
+    part.tangents.assign(nv, glm::vec4(0.f));
+    std::vector<glm::vec3> tan(nv, glm::vec3(0.f)), bit(nv, glm::vec3(0.f));
+    if (uv.size() == nv) {
+        for (size_t t = 0; t + 2 < part.indices.size(); t += 3) {
+            const uint32_t i0 = part.indices[t], i1 = part.indices[t + 1], i2 = part.indices[t + 2];
+            const glm::vec3 e1 = part.positions[i1] - part.positions[i0], e2 = part.positions[i2] - part.positions[i0];
+            const glm::vec2 d1 = uv[i1] - uv[i0], d2 = uv[i2] - uv[i0];
+            const float det = d1.x * d2.y - d2.x * d1.y;
+            if (std::abs(det) < 1e-20f) continue;
+            const float r = 1.f / det;
+            const glm::vec3 sdir = (e1 * d2.y - e2 * d1.y) * r, tdir = (e2 * d1.x - e1 * d2.x) * r;
+            for (uint32_t i : {i0, i1, i2}) {
+                tan[i] += sdir;
+                bit[i] += tdir;
+            }
+        }
+    }
+    for (size_t v = 0; v < nv; ++v) {
+        const glm::vec3 n = part.normals[v];
+        glm::vec3 t = tan[v] - n * glm::dot(n, tan[v]);
+        if (glm::length(t) < 1e-12f || !std::isfinite(t.x)) {
+            // Any direction orthogonal to n.
+            const glm::vec3 a = std::abs(n.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+            t = glm::cross(a, n);
+        }
+        t = glm::normalize(t);
+        const float w = glm::dot(glm::cross(n, t), bit[v]) < 0.f ? -1.f : 1.f;
+        part.tangents[v] = glm::vec4(t, w);
+    }
+}
+
 } // namespace
 
 size_t Scene::triangleCount() const {
@@ -138,33 +228,58 @@ size_t Scene::triangleCount() const {
     return n;
 }
 
-Result<Scene> loadScene(const std::string& path) {
+namespace {
+
+Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir, const uint8_t* data, size_t size,
+                            const LoadOptions& options);
+
+} // namespace
+
+Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
     namespace fs = std::filesystem;
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) return makeError(ErrorCode::FileNotFound, path + ": no such file");
+    const auto fileSize = fs::file_size(path, ec);
+    // tinygltf addresses buffers with 32-bit sizes; glTF itself limits a GLB to 4 GiB.
+    if (ec || fileSize > 0xFFFFFFF0ull) return makeError(ErrorCode::InvalidFile, path + ": unreadable or larger than 4 GiB");
+    std::vector<uint8_t> bytes(static_cast<size_t>(fileSize));
+    FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return makeError(ErrorCode::FileNotFound, path + ": cannot open");
+    const size_t got = bytes.empty() ? 0 : std::fread(bytes.data(), 1, bytes.size(), f);
+    std::fclose(f);
+    if (got != bytes.size()) return makeError(ErrorCode::IoError, path + ": short read");
+    return loadFromBytes(path, fs::path(path).parent_path().string(), bytes.data(), bytes.size(), options);
+}
 
+Result<Scene> loadSceneFromMemory(const std::string& name, const uint8_t* data, size_t size, const LoadOptions& options) {
+    // No base directory: external files are refused (see the URI reader below).
+    return loadFromBytes(name, "", data, size, options);
+}
+
+namespace {
+
+Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir, const uint8_t* data, size_t size,
+                            const LoadOptions& options) {
+    if (size > 0xFFFFFFF0ull) return makeError(ErrorCode::InvalidFile, path + ": larger than 4 GiB");
+    const bool isGlb = size >= 4 && std::memcmp(data, "glTF", 4) == 0;
+    size_t firstNonSpace = 0;
+    while (firstNonSpace < size && std::isspace(data[firstNonSpace])) ++firstNonSpace;
+    if (!isGlb && (firstNonSpace >= size || data[firstNonSpace] != '{')) {
+        return makeError(ErrorCode::InvalidFile, path + ": not a glTF file (neither GLB magic nor JSON)");
+    }
     tinygltf::Model model;
     tinygltf::TinyGLTF loader;
-    // Images are not needed by the v0 bake or by shadow casting; skip decoding them.
-    loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int,
-                             const unsigned char*, int, void*) { return true; },
-                          nullptr);
+    ImageDecodeState imageState{options.loadImages, {}};
+    loader.SetImageLoader(decodeImage, &imageState);
     std::string err, warn;
     bool ok = false;
-    {
-        // Sniff the magic rather than trusting the extension.
-        FILE* f = std::fopen(path.c_str(), "rb");
-        char magic[4] = {};
-        const size_t got = f ? std::fread(magic, 1, 4, f) : 0;
-        if (f) std::fclose(f);
-        if (got == 4 && std::memcmp(magic, "glTF", 4) == 0) {
-            ok = loader.LoadBinaryFromFile(&model, &err, &warn, path);
-        } else if (got >= 1 && (magic[0] == '{' || std::isspace(static_cast<unsigned char>(magic[0])))) {
-            ok = loader.LoadASCIIFromFile(&model, &err, &warn, path);
-        } else {
-            return makeError(ErrorCode::InvalidFile, path + ": not a glTF file (neither GLB magic nor JSON)");
-        }
+    if (isGlb) {
+        ok = loader.LoadBinaryFromMemory(&model, &err, &warn, data, static_cast<unsigned>(size), baseDir);
+    } else {
+        ok = loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(data),
+                                        static_cast<unsigned>(size), baseDir);
     }
+    if (!imageState.error.empty()) return makeError(ErrorCode::InvalidFile, path + ": " + imageState.error);
     if (!ok) return makeError(ErrorCode::InvalidFile, path + ": glTF parse error: " + err);
     for (const std::string& ext : model.extensionsRequired) {
         if (!SUPPORTED_REQUIRED.count(ext)) {
@@ -174,19 +289,136 @@ Result<Scene> loadScene(const std::string& path) {
 
     Scene scene;
     scene.path = path;
+    // Images were decoded by the loader callback; textures pair them with samplers.
+    for (size_t i = 0; i < model.images.size(); ++i) {
+        const tinygltf::Image& gi = model.images[i];
+        SceneImage img;
+        img.name = gi.name.empty() ? (gi.uri.empty() ? "image" + std::to_string(i) : gi.uri) : gi.name;
+        if (options.loadImages) {
+            if (gi.width <= 0 || gi.height <= 0 || gi.image.size() != size_t(gi.width) * size_t(gi.height) * 4) {
+                return makeError(ErrorCode::InvalidFile, path + ": image '" + img.name + "' could not be decoded");
+            }
+            img.width = gi.width;
+            img.height = gi.height;
+            img.rgba = gi.image;
+        }
+        scene.images.push_back(std::move(img));
+    }
+    for (size_t i = 0; i < model.textures.size(); ++i) {
+        const tinygltf::Texture& gt = model.textures[i];
+        SceneTexture t;
+        t.image = gt.source;
+        if (t.image < 0 || size_t(t.image) >= scene.images.size()) {
+            // Only extension images (KHR_texture_basisu, EXT_texture_webp) would be valid here.
+            std::string ext = gt.extensions.empty() ? "" : gt.extensions.begin()->first;
+            return makeError(ErrorCode::InvalidFile, path + ": texture " + std::to_string(i) + " has no usable image" +
+                                                         (ext.empty() ? "" : " (its image needs the unsupported extension " + ext + ")"));
+        }
+        if (gt.sampler >= 0 && size_t(gt.sampler) < model.samplers.size()) {
+            const tinygltf::Sampler& gs = model.samplers[size_t(gt.sampler)];
+            t.wrapS = gs.wrapS;
+            t.wrapT = gs.wrapT;
+            if (gs.magFilter > 0) t.magFilter = gs.magFilter;
+            if (gs.minFilter > 0) t.minFilter = gs.minFilter;
+        }
+        scene.textures.push_back(t);
+    }
+    std::string materialFailure;
+    auto textureRef = [&](const auto& info, const std::string& what) {
+        TextureRef r;
+        if (info.index < 0) return r;
+        if (size_t(info.index) >= scene.textures.size()) {
+            materialFailure = what + " refers to missing texture " + std::to_string(info.index);
+            return r;
+        }
+        r.texture = info.index;
+        r.texCoord = info.texCoord;
+        auto tt = info.extensions.find("KHR_texture_transform");
+        if (tt != info.extensions.end()) {
+            const tinygltf::Value& v = tt->second;
+            glm::vec2 offset(0.f), scale(1.f);
+            float rotation = 0.f;
+            if (v.Has("offset") && v.Get("offset").ArrayLen() == 2) {
+                offset = {float(v.Get("offset").Get(0).GetNumberAsDouble()), float(v.Get("offset").Get(1).GetNumberAsDouble())};
+            }
+            if (v.Has("scale") && v.Get("scale").ArrayLen() == 2) {
+                scale = {float(v.Get("scale").Get(0).GetNumberAsDouble()), float(v.Get("scale").Get(1).GetNumberAsDouble())};
+            }
+            if (v.Has("rotation")) rotation = float(v.Get("rotation").GetNumberAsDouble());
+            if (v.Has("texCoord")) r.texCoord = v.Get("texCoord").GetNumberAsInt();
+            // KHR_texture_transform: T * R * S, with R rotating counter-clockwise in UV space.
+            const glm::mat3 T(1, 0, 0, 0, 1, 0, offset.x, offset.y, 1);
+            const float c = std::cos(rotation), sn = std::sin(rotation);
+            const glm::mat3 R(c, -sn, 0, sn, c, 0, 0, 0, 1);
+            const glm::mat3 S(scale.x, 0, 0, 0, scale.y, 0, 0, 0, 1);
+            r.transform = T * R * S;
+        }
+        if (r.texCoord < 0 || r.texCoord > 1) {
+            materialFailure = what + " uses TEXCOORD_" + std::to_string(r.texCoord) + " (sets 0 and 1 are supported)";
+            r.texture = -1;
+        }
+        return r;
+    };
+    auto number = [](const tinygltf::Value& v, const char* key, float fallback) {
+        return v.Has(key) ? float(v.Get(key).GetNumberAsDouble()) : fallback;
+    };
+    auto color3 = [](const tinygltf::Value& v, const char* key, glm::vec3 fallback) {
+        if (!v.Has(key) || v.Get(key).ArrayLen() != 3) return fallback;
+        return glm::vec3(float(v.Get(key).Get(0).GetNumberAsDouble()), float(v.Get(key).Get(1).GetNumberAsDouble()),
+                         float(v.Get(key).Get(2).GetNumberAsDouble()));
+    };
+    // Texture infos inside extensions are plain JSON values; read them into a TextureInfo.
+    auto extTexture = [&](const tinygltf::Value& v, const char* key, const std::string& what) {
+        tinygltf::TextureInfo info;
+        if (!v.Has(key)) return TextureRef{};
+        const tinygltf::Value& t = v.Get(key);
+        info.index = t.Has("index") ? t.Get("index").GetNumberAsInt() : -1;
+        info.texCoord = t.Has("texCoord") ? t.Get("texCoord").GetNumberAsInt() : 0;
+        if (t.Has("extensions") && t.Get("extensions").Has("KHR_texture_transform")) {
+            info.extensions["KHR_texture_transform"] = t.Get("extensions").Get("KHR_texture_transform");
+        }
+        return textureRef(info, what);
+    };
     for (const tinygltf::Material& gm : model.materials) {
         Material mat;
         mat.name = gm.name.empty() ? "material" + std::to_string(scene.materials.size()) : gm.name;
+        const std::string what = "material '" + mat.name + "'";
         const auto& pbr = gm.pbrMetallicRoughness;
         for (int i = 0; i < 4 && size_t(i) < pbr.baseColorFactor.size(); ++i) mat.baseColor[i] = float(pbr.baseColorFactor[size_t(i)]);
         mat.metallic = float(pbr.metallicFactor);
         mat.roughness = float(pbr.roughnessFactor);
         for (int i = 0; i < 3 && size_t(i) < gm.emissiveFactor.size(); ++i) mat.emissive[i] = float(gm.emissiveFactor[size_t(i)]);
         auto es = gm.extensions.find("KHR_materials_emissive_strength");
-        if (es != gm.extensions.end() && es->second.Has("emissiveStrength")) {
-            mat.emissive *= float(es->second.Get("emissiveStrength").GetNumberAsDouble());
-        }
+        if (es != gm.extensions.end()) mat.emissive *= number(es->second, "emissiveStrength", 1.f);
         mat.doubleSided = gm.doubleSided;
+        mat.alphaMode = gm.alphaMode == "MASK" ? AlphaMode::Mask : gm.alphaMode == "BLEND" ? AlphaMode::Blend : AlphaMode::Opaque;
+        mat.alphaCutoff = float(gm.alphaCutoff);
+        mat.baseColorTexture = textureRef(pbr.baseColorTexture, what + " baseColorTexture");
+        mat.metallicRoughnessTexture = textureRef(pbr.metallicRoughnessTexture, what + " metallicRoughnessTexture");
+        mat.normalTexture = textureRef(gm.normalTexture, what + " normalTexture");
+        mat.normalTexture.scale = float(gm.normalTexture.scale);
+        mat.occlusionTexture = textureRef(gm.occlusionTexture, what + " occlusionTexture");
+        mat.occlusionTexture.scale = float(gm.occlusionTexture.strength);
+        mat.emissiveTexture = textureRef(gm.emissiveTexture, what + " emissiveTexture");
+        if (auto e = gm.extensions.find("KHR_materials_specular"); e != gm.extensions.end()) {
+            mat.specularFactor = number(e->second, "specularFactor", 1.f);
+            mat.specularColor = color3(e->second, "specularColorFactor", glm::vec3(1.f));
+            mat.specularTexture = extTexture(e->second, "specularTexture", what + " specularTexture");
+            mat.specularColorTexture = extTexture(e->second, "specularColorTexture", what + " specularColorTexture");
+        }
+        if (auto e = gm.extensions.find("KHR_materials_sheen"); e != gm.extensions.end()) {
+            mat.sheenColor = color3(e->second, "sheenColorFactor", glm::vec3(0.f));
+            mat.sheenRoughness = number(e->second, "sheenRoughnessFactor", 0.f);
+            mat.sheenColorTexture = extTexture(e->second, "sheenColorTexture", what + " sheenColorTexture");
+            mat.sheenRoughnessTexture = extTexture(e->second, "sheenRoughnessTexture", what + " sheenRoughnessTexture");
+        }
+        if (auto e = gm.extensions.find("KHR_materials_clearcoat"); e != gm.extensions.end()) {
+            mat.clearcoat = number(e->second, "clearcoatFactor", 0.f);
+            mat.clearcoatRoughness = number(e->second, "clearcoatRoughnessFactor", 0.f);
+            mat.clearcoatTexture = extTexture(e->second, "clearcoatTexture", what + " clearcoatTexture");
+            mat.clearcoatRoughnessTexture = extTexture(e->second, "clearcoatRoughnessTexture", what + " clearcoatRoughnessTexture");
+        }
+        if (!materialFailure.empty()) return makeError(ErrorCode::InvalidFile, path + ": " + materialFailure);
         scene.materials.push_back(mat);
     }
     uint32_t defaultMaterial = 0; // added on first use
@@ -224,6 +456,8 @@ Result<Scene> loadScene(const std::string& path) {
                 cam.zfar = float(gc.perspective.zfar);
             } else {
                 cam.orthographic = true;
+                cam.xmag = float(gc.orthographic.xmag);
+                cam.ymag = float(gc.orthographic.ymag);
                 cam.znear = float(gc.orthographic.znear);
                 cam.zfar = float(gc.orthographic.zfar);
             }
@@ -295,6 +529,7 @@ Result<Scene> loadScene(const std::string& path) {
                 }
                 part.indices = std::move(idx);
 
+                std::vector<size_t> flatSource; // output vertex -> input vertex, when unshared
                 auto nIt = prim.attributes.find("NORMAL");
                 if (nIt != prim.attributes.end()) {
                     auto nr = readFloats(model, nIt->second, 3, what + " NORMAL");
@@ -317,15 +552,70 @@ Result<Scene> loadScene(const std::string& path) {
                         glm::vec3 n = glm::cross(b - a, c - a);
                         const float len = glm::length(n);
                         n = len > 0.f ? n / len : glm::vec3(0, 1, 0);
-                        for (const glm::vec3& v : {a, b, c}) {
+                        for (int k = 0; k < 3; ++k) {
                             i2.push_back(uint32_t(p2.size()));
-                            p2.push_back(v);
+                            p2.push_back(k == 0 ? a : k == 1 ? b : c);
                             n2.push_back(n);
+                            flatSource.push_back(part.indices[t + size_t(k)]);
                         }
                     }
                     part.positions = std::move(p2);
                     part.normals = std::move(n2);
                     part.indices = std::move(i2);
+                }
+
+                // Attributes indexed like POSITION; the flat-shading path above unshared vertices,
+                // so it remaps them through `flatSource`.
+                auto readAttr = [&](const char* name, int ncomp, std::vector<float>& out) -> bool {
+                    auto it = prim.attributes.find(name);
+                    if (it == prim.attributes.end()) return true;
+                    auto r = readFloats(model, it->second, ncomp, what + " " + name);
+                    if (!r) { failure = r.error().message; return false; }
+                    if (r->size() != nv * size_t(ncomp)) { failure = what + ": " + name + " count differs from POSITION"; return false; }
+                    out = std::move(r.value());
+                    return true;
+                };
+                std::vector<float> uv0, uv1, tan, col3, col4;
+                if (!readAttr("TEXCOORD_0", 2, uv0) || !readAttr("TEXCOORD_1", 2, uv1) || !readAttr("TANGENT", 4, tan)) return;
+                {
+                    auto it = prim.attributes.find("COLOR_0");
+                    if (it != prim.attributes.end()) {
+                        const int nc = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(model.accessors.at(size_t(it->second)).type));
+                        if (!readAttr("COLOR_0", nc == 3 ? 3 : 4, nc == 3 ? col3 : col4)) return;
+                    }
+                }
+                const size_t outVerts = part.positions.size();
+                auto src = [&](size_t v) { return flatSource.empty() ? v : flatSource[v]; };
+                if (!uv0.empty()) {
+                    part.uv0.resize(outVerts);
+                    for (size_t v = 0; v < outVerts; ++v) part.uv0[v] = {uv0[src(v) * 2], uv0[src(v) * 2 + 1]};
+                }
+                if (!uv1.empty()) {
+                    part.uv1.resize(outVerts);
+                    for (size_t v = 0; v < outVerts; ++v) part.uv1[v] = {uv1[src(v) * 2], uv1[src(v) * 2 + 1]};
+                }
+                if (!col3.empty() || !col4.empty()) {
+                    part.colors.resize(outVerts);
+                    for (size_t v = 0; v < outVerts; ++v) {
+                        part.colors[v] = col4.empty() ? glm::vec4(col3[src(v) * 3], col3[src(v) * 3 + 1], col3[src(v) * 3 + 2], 1.f)
+                                                      : glm::vec4(col4[src(v) * 4], col4[src(v) * 4 + 1], col4[src(v) * 4 + 2], col4[src(v) * 4 + 3]);
+                    }
+                }
+                if (!tan.empty()) {
+                    part.tangents.resize(outVerts);
+                    const glm::mat3 m3(world);
+                    for (size_t v = 0; v < outVerts; ++v) {
+                        glm::vec3 t = m3 * glm::vec3(tan[src(v) * 4], tan[src(v) * 4 + 1], tan[src(v) * 4 + 2]);
+                        const float len = glm::length(t);
+                        t = (len > 1e-20f && std::isfinite(len)) ? t / len : glm::vec3(1, 0, 0);
+                        const float w = tan[src(v) * 4 + 3] < 0.f ? -1.f : 1.f;
+                        // A mirroring transform flips the frame's handedness.
+                        part.tangents[v] = glm::vec4(t, mirrored ? -w : w);
+                    }
+                } else {
+                    const int set = prim.material >= 0 && size_t(prim.material) < scene.materials.size()
+                                        ? scene.materials[size_t(prim.material)].normalTexture.texCoord : 0;
+                    generateTangents(part, set == 1 && !part.uv1.empty() ? part.uv1 : part.uv0);
                 }
 
                 if (prim.material >= 0 && size_t(prim.material) < scene.materials.size()) {
@@ -352,6 +642,19 @@ Result<Scene> loadScene(const std::string& path) {
     if (!failure.empty()) return makeError(ErrorCode::InvalidFile, failure.rfind(path, 0) == 0 ? failure : path + ": " + failure);
     if (scene.parts.empty()) return makeError(ErrorCode::MissingData, path + ": the scene has no triangles");
     return scene;
+}
+
+} // namespace
+
+size_t Scene::memoryBytes() const {
+    size_t n = 0;
+    for (const MeshPart& p : parts) {
+        n += p.positions.size() * sizeof(glm::vec3) + p.normals.size() * sizeof(glm::vec3) +
+             p.tangents.size() * sizeof(glm::vec4) + (p.uv0.size() + p.uv1.size()) * sizeof(glm::vec2) +
+             p.colors.size() * sizeof(glm::vec4) + p.indices.size() * sizeof(uint32_t);
+    }
+    for (const SceneImage& i : images) n += i.rgba.size();
+    return n;
 }
 
 SceneCamera lookAtCamera(const glm::vec3& from, const glm::vec3& at, float yfovRadians) {

@@ -1,17 +1,25 @@
-// dfb-bake: bakes a glTF scene into a deep framebuffer EXR from a fixed camera.
+// dfb-bake: bakes a glTF scene into a deep framebuffer EXR from a fixed camera, and inspects
+// baked files.
 //
-// Exit codes: 0 success; 1 bad command line; 2 bad input (scene or camera); 3 GPU/EGL failure;
-// 4 the output could not be written.
+//   dfb-bake SCENE -o SHOT.exr --width W --height H [--samples N] [--camera NAME]
+//   dfb-bake --info SHOT.exr
+//   dfb-bake --layer NAME SHOT.exr -o out.png
+//
+// Exit codes: 0 success; 1 bad command line; 2 bad input (scene, shot or camera); 3 GPU/EGL
+// failure; 4 the output could not be written.
 
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/ExrIO.h>
+#include <dfb/gbuffer/LayerImage.h>
 #include <dfb/gbuffer/Scene.h>
 
 #include <CLI/CLI.hpp>
+#include <OpenImageIO/imageio.h>
 
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <unistd.h>
 
 namespace {
 
@@ -29,17 +37,39 @@ int printInfo(const std::string& path) {
         std::cerr << "dfb-bake: " << b.error().toString() << "\n";
         return 2;
     }
-    size_t covered = 0;
-    for (float a : b->A) covered += a > 0.f;
+    size_t covered = 0, maxSamples = 0;
+    for (int y = 0; y < b->height; ++y)
+        for (int x = 0; x < b->width; ++x) {
+            covered += b->coverage(x, y) > 0.f;
+            maxSamples = std::max<size_t>(maxSamples, b->pixelSamples(x, y));
+        }
     std::printf("file:        %s\n", path.c_str());
     std::printf("resolution:  %d x %d (%zu covered pixels)\n", b->width, b->height, covered);
-    std::printf("samples:     1 per pixel\n");
-    std::printf("camera:      %s, yfov %.3f deg, aspect %.4f, near %g, far %g\n", b->camera.name.c_str(),
-                double(b->camera.yfovRadians) * 57.29577951308232, double(b->camera.aspect), double(b->camera.znear),
-                double(b->camera.zfar));
-    const glm::vec3 eye = b->camera.position();
-    std::printf("eye:         %g %g %g\n", double(eye.x), double(eye.y), double(eye.z));
+    std::printf("samples:     %d per pixel baked; %zu stored (%.3f per pixel, at most %zu in one pixel)%s\n",
+                b->samplesPerPixel, b->sampleCount(), double(b->sampleCount()) / double(b->pixelCount()), maxSamples,
+                b->isFlat() ? ", flat image" : ", OpenEXR deep scanline");
+    // The channel list as any OpenEXR reader sees it.
+    if (auto in = OIIO::ImageInput::open(path)) {
+        const OIIO::ImageSpec& spec = in->spec();
+        std::printf("channels:    %d:", spec.nchannels);
+        for (int c = 0; c < spec.nchannels; ++c) {
+            std::printf(" %s(%s)", spec.channelnames[size_t(c)].c_str(), spec.channelformat(c).c_str());
+        }
+        std::printf("\n");
+    }
+    const auto& cam = b->camera;
+    if (cam.orthographic) {
+        std::printf("camera:      %s, orthographic, ymag %g, aspect %.4f, near %g, far %g\n", cam.name.c_str(),
+                    double(cam.ymag), double(cam.aspect), double(cam.znear), double(cam.zfar));
+    } else {
+        std::printf("camera:      %s, perspective, yfov %.3f deg, aspect %.4f, near %g, far %g\n", cam.name.c_str(),
+                    double(cam.yfovRadians) * 57.29577951308232, double(cam.aspect), double(cam.znear), double(cam.zfar));
+    }
+    const glm::vec3 eye = cam.position(), fwd = cam.forward();
+    std::printf("eye:         %g %g %g, looking along %g %g %g\n", double(eye.x), double(eye.y), double(eye.z),
+                double(fwd.x), double(fwd.y), double(fwd.z));
     std::printf("source:      %s\n", b->sourcePath.c_str());
+    std::printf("sha256:      %s\n", b->sourceSha256.empty() ? "(unknown)" : b->sourceSha256.c_str());
     std::printf("objects:     %zu\n", b->objectNames.size());
     for (size_t i = 0; i < b->objectNames.size(); ++i) std::printf("  %3zu %s\n", i + 1, b->objectNames[i].c_str());
     std::printf("materials:   %zu\n", b->materialNames.size());
@@ -47,30 +77,67 @@ int printInfo(const std::string& path) {
     return 0;
 }
 
+int writeLayer(const std::string& shot, const std::string& layer, const std::string& out) {
+    auto b = dfb::readDeepBuffer(shot);
+    if (!b) {
+        std::cerr << "dfb-bake: " << b.error().toString() << "\n";
+        return 2;
+    }
+    auto pixels = dfb::layerImage(b.value(), layer);
+    if (!pixels) {
+        std::cerr << "dfb-bake: " << pixels.error().message << "\n";
+        return 1;
+    }
+    auto o = OIIO::ImageOutput::create(out);
+    OIIO::ImageSpec spec(b->width, b->height, 3, OIIO::TypeDesc::UINT8);
+    if (!o || !o->open(out, spec) || !o->write_image(OIIO::TypeDesc::UINT8, pixels->data()) || !o->close()) {
+        std::cerr << "dfb-bake: cannot write " << out << ": " << (o ? o->geterror() : OIIO::geterror()) << "\n";
+        return 4;
+    }
+    std::printf("wrote layer %s of %s to %s\n", layer.c_str(), shot.c_str(), out.c_str());
+    return 0;
+}
+
+// A progress bar on the terminal (stderr), only when it is one.
+void showProgress(size_t done, size_t total) {
+    static const bool tty = ::isatty(2);
+    if (!tty || total == 0) return;
+    const int width = 40, filled = int(width * done / total);
+    std::fprintf(stderr, "\r  baking [%.*s%*s] %3d%%", filled, "########################################", width - filled,
+                 "", int(100 * done / total));
+    if (done == total) std::fprintf(stderr, "\n");
+    std::fflush(stderr);
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{"dfb-bake: bake a glTF scene into a deep framebuffer (OpenEXR) from a fixed camera"};
-    std::string scenePath, outPath, infoPath;
+    app.footer("Exit codes: 0 ok, 1 bad command line, 2 bad scene/shot/camera, 3 GPU/EGL failure, 4 cannot write.");
+    std::string scenePath, outPath, infoPath, layer;
     dfb::BakeOptions opts;
     std::vector<float> lookFrom, lookAt;
-    app.add_option("scene", scenePath, "glTF scene (.glb or .gltf)");
-    app.add_option("-o,--output", outPath, "output EXR path");
+    app.add_option("input", scenePath, "glTF scene (.glb or .gltf) to bake, or a baked EXR with --layer");
+    app.add_option("-o,--output", outPath, "output EXR path (or image path with --layer)");
     app.add_option("--width", opts.width, "image width in pixels")->check(CLI::Range(1, 16384));
     app.add_option("--height", opts.height, "image height in pixels")->check(CLI::Range(1, 16384));
+    app.add_option("--samples", opts.samples, "samples per pixel (anti-aliasing; a square number gives a stratified grid)")
+        ->check(CLI::Range(1, dfb::MAX_SAMPLES_PER_PIXEL));
     app.add_option("--camera", opts.cameraName, "glTF camera to bake from (default: the first one, else automatic framing)");
     app.add_option("--look-from", lookFrom, "eye position x,y,z (with --look-at)")->expected(3)->delimiter(',');
     app.add_option("--look-at", lookAt, "target position x,y,z (with --look-from)")->expected(3)->delimiter(',');
     app.add_option("--fov", opts.fovDegrees, "vertical field of view in degrees for --look-from or automatic framing")
         ->check(CLI::Range(1.0, 170.0));
     app.add_option("--info", infoPath, "print what a baked EXR holds and exit");
+    app.add_option("--layer", layer, "write one layer of the baked EXR given as input as a viewable image (-o)");
     CLI11_PARSE(app, argc, argv);
 
     if (!infoPath.empty()) return printInfo(infoPath);
     if (scenePath.empty() || outPath.empty()) {
-        std::cerr << "dfb-bake: a scene and -o OUTPUT are required (see --help)\n";
+        std::cerr << "dfb-bake: an input and -o OUTPUT are required (see --help)\n";
         return 1;
     }
+    if (!layer.empty()) return writeLayer(scenePath, layer, outPath);
     if (lookFrom.empty() != lookAt.empty()) {
         std::cerr << "dfb-bake: --look-from and --look-at go together\n";
         return 1;
@@ -79,6 +146,7 @@ int main(int argc, char** argv) {
         opts.lookFrom = glm::vec3(lookFrom[0], lookFrom[1], lookFrom[2]);
         opts.lookAt = glm::vec3(lookAt[0], lookAt[1], lookAt[2]);
     }
+    opts.progress = showProgress;
 
     const auto t0 = std::chrono::steady_clock::now();
     auto scene = dfb::loadScene(scenePath);
@@ -96,7 +164,8 @@ int main(int argc, char** argv) {
         return 4;
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    std::printf("baked %s (%zu triangles) -> %s, %dx%d, camera '%s', %.0f ms\n", scenePath.c_str(),
-                scene->triangleCount(), outPath.c_str(), opts.width, opts.height, buffer->camera.name.c_str(), ms);
+    std::printf("baked %s (%zu triangles) -> %s, %dx%d, %d spp (%zu samples stored), camera '%s', %.0f ms\n",
+                scenePath.c_str(), scene->triangleCount(), outPath.c_str(), opts.width, opts.height, opts.samples,
+                buffer->sampleCount(), buffer->camera.name.c_str(), ms);
     return 0;
 }

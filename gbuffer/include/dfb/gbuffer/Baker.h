@@ -6,6 +6,7 @@
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/gbuffer/Scene.h>
 
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -14,18 +15,34 @@ namespace dfb {
 struct BakeOptions {
     int width = 960;          ///< pixels, 1..16384
     int height = 540;         ///< pixels, 1..16384
+    int samples = 1;          ///< samples per pixel, 1..MAX_SAMPLES_PER_PIXEL (see sampleOffsets)
     std::string cameraName;   ///< glTF camera (node or camera name); empty = first camera, else auto
     std::optional<glm::vec3> lookFrom; ///< with lookAt: overrides the scene's cameras
     std::optional<glm::vec3> lookAt;
     float fovDegrees = 0.f;   ///< vertical field of view for lookFrom/auto framing; 0 = 40 degrees
+    /// Called with (done, total) work units while baking; may be empty.
+    std::function<void(size_t, size_t)> progress;
 };
+
+/// Sample positions of one pixel, in pixels relative to its centre, each in (-0.5, 0.5)^2:
+/// a stratified n x n grid when `samples` is a perfect square (then they coincide with the pixel
+/// centres of an n-times larger bake), else the first `samples` points of the R2 sequence.
+std::vector<glm::vec2> sampleOffsets(int samples);
 
 /// Picks the camera the options ask for. Fails with MissingData naming the camera when
 /// `cameraName` matches none (the message lists the cameras the scene has).
 Result<CameraInfo> chooseCamera(const Scene& scene, const BakeOptions& options);
 
 /// Bakes the scene. Creates its own EGL context on the calling thread. Fails with GpuError when no
-/// context can be made, InvalidValue for bad sizes.
+/// context can be made, InvalidValue for bad sizes or sample counts.
+///
+/// With several samples per pixel, each sample is a full raster pass with the projection jittered
+/// to the sample position; a pixel's samples that hit the same object and material are merged
+/// into one stored sample (attributes averaged, normals renormalised) whose coverage A is the
+/// fraction of samples it got (times the alpha of BLEND materials).
 Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& options);
+
+/// Lowercase hex SHA-256 of a file's bytes (OpenSSL), or an IoError.
+Result<std::string> sha256File(const std::string& path);
 
 } // namespace dfb

@@ -1,6 +1,6 @@
 #pragma once
 // The deep framebuffer in memory: one shot from one fixed camera, with every material input the
-// relight loop needs evaluated per pixel at bake time (paper 004 section 4.1). The file format is
+// relight loop needs evaluated per sample at bake time (paper 004 section 4.1). The file format is
 // specified in docs/gbuffer-format.md; ExrIO.h reads and writes it.
 
 #include <glm/glm.hpp>
@@ -12,8 +12,12 @@
 namespace dfb {
 
 /// Version of the file format written by this build (header attribute `dfb.formatVersion`).
-/// Readers accept files with the same major version; see docs/gbuffer-format.md.
-constexpr int GBUFFER_FORMAT_VERSION = 1;
+/// Readers accept versions 1 and 2; see docs/gbuffer-format.md.
+constexpr int GBUFFER_FORMAT_VERSION = 2;
+
+/// Largest number of samples per pixel a bake may take (and a file may hold per pixel).
+/// 64 = an 8x8 stratified grid, beyond which box-filtered edges no longer improve visibly.
+constexpr int MAX_SAMPLES_PER_PIXEL = 64;
 
 /// The camera the shot was baked from.
 /// Conventions (glTF / OpenGL): camera space is right-handed with the camera looking down -Z and
@@ -21,49 +25,81 @@ constexpr int GBUFFER_FORMAT_VERSION = 1;
 /// Pixel (x, y), with y = 0 the top row, has its centre at
 ///   ndc.x = (x + 0.5) / width * 2 - 1,   ndc.y = 1 - (y + 0.5) / height * 2.
 struct CameraInfo {
-    std::string name;             ///< glTF camera or node name, or "auto" when framed automatically
+    std::string name;             ///< glTF camera or node name, "auto" or "lookat"
+    bool orthographic = false;    ///< projection kind; orthographic views have parallel view rays
     glm::mat4 worldToCamera{1.f}; ///< view matrix (column-vector convention: c = M * w)
     glm::mat4 worldToNDC{1.f};    ///< projection * view; divide by w to get NDC
-    float yfovRadians = 0.8f;     ///< vertical field of view, radians, in (0, pi)
+    float yfovRadians = 0.8f;     ///< vertical field of view, radians, in (0, pi); 0 when orthographic
+    float ymag = 0.f;             ///< orthographic half-height, scene units; 0 when perspective
     float aspect = 1.f;           ///< width / height
     float znear = 0.1f;           ///< near plane distance, scene units, > 0
     float zfar = 1000.f;          ///< far plane distance, scene units, > znear
 
     /// World-space position of the camera (inverse of worldToCamera applied to the origin).
     glm::vec3 position() const { return glm::vec3(glm::inverse(worldToCamera)[3]); }
+    /// Unit direction the camera looks along, world space.
+    glm::vec3 forward() const { return -glm::normalize(glm::vec3(glm::inverse(worldToCamera)[2])); }
 };
 
-/// Per-pixel surface data, one sample per pixel (format v1 stores flat images).
-/// Memory layout: every layer is a planar array of `components` floats per pixel, row-major,
-/// row 0 at the top: element (x, y, c) is at index `(y * width + x) * components + c`.
-/// Pixels with no surface have A = 0 and every other layer 0.
+/// Per-sample surface data. A pixel holds 0..MAX_SAMPLES_PER_PIXEL samples, each a surface
+/// fragment with its own coverage A (the coverages of a pixel add up to at most 1).
+///
+/// Memory layout: the samples of pixel (x, y) are the indices
+///   [sampleOffset[p], sampleOffset[p + 1]) with p = y * width + x (row 0 at the top);
+/// every layer is a planar array of `components` floats per sample: element (s, c) of a layer
+/// is at index `s * components + c`.
+///
+/// A flat buffer (one sample per pixel, e.g. read from a flat EXR) stores a sample for every
+/// pixel, uncovered pixels having A = 0; then sample index == pixel index.
 struct DeepBuffer {
     int width = 0;
     int height = 0;
+    int samplesPerPixel = 1;            ///< the bake's sampling rate (header dfb.samplesPerPixel)
+    std::vector<uint32_t> sampleOffset; ///< width * height + 1 entries
 
     std::vector<float> P;        ///< 3: world-space position, scene units
-    std::vector<float> N;        ///< 3: shading normal, world space, unit length
-    std::vector<float> Ng;       ///< 3: geometric normal, world space, unit length (shadow bias)
+    std::vector<float> N;        ///< 3: shading normal (after normal mapping), world space, unit
+    std::vector<float> Ng;       ///< 3: geometric normal, world space, unit (shadow bias)
+    std::vector<float> T;        ///< 4: tangent xyz (unit, world space), w = bitangent sign (+-1)
     std::vector<float> Z;        ///< 1: camera depth (distance along the view axis), scene units
     std::vector<float> albedo;   ///< 3: linear base colour, [0,1]
     std::vector<float> brdf;     ///< 4: metallic, roughness, specular, occlusion, each in [0,1]
+    std::vector<float> sheen;    ///< 4: sheen colour RGB (linear), sheen roughness
+    std::vector<float> coat;     ///< 2: clear-coat weight, clear-coat roughness
     std::vector<float> emission; ///< 3: emitted radiance, linear, >= 0
     std::vector<float> A;        ///< 1: coverage in [0,1]
     std::vector<uint32_t> objectId;   ///< 1: object id (1-based index into objectNames; 0 = none)
     std::vector<uint32_t> materialId; ///< 1: material id (1-based index into materialNames; 0 = none)
 
     CameraInfo camera;
-    std::string sourcePath;               ///< the glTF scene the shot was baked from
+    std::string sourcePath;                 ///< the glTF scene the shot was baked from
+    std::string sourceSha256;               ///< lowercase hex SHA-256 of that file ("" if unknown)
     std::vector<std::string> objectNames;   ///< objectNames[id - 1] is the glTF node name
     std::vector<std::string> materialNames; ///< materialNames[id - 1] is the glTF material name
 
     size_t pixelCount() const { return static_cast<size_t>(width) * static_cast<size_t>(height); }
-    /// Allocates every layer for width x height pixels, zero-filled.
-    void allocate(int w, int h);
+    size_t sampleCount() const { return sampleOffset.empty() ? 0 : sampleOffset.back(); }
+    /// True when every pixel holds exactly one sample (a flat image).
+    bool isFlat() const;
+    uint32_t firstSample(int x, int y) const { return sampleOffset[size_t(y) * size_t(width) + size_t(x)]; }
+    uint32_t pixelSamples(int x, int y) const {
+        const size_t p = size_t(y) * size_t(width) + size_t(x);
+        return sampleOffset[p + 1] - sampleOffset[p];
+    }
 
-    glm::vec3 position(int x, int y) const;
-    glm::vec3 normal(int x, int y) const;
-    float coverage(int x, int y) const { return A[static_cast<size_t>(y) * width + x]; }
+    /// Allocates a flat buffer: one zero-filled sample per pixel.
+    void allocate(int w, int h);
+    /// Allocates `counts[p]` zero-filled samples for each pixel p.
+    void allocateSamples(int w, int h, const std::vector<uint32_t>& counts);
+
+    /// Sample accessors.
+    glm::vec3 position(size_t s) const { return {P[s * 3], P[s * 3 + 1], P[s * 3 + 2]}; }
+    glm::vec3 normal(size_t s) const { return {N[s * 3], N[s * 3 + 1], N[s * 3 + 2]}; }
+    /// Pixel accessors for flat buffers (the pixel's first sample).
+    glm::vec3 position(int x, int y) const { return position(firstSample(x, y)); }
+    glm::vec3 normal(int x, int y) const { return normal(firstSample(x, y)); }
+    /// Total coverage of a pixel (sum over its samples).
+    float coverage(int x, int y) const;
 };
 
 } // namespace dfb
