@@ -40,3 +40,42 @@ vec3 evaluateBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, float metallic, float 
     vec3 spec = F * distributionGGX(NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha);
     return (diffuse + spec) * NdotL;
 }
+
+// Sheen lobe (KHR_materials_sheen): Charlie distribution (Estevez and Kulla 2017) with Neubelt's
+// visibility, alpha = sheenRoughness^2.
+float distributionCharlie(float NdotH, float alpha) {
+    float invA = 1.0 / max(alpha, 1e-3);
+    float sin2 = max(1.0 - NdotH * NdotH, 0.0);
+    return (2.0 + invA) * pow(sin2, 0.5 * invA) / (2.0 * PI);
+}
+float visibilityNeubelt(float NdotL, float NdotV) {
+    return clamp(1.0 / (4.0 * (NdotL + NdotV - NdotL * NdotV)), 0.0, 1.0);
+}
+
+// The full layered BRDF times cos (glTF spec Appendix B and the sheen and clearcoat extensions):
+//   f = coat(F_c) + (1 - coat * F_c) * (sheen + (1 - sheenAlbedoScaling) * base)
+// with the sheen albedo scaling approximated by max(sheenColor) (KHR_materials_sheen's
+// simplest energy-conservation form) and the clear coat a GGX lobe with F0 = 0.04 over the
+// geometric shading normal.
+vec3 evaluateLayeredBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, vec4 brdf, vec4 sheen, vec2 coat) {
+    float NdotL = dot(N, L);
+    if (NdotL <= 0.0) return vec3(0.0);
+    vec3 base = evaluateBrdfCos(N, L, V, albedo, brdf.x, brdf.y, brdf.z);
+    float NdotV = max(dot(N, V), 1e-4);
+    vec3 H = normalize(L + V);
+    float NdotH = max(dot(N, H), 0.0);
+    if (any(greaterThan(sheen.rgb, vec3(0.0)))) {
+        float sheenAlpha = max(sheen.a * sheen.a, 1e-3);
+        vec3 fs = sheen.rgb * distributionCharlie(NdotH, sheenAlpha) * visibilityNeubelt(NdotL, NdotV);
+        float scaling = 1.0 - max(max(sheen.r, sheen.g), sheen.b);
+        base = base * scaling + fs * NdotL;
+    }
+    if (coat.x > 0.0) {
+        float alpha = max(coat.y * coat.y, 1e-3);
+        float VdotH = max(dot(V, H), 0.0);
+        float Fc = 0.04 + 0.96 * pow(1.0 - VdotH, 5.0);
+        float fc = Fc * distributionGGX(NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha);
+        base = base * (1.0 - coat.x * Fc) + vec3(coat.x * fc * NdotL);
+    }
+    return base;
+}

@@ -2,6 +2,9 @@
 // the C++ side pins every offset with static_assert).
 
 // Texture units of the G-buffer and the per-pass inputs.
+// G-buffer samples live in 2D "sample textures" of width SAMPLE_ROW (uView.sampleLayout.x):
+// sample s is the texel (s % SAMPLE_ROW, s / SAMPLE_ROW). TEX_PIXEL_SAMPLES holds, per pixel,
+// the first sample and the sample count.
 #define TEX_GBUFFER_P 0       // RGBA32F: world position xyz, coverage A in w
 #define TEX_GBUFFER_N 1       // RGBA16F: shading normal xyz
 #define TEX_GBUFFER_NG 2      // RGBA16F: geometric normal xyz
@@ -10,6 +13,9 @@
 #define TEX_GBUFFER_EMISSION 5 // RGBA16F: emission rgb
 #define TEX_SHADOW_MAP 6      // DEPTH32F with compare mode
 #define TEX_INPUT 7           // generic input of composite passes
+#define TEX_PIXEL_SAMPLES 8   // RG32UI: first sample, sample count
+#define TEX_GBUFFER_SHEEN 9   // RGBA16F: sheen rgb, sheen roughness
+#define TEX_GBUFFER_COAT 10   // RG16F: coat weight, coat roughness
 
 #define UBO_LIGHT 0
 #define UBO_VIEW 1
@@ -25,6 +31,14 @@ layout(std140, binding = UBO_LIGHT) uniform LightBlock {
 } uLight;
 
 layout(std140, binding = UBO_VIEW) uniform ViewBlock {
-    vec4 cameraPosition;    // xyz world position of the shot camera
+    vec4 cameraPosition;    // xyz world position of the shot camera, w = 1 if orthographic
+    vec4 cameraForward;     // xyz unit view direction (orthographic views use it as -V)
     vec4 exposure;          // x = 2^stops
+    ivec4 sampleLayout;     // x = SAMPLE_ROW (width of the sample textures)
 } uView;
+
+ivec2 sampleTexel(uint s) { return ivec2(int(s) % uView.sampleLayout.x, int(s) / uView.sampleLayout.x); }
+
+vec3 viewVector(vec3 P) {
+    return uView.cameraPosition.w > 0.5 ? -uView.cameraForward.xyz : normalize(uView.cameraPosition.xyz - P);
+}

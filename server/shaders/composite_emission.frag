@@ -1,10 +1,22 @@
 #version 450 core
-// Starts the accumulation with the surfaces' own emission (independent of every light).
+// Starts the accumulation with the surfaces' own emission (independent of every light),
+// coverage-weighted over the pixel's samples.
 #include "common_uniforms.glsl"
 layout(binding = TEX_GBUFFER_EMISSION) uniform sampler2D gEmission;
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
+layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(location = 0) out vec4 oColor;
 void main() {
-    ivec2 pix = ivec2(gl_FragCoord.xy);
-    oColor = vec4(texelFetch(gEmission, pix, 0).rgb * texelFetch(gP, pix, 0).w, 1.0);
+#ifdef DFB_FLAT_SAMPLES
+    ivec2 t = ivec2(gl_FragCoord.xy);
+    oColor = vec4(texelFetch(gEmission, t, 0).rgb * texelFetch(gP, t, 0).w, 1.0);
+    return;
+#endif
+    uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
+    vec3 sum = vec3(0.0);
+    for (uint s = range.x; s < range.x + range.y; ++s) {
+        ivec2 t = sampleTexel(s);
+        sum += texelFetch(gEmission, t, 0).rgb * texelFetch(gP, t, 0).w;
+    }
+    oColor = vec4(sum, 1.0);
 }

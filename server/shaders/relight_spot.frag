@@ -1,7 +1,8 @@
 #version 450 core
-// One spot light's contribution, per pixel, from the G-buffer (DESIGN section 6; docs/lighting.md).
-// Radiance = f(l, v) * cos * I / d^2 * spot(cone) * visibility, with I in candela
-// (KHR_lights_punctual: the smooth cone falloff of its reference implementation).
+// One spot light's contribution per pixel from the G-buffer samples (DESIGN section 6;
+// docs/lighting.md): every sample of the pixel is shaded and the results averaged with their
+// coverages. Radiance = f(l, v) * cos * I / d^2 * spot(cone) * visibility, with I in candela
+// (KHR_lights_punctual, with the smooth cone falloff of its reference implementation).
 #include "common_uniforms.glsl"
 #include "common_brdf.glsl"
 
@@ -10,6 +11,9 @@ layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
 layout(binding = TEX_GBUFFER_NG) uniform sampler2D gNg;
 layout(binding = TEX_GBUFFER_ALBEDO) uniform sampler2D gAlbedo;
 layout(binding = TEX_GBUFFER_BRDF) uniform sampler2D gBrdf;
+layout(binding = TEX_GBUFFER_SHEEN) uniform sampler2D gSheen;
+layout(binding = TEX_GBUFFER_COAT) uniform sampler2D gCoat;
+layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(binding = TEX_SHADOW_MAP) uniform sampler2DShadow shadowMap;
 
 layout(location = 0) out vec4 oColor;
@@ -30,26 +34,37 @@ float shadowVisibility(vec3 P, vec3 Ng, float dist) {
     return sum / 9.0;
 }
 
-void main() {
-    ivec2 pix = ivec2(gl_FragCoord.xy);
-    vec4 pA = texelFetch(gP, pix, 0);
-    if (pA.w <= 0.0) { oColor = vec4(0.0); return; }
+vec3 shadeSample(uint s) {
+    ivec2 t = sampleTexel(s);
+    vec4 pA = texelFetch(gP, t, 0);
+    if (pA.w <= 0.0) return vec3(0.0);
     vec3 P = pA.xyz;
-    vec3 N = normalize(texelFetch(gN, pix, 0).xyz);
-    vec3 Ng = normalize(texelFetch(gNg, pix, 0).xyz);
+    vec3 N = normalize(texelFetch(gN, t, 0).xyz);
     vec3 toLight = uLight.lightPosition.xyz - P;
-    float dist2 = max(dot(toLight, toLight), 1e-8);
+    float dist2 = max(dot(toLight, toLight), 1e-12);
     float dist = sqrt(dist2);
     vec3 L = toLight / dist;
     // Cone falloff: smooth between the outer and inner cosines.
-    float cd = dot(-L, uLight.lightAxis.xyz);
-    float spot = smoothstep(uLight.lightCone.x, uLight.lightCone.y, cd);
-    if (spot <= 0.0 || dot(N, L) <= 0.0) { oColor = vec4(0.0); return; }
-    float vis = uLight.lightCone.z > 0.5 ? shadowVisibility(P, Ng, dist) : 1.0;
-    if (vis <= 0.0) { oColor = vec4(0.0); return; }
-    vec4 brdf = texelFetch(gBrdf, pix, 0);
-    vec3 albedo = texelFetch(gAlbedo, pix, 0).rgb;
-    vec3 V = normalize(uView.cameraPosition.xyz - P);
-    vec3 f = evaluateBrdfCos(N, L, V, albedo, brdf.x, brdf.y, brdf.z);
-    oColor = vec4(f * uLight.lightRadiance.rgb * (spot * vis / dist2) * pA.w, 1.0);
+    float spot = smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-L, uLight.lightAxis.xyz));
+    if (spot <= 0.0 || dot(N, L) <= 0.0) return vec3(0.0);
+    float vis = 1.0;
+    if (uLight.lightCone.z > 0.5) {
+        vis = shadowVisibility(P, normalize(texelFetch(gNg, t, 0).xyz), dist);
+        if (vis <= 0.0) return vec3(0.0);
+    }
+    vec3 f = evaluateLayeredBrdfCos(N, L, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
+                                    texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
+    return f * uLight.lightRadiance.rgb * (spot * vis / dist2) * pA.w;
+}
+
+void main() {
+#ifdef DFB_FLAT_SAMPLES
+    // Flat buffer: one sample per pixel, stored at the pixel itself (no indirection, no loop).
+    oColor = vec4(shadeSample(uint(gl_FragCoord.y) * uint(uView.sampleLayout.x) + uint(gl_FragCoord.x)), 1.0);
+#else
+    uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
+    vec3 sum = vec3(0.0);
+    for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(s);
+    oColor = vec4(sum, 1.0);
+#endif
 }

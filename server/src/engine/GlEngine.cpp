@@ -55,6 +55,7 @@ class GlEngine final : public Engine {
 public:
     Status init(const DeepBuffer& g, const ShadowGeometry& casters);
     Result<Image8> render(const Rig& rig, FrameStats* stats) override;
+    Result<ImageF> renderLinear(const Rig& rig) override;
     std::string deviceDescription() const override { return mContext->description(); }
     int width() const override { return mWidth; }
     int height() const override { return mHeight; }
@@ -64,12 +65,16 @@ private:
     glm::mat4 lightViewProj(const Light& l) const;
     Status renderShadow(LightCache& c);
     Status shade(LightCache& c);
+    Status renderAccumulation(const Rig& rig, FrameStats& st);
 
     std::unique_ptr<gl::Context> mContext;
     int mWidth = 0, mHeight = 0;
-    glm::vec3 mCameraPosition{0.f};
+    glm::vec3 mCameraPosition{0.f}, mCameraForward{0.f, 0.f, -1.f};
+    bool mOrthographic = false;
+    bool mFlat = false; // one sample per pixel, stored at the pixel: specialised shaders
+    int mSampleRow = 0;
     glm::vec3 mSceneMin{0.f}, mSceneMax{0.f};
-    gl::Texture mP, mN, mNg, mAlbedo, mBrdf, mEmission;
+    gl::Texture mP, mN, mNg, mAlbedo, mBrdf, mEmission, mSheen, mCoat, mPixelSamples;
     gl::Buffer mCasterVbo, mCasterIbo;
     gl::VertexArray mCasterVao, mEmptyVao;
     GLsizei mCasterIndexCount = 0;
@@ -81,40 +86,73 @@ private:
 };
 
 Result<gl::Program> GlEngine::program(const char* vert, const char* frag) {
-    return gl::buildProgram({{GL_VERTEX_SHADER, vert, shaders::serverShader(vert)},
-                             {GL_FRAGMENT_SHADER, frag, shaders::serverShader(frag)}});
+    // Flat buffers get shaders specialised by a define inserted after the #version line.
+    auto specialise = [this](std::string_view src) {
+        std::string out(src);
+        if (mFlat) {
+            const size_t eol = out.find('\n');
+            out.insert(eol == std::string::npos ? out.size() : eol + 1, "#define DFB_FLAT_SAMPLES 1\n");
+        }
+        return out;
+    };
+    const std::string v = specialise(shaders::serverShader(vert)), f = specialise(shaders::serverShader(frag));
+    return gl::buildProgram({{GL_VERTEX_SHADER, vert, v}, {GL_FRAGMENT_SHADER, frag, f}});
 }
 
-gl::Texture uploadLayer(GLenum internalFormat, int w, int h, const std::vector<float>& data, int comps,
+// Uploads one per-sample layer into a sample texture (see common_uniforms.glsl for the layout),
+// padded to RGBA (three-component float textures are slow paths on some drivers).
+gl::Texture uploadLayer(GLenum internalFormat, int row, int rows, const std::vector<float>& data, int comps,
                         const std::vector<float>* alpha) {
-    // Pad to RGBA: three-component float textures are slow paths on some drivers.
-    std::vector<float> rgba(size_t(w) * size_t(h) * 4, 0.f);
-    for (size_t i = 0; i < size_t(w) * size_t(h); ++i) {
+    const size_t n = data.size() / size_t(comps);
+    std::vector<float> rgba(size_t(row) * size_t(rows) * 4, 0.f);
+    for (size_t i = 0; i < n; ++i) {
         for (int c = 0; c < comps; ++c) rgba[i * 4 + size_t(c)] = data[i * size_t(comps) + size_t(c)];
         if (alpha) rgba[i * 4 + 3] = (*alpha)[i];
     }
-    gl::Texture t = gl::makeTexture2D(internalFormat, w, h);
-    // Row 0 of the deep buffer (top) goes to GL row 0: every pass is per pixel, so the image is
-    // simply rendered top-down and read back without a flip.
-    glTextureSubImage2D(t.id(), 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, rgba.data());
+    gl::Texture t = gl::makeTexture2D(internalFormat, row, rows);
+    glTextureSubImage2D(t.id(), 0, 0, 0, row, rows, GL_RGBA, GL_FLOAT, rgba.data());
     return t;
 }
 
 Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
-    if (g.width <= 0 || g.height <= 0) return makeError(ErrorCode::InvalidValue, "engine: empty deep buffer");
+    if (g.width <= 0 || g.height <= 0 || g.sampleOffset.size() != g.pixelCount() + 1) {
+        return makeError(ErrorCode::InvalidValue, "engine: empty or inconsistent deep buffer");
+    }
     auto ctx = gl::Context::create();
     if (!ctx) return ctx.error();
     mContext = std::move(ctx.value());
     mWidth = g.width;
     mHeight = g.height;
     mCameraPosition = g.camera.position();
+    mCameraForward = g.camera.forward();
+    mOrthographic = g.camera.orthographic;
+    mFlat = g.isFlat();
 
-    mP = uploadLayer(GL_RGBA32F, mWidth, mHeight, g.P, 3, &g.A);
-    mN = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.N, 3, nullptr);
-    mNg = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.Ng, 3, nullptr);
-    mAlbedo = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.albedo, 3, nullptr);
-    mBrdf = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.brdf, 4, nullptr);
-    mEmission = uploadLayer(GL_RGBA16F, mWidth, mHeight, g.emission, 3, nullptr);
+    // Sample textures: as wide as the image (so a flat buffer's sample texture is the image), or
+    // wider when a deep buffer's rows would exceed GL's minimum maximum texture size.
+    constexpr int MAX_SIDE = 16384;
+    const size_t samples = std::max<size_t>(g.sampleCount(), 1);
+    mSampleRow = mWidth;
+    if ((samples + size_t(mSampleRow) - 1) / size_t(mSampleRow) > size_t(MAX_SIDE)) mSampleRow = MAX_SIDE;
+    const int rows = int((samples + size_t(mSampleRow) - 1) / size_t(mSampleRow));
+    if (rows > MAX_SIDE) return makeError(ErrorCode::InvalidValue, "engine: too many samples for the GPU's textures");
+    mP = uploadLayer(GL_RGBA32F, mSampleRow, rows, g.P, 3, &g.A);
+    mN = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.N, 3, nullptr);
+    mNg = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.Ng, 3, nullptr);
+    mAlbedo = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.albedo, 3, nullptr);
+    mBrdf = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.brdf, 4, nullptr);
+    mEmission = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.emission, 3, nullptr);
+    mSheen = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.sheen, 4, nullptr);
+    mCoat = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.coat, 2, nullptr);
+    // Per pixel: first sample and count. Row 0 of the deep buffer (top) goes to GL row 0: every
+    // pass is per pixel, so the image is rendered top-down and read back without a flip.
+    std::vector<uint32_t> ranges(g.pixelCount() * 2);
+    for (size_t p = 0; p < g.pixelCount(); ++p) {
+        ranges[p * 2] = g.sampleOffset[p];
+        ranges[p * 2 + 1] = g.sampleOffset[p + 1] - g.sampleOffset[p];
+    }
+    mPixelSamples = gl::makeTexture2D(GL_RG32UI, mWidth, mHeight);
+    glTextureSubImage2D(mPixelSamples.id(), 0, 0, 0, mWidth, mHeight, GL_RG_INTEGER, GL_UNSIGNED_INT, ranges.data());
 
     // Shadow casters.
     mSceneMin = glm::vec3(1e30f);
@@ -124,7 +162,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         mSceneMax = glm::max(mSceneMax, p);
     }
     // Receivers bound the scene too (a shot may be relit with fewer casters than it shows).
-    for (size_t i = 0; i < g.pixelCount(); ++i) {
+    for (size_t i = 0; i < g.sampleCount(); ++i) {
         if (g.A[i] <= 0.f) continue;
         glm::vec3 p(g.P[i * 3], g.P[i * 3 + 1], g.P[i * 3 + 2]);
         mSceneMin = glm::min(mSceneMin, p);
@@ -282,6 +320,9 @@ Status GlEngine::shade(LightCache& c) {
     glBindTextureUnit(engine::TEX_GBUFFER_NG, mNg.id());
     glBindTextureUnit(engine::TEX_GBUFFER_ALBEDO, mAlbedo.id());
     glBindTextureUnit(engine::TEX_GBUFFER_BRDF, mBrdf.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_SHEEN, mSheen.id());
+    glBindTextureUnit(engine::TEX_GBUFFER_COAT, mCoat.id());
+    glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
     // An unshadowed light still needs a complete texture on the shadow unit: reuse its own or any.
     glBindTextureUnit(engine::TEX_SHADOW_MAP, c.shadowMap ? c.shadowMap.id() : 0);
     glBindVertexArray(mEmptyVao.id());
@@ -290,12 +331,12 @@ Status GlEngine::shade(LightCache& c) {
     return okStatus();
 }
 
-Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
-    FrameStats local;
-    FrameStats& st = stats ? *stats : local;
-    st = FrameStats{};
-
-    engine::ViewBlock view{glm::vec4(mCameraPosition, 1.f), glm::vec4(std::exp2(rig.exposureStops), 0, 0, 0)};
+Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
+    engine::ViewBlock view{};
+    view.cameraPosition = glm::vec4(mCameraPosition, mOrthographic ? 1.f : 0.f);
+    view.cameraForward = glm::vec4(mCameraForward, 0.f);
+    view.exposure = glm::vec4(std::exp2(rig.exposureStops), 0, 0, 0);
+    view.sampleLayout = glm::ivec4(mSampleRow, 0, 0, 0);
     glNamedBufferSubData(mViewUbo.id(), 0, sizeof view, &view);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_VIEW, mViewUbo.id());
 
@@ -312,7 +353,7 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
         if (l.shadow && !shadowValid) {
             c.params = l;
             c.hasContribution = false;
-            if (auto s = renderShadow(c); !s) return s.error();
+            if (auto s = renderShadow(c); !s) return s;
             ++st.shadowMapsRendered;
         } else if (!l.shadow && !sameShadowInputs(c.params, l)) {
             c.worldToLightClip = lightViewProj(l);
@@ -329,7 +370,7 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
         LightCache& c = mLights[l.name];
         if (c.hasContribution && sameShadingInputs(c.params, l)) continue;
         c.params = l;
-        if (auto s = shade(c); !s) return s.error();
+        if (auto s = shade(c); !s) return s;
         ++st.lightsShaded;
     }
     glFinish();
@@ -343,6 +384,7 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     glUseProgram(mEmissionProgram.id());
     glBindTextureUnit(engine::TEX_GBUFFER_EMISSION, mEmission.id());
     glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
+    glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_ONE);
@@ -353,12 +395,23 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
         glDrawArrays(GL_TRIANGLES, 0, 3);
     }
     glDisable(GL_BLEND);
+    glFinish();
+    st.compositeMs = msSince(t);
+    return okStatus();
+}
+
+Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
+    FrameStats local;
+    FrameStats& st = stats ? *stats : local;
+    st = FrameStats{};
+    if (auto s = renderAccumulation(rig, st); !s) return s.error();
+    auto t = Clock::now();
     glBindFramebuffer(GL_FRAMEBUFFER, mLdrFb.id());
     glUseProgram(mTonemapProgram.id());
     glBindTextureUnit(engine::TEX_INPUT, mAccum.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glFinish();
-    st.compositeMs = msSince(t);
+    st.compositeMs += msSince(t); // the view transform belongs to the composite stage
 
     t = Clock::now();
     Image8 img;
@@ -370,6 +423,18 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     glReadPixels(0, 0, mWidth, mHeight, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
     st.readbackMs = msSince(t);
     if (auto s = mContext->check("relight frame"); !s) return s.error();
+    return img;
+}
+
+Result<ImageF> GlEngine::renderLinear(const Rig& rig) {
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error();
+    ImageF img;
+    img.width = mWidth;
+    img.height = mHeight;
+    img.rgba.resize(size_t(mWidth) * size_t(mHeight) * 4);
+    glGetTextureImage(mAccum.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
+    if (auto s = mContext->check("relight frame (linear)"); !s) return s.error();
     return img;
 }
 

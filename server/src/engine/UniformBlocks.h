@@ -18,6 +18,9 @@ enum TextureUnit : unsigned {
     TEX_GBUFFER_EMISSION = 5,
     TEX_SHADOW_MAP = 6,
     TEX_INPUT = 7,
+    TEX_PIXEL_SAMPLES = 8,
+    TEX_GBUFFER_SHEEN = 9,
+    TEX_GBUFFER_COAT = 10,
 };
 enum UniformBinding : unsigned { UBO_LIGHT = 0, UBO_VIEW = 1 };
 
@@ -38,10 +41,14 @@ static_assert(offsetof(LightBlock, lightShadow) == 128);
 static_assert(sizeof(LightBlock) == 144);
 
 struct ViewBlock {
-    glm::vec4 cameraPosition;
+    glm::vec4 cameraPosition; // w = 1 if orthographic
+    glm::vec4 cameraForward;
     glm::vec4 exposure;
+    glm::ivec4 sampleLayout;  // x = width of the sample textures
 };
-static_assert(offsetof(ViewBlock, exposure) == 16);
-static_assert(sizeof(ViewBlock) == 32);
+static_assert(offsetof(ViewBlock, cameraForward) == 16);
+static_assert(offsetof(ViewBlock, exposure) == 32);
+static_assert(offsetof(ViewBlock, sampleLayout) == 48);
+static_assert(sizeof(ViewBlock) == 64);
 
 } // namespace dfb::engine

@@ -25,6 +25,13 @@ struct Image8 {
     std::vector<uint8_t> rgba;
 };
 
+/// A linear float RGBA image, row 0 at the top: pixel (x, y) starts at `(y * width + x) * 4`.
+struct ImageF {
+    int width = 0;
+    int height = 0;
+    std::vector<float> rgba;
+};
+
 /// Triangles that cast shadows, in world space: 3 indices per triangle into `positions`.
 struct ShadowGeometry {
     std::vector<glm::vec3> positions;
@@ -53,6 +60,10 @@ public:
     /// a light whose position, direction, cone or shadow settings changed gets a new shadow map;
     /// any other change of a light re-shades only that light; the others come from the cache.
     virtual Result<Image8> render(const Rig& rig, FrameStats* stats = nullptr) = 0;
+
+    /// Renders like render() but returns the linear sum of emission and light contributions,
+    /// before exposure and the view transform (for compositing and tests).
+    virtual Result<ImageF> renderLinear(const Rig& rig) = 0;
 
     /// "renderer | GL version | EGL platform".
     virtual std::string deviceDescription() const = 0;
