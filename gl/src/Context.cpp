@@ -142,6 +142,14 @@ Context::~Context() {
     }
 }
 
+Status Context::makeCurrent() const {
+    if (eglGetCurrentContext() == mContext) return okStatus();
+    if (!eglMakeCurrent(mDisplay, EGL_NO_SURFACE, EGL_NO_SURFACE, mContext)) {
+        return makeError(ErrorCode::GpuError, "eglMakeCurrent failed: " + eglErrorName(eglGetError()));
+    }
+    return okStatus();
+}
+
 Status Context::check(const char* where) const {
     GLenum reset = glGetGraphicsResetStatus();
     if (reset != GL_NO_ERROR) {

@@ -53,6 +53,10 @@ struct LightCache {
 
 class GlEngine final : public Engine {
 public:
+    // GL objects are released by the members' destructors: into this engine's own context.
+    ~GlEngine() override {
+        if (mContext) (void)mContext->makeCurrent();
+    }
     Status init(const DeepBuffer& g, const ShadowGeometry& casters);
     Result<Image8> render(const Rig& rig, FrameStats* stats) override;
     Result<ImageF> renderLinear(const Rig& rig) override;
@@ -332,6 +336,7 @@ Status GlEngine::shade(LightCache& c) {
 }
 
 Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
+    if (auto s = mContext->makeCurrent(); !s) return s;
     engine::ViewBlock view{};
     view.cameraPosition = glm::vec4(mCameraPosition, mOrthographic ? 1.f : 0.f);
     view.cameraForward = glm::vec4(mCameraForward, 0.f);

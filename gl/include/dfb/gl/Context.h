@@ -25,6 +25,10 @@ public:
     /// "renderer | version | platform", for logs and benchmark tables.
     const std::string& description() const { return mDescription; }
 
+    /// Makes this context current on the calling thread (several contexts may live in one
+    /// process, e.g. a test with two engines). Returns GpuError if EGL refuses.
+    Status makeCurrent() const;
+
     /// Checks glGetError and the robustness reset status; returns a GpuError naming `where`.
     Status check(const char* where) const;
 
