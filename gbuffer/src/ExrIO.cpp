@@ -14,6 +14,8 @@
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
 #include <ImfTestFile.h>
+#include <ImfStdIO.h>
+#include <ImfXdr.h>
 #include <Iex.h>
 #include <Imath/half.h>
 
@@ -432,6 +434,17 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
             return makeError(ErrorCode::InvalidFile, path + ": not an OpenEXR file");
         }
         if (tiled) return makeError(ErrorCode::InvalidFile, path + ": tiled EXR files are not supported (write scanlines)");
+        {
+            // Check the size in the header alone before OpenEXR reads the line-offset table that
+            // a corrupt size would make it allocate.
+            Imf::StdIFStream is(path.c_str());
+            int magic = 0, version = 0;
+            Imf::Xdr::read<Imf::StreamIO>(is, magic);
+            Imf::Xdr::read<Imf::StreamIO>(is, version);
+            Imf::Header header;
+            header.readFrom(is, version);
+            if (auto dw = checkWindow(header, path); !dw) return dw.error();
+        }
         Status s = deep ? readDeep(path, b, missing) : readFlat(path, b, missing);
         if (!s) return s.error();
     } catch (const std::exception& e) {
@@ -472,6 +485,16 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
                     if (!std::isfinite(b.P[s * 3 + c]) || !std::isfinite(b.N[s * 3 + c])) {
                         return makeError(ErrorCode::InvalidValue, path + ": non-finite P or N" + where);
                     }
+                }
+            }
+            for (uint32_t s = b.firstSample(x, y); s < b.firstSample(x, y) + b.pixelSamples(x, y); ++s) {
+                const bool haveManifest = !b.objectNames.empty() || !b.materialNames.empty();
+                if (haveManifest && b.A[s] > 0.f &&
+                    (b.objectId[s] > b.objectNames.size() || b.materialId[s] > b.materialNames.size())) {
+                    return makeError(ErrorCode::InvalidValue, path + ": object id " + std::to_string(b.objectId[s]) +
+                                                                  " / material id " + std::to_string(b.materialId[s]) +
+                                                                  " at pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                                                  ") is not in the manifest");
                 }
             }
             if (sum > 1.f + 1e-2f) {
