@@ -107,9 +107,9 @@ glm::mat4 toGlm(const Imath::M44f& m) {
     return r;
 }
 
-// Largest accepted image side. A shot is a single frame; 32k covers any plate while rejecting
+// Largest accepted image side. A shot is a single frame; 16k covers any plate while rejecting
 // corrupt headers that would otherwise make us allocate terabytes.
-constexpr long MAX_SIDE = 32768;
+constexpr long MAX_SIDE = 16384; // as the bake's limit (GL_MAX_TEXTURE_SIZE of GL 4.5)
 
 void writeHeaderAttributes(Imf::Header& header, const DeepBuffer& b) {
     Imf::addWorldToCamera(header, toImath(b.camera.worldToCamera));
@@ -443,7 +443,16 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
             Imf::Xdr::read<Imf::StreamIO>(is, version);
             Imf::Header header;
             header.readFrom(is, version);
-            if (auto dw = checkWindow(header, path); !dw) return dw.error();
+            auto dw = checkWindow(header, path);
+            if (!dw) return dw.error();
+            // A file far smaller than its declared size is corrupt: our data compresses at most
+            // about 1000:1 (zlib's limit is 1032:1), so demand one byte per 1024 pixels before
+            // allocating memory for them.
+            const uint64_t pixels = uint64_t(dw->max.x - dw->min.x + 1) * uint64_t(dw->max.y - dw->min.y + 1);
+            if (uint64_t(st.st_size) < pixels / 1024) {
+                return makeError(ErrorCode::InvalidFile, path + ": declares " + std::to_string(pixels) + " pixels but holds only " +
+                                                             std::to_string(st.st_size) + " bytes (truncated or corrupt)");
+            }
         }
         Status s = deep ? readDeep(path, b, missing) : readFlat(path, b, missing);
         if (!s) return s.error();

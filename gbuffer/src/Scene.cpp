@@ -87,8 +87,10 @@ Result<std::vector<float>> readFloats(const tinygltf::Model& m, int accessorInde
     }
     std::vector<float> out(a.count * size_t(ncomp), 0.f);
     if (a.bufferView < 0) return out; // all zeros per the spec
-    const tinygltf::BufferView& bv = m.bufferViews.at(size_t(a.bufferView));
-    const tinygltf::Buffer& buf = m.buffers.at(size_t(bv.buffer));
+    if (size_t(a.bufferView) >= m.bufferViews.size()) return makeError(ErrorCode::InvalidFile, what + ": buffer view out of range");
+    const tinygltf::BufferView& bv = m.bufferViews[size_t(a.bufferView)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= m.buffers.size()) return makeError(ErrorCode::InvalidFile, what + ": buffer out of range");
+    const tinygltf::Buffer& buf = m.buffers[size_t(bv.buffer)];
     const int csize = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(a.componentType));
     if (csize <= 0) return makeError(ErrorCode::InvalidFile, what + ": bad component type");
     const size_t stride = bv.byteStride ? bv.byteStride : size_t(csize * ncomp);
@@ -109,11 +111,17 @@ Result<std::vector<float>> readFloats(const tinygltf::Model& m, int accessorInde
 }
 
 Result<std::vector<uint32_t>> readIndices(const tinygltf::Model& m, int accessorIndex, const std::string& what) {
-    const tinygltf::Accessor& a = m.accessors.at(size_t(accessorIndex));
+    if (accessorIndex < 0 || size_t(accessorIndex) >= m.accessors.size()) {
+        return makeError(ErrorCode::InvalidFile, what + ": accessor index out of range");
+    }
+    const tinygltf::Accessor& a = m.accessors[size_t(accessorIndex)];
     if (a.type != TINYGLTF_TYPE_SCALAR) return makeError(ErrorCode::InvalidFile, what + ": indices are not scalar");
-    if (a.bufferView < 0) return makeError(ErrorCode::InvalidFile, what + ": indices without a buffer view");
-    const tinygltf::BufferView& bv = m.bufferViews.at(size_t(a.bufferView));
-    const tinygltf::Buffer& buf = m.buffers.at(size_t(bv.buffer));
+    if (a.bufferView < 0 || size_t(a.bufferView) >= m.bufferViews.size()) {
+        return makeError(ErrorCode::InvalidFile, what + ": indices without a valid buffer view");
+    }
+    const tinygltf::BufferView& bv = m.bufferViews[size_t(a.bufferView)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= m.buffers.size()) return makeError(ErrorCode::InvalidFile, what + ": buffer out of range");
+    const tinygltf::Buffer& buf = m.buffers[size_t(bv.buffer)];
     const int csize = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(a.componentType));
     if (csize != 1 && csize != 2 && csize != 4) return makeError(ErrorCode::InvalidFile, what + ": bad index type");
     const size_t stride = bv.byteStride ? bv.byteStride : size_t(csize);
@@ -233,6 +241,19 @@ namespace {
 Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir, const uint8_t* data, size_t size,
                             const LoadOptions& options);
 
+// No exception may leave the loader (the server's threads do not expect them): whatever a
+// malformed file makes a library throw becomes an InvalidFile error naming the file.
+Result<Scene> loadFromBytesGuarded(const std::string& path, const std::string& baseDir, const uint8_t* data,
+                                   size_t size, const LoadOptions& options) {
+    try {
+        return loadFromBytes(path, baseDir, data, size, options);
+    } catch (const std::bad_alloc&) {
+        return makeError(ErrorCode::InvalidFile, path + ": out of memory while reading (corrupt sizes?)");
+    } catch (const std::exception& e) {
+        return makeError(ErrorCode::InvalidFile, path + ": malformed glTF (" + std::string(e.what()) + ")");
+    }
+}
+
 } // namespace
 
 Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
@@ -248,12 +269,12 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
     const size_t got = bytes.empty() ? 0 : std::fread(bytes.data(), 1, bytes.size(), f);
     std::fclose(f);
     if (got != bytes.size()) return makeError(ErrorCode::IoError, path + ": short read");
-    return loadFromBytes(path, fs::path(path).parent_path().string(), bytes.data(), bytes.size(), options);
+    return loadFromBytesGuarded(path, fs::path(path).parent_path().string(), bytes.data(), bytes.size(), options);
 }
 
 Result<Scene> loadSceneFromMemory(const std::string& name, const uint8_t* data, size_t size, const LoadOptions& options) {
     // No base directory: external files are refused (see the URI reader below).
-    return loadFromBytes(name, "", data, size, options);
+    return loadFromBytesGuarded(name, "", data, size, options);
 }
 
 namespace {
@@ -580,7 +601,11 @@ Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir,
                 {
                     auto it = prim.attributes.find("COLOR_0");
                     if (it != prim.attributes.end()) {
-                        const int nc = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(model.accessors.at(size_t(it->second)).type));
+                        if (it->second < 0 || size_t(it->second) >= model.accessors.size()) {
+                            failure = what + ": COLOR_0 accessor out of range";
+                            return;
+                        }
+                        const int nc = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(model.accessors[size_t(it->second)].type));
                         if (!readAttr("COLOR_0", nc == 3 ? 3 : 4, nc == 3 ? col3 : col4)) return;
                     }
                 }

@@ -42,6 +42,12 @@ DeepBuffer randomBuffer(int w, int h, uint32_t seed) {
             b.Ng[i * 3 + c] = ng[c];
         }
         b.Z[i] = 1.f + 50.f * u01(rng);
+        for (int c = 0; c < 4; ++c) {
+            b.T[i * 4 + c] = u01(rng);
+            b.sheen[i * 4 + c] = u01(rng);
+        }
+        b.coat[i * 2] = u01(rng);
+        b.coat[i * 2 + 1] = u01(rng);
         for (int c = 0; c < 4; ++c) b.brdf[i * 4 + c] = u01(rng);
         b.objectId[i] = 1 + rng() % 7;
         b.materialId[i] = 1 + rng() % 5;
@@ -88,6 +94,10 @@ TEST(ExrIO, RoundTripsEveryChannelAndAttribute) {
     expectHalfNear(out.brdf, in.brdf, "brdf");
     expectHalfNear(out.emission, in.emission, "emission");
     expectHalfNear(out.A, in.A, "A");
+    expectHalfNear(out.T, in.T, "T");
+    expectHalfNear(out.sheen, in.sheen, "sheen");
+    expectHalfNear(out.coat, in.coat, "coat");
+    EXPECT_TRUE(out.isFlat());
     EXPECT_EQ(out.camera.worldToCamera, in.camera.worldToCamera);
     EXPECT_EQ(out.camera.worldToNDC, in.camera.worldToNDC);
     EXPECT_EQ(out.camera.name, in.camera.name);
@@ -97,6 +107,64 @@ TEST(ExrIO, RoundTripsEveryChannelAndAttribute) {
     EXPECT_EQ(out.sourcePath, in.sourcePath);
     EXPECT_EQ(out.objectNames, in.objectNames);
     EXPECT_EQ(out.materialNames, in.materialNames);
+    std::filesystem::remove(path);
+}
+
+TEST(ExrIO, DeepRoundTripKeepsEverySampleOfEveryChannel) {
+    // Random sample counts 0..5 per pixel (deep scanline), every channel random.
+    std::mt19937 rng(99);
+    std::uniform_real_distribution<float> u01(0.f, 1.f);
+    const int w = 19, h = 13;
+    std::vector<uint32_t> counts(size_t(w * h));
+    for (auto& c : counts) c = rng() % 6;
+    DeepBuffer in;
+    in.allocateSamples(w, h, counts);
+    in.samplesPerPixel = 16;
+    for (size_t s = 0; s < in.sampleCount(); ++s) {
+        in.A[s] = 0.05f + 0.1f * u01(rng); // at most 5 x 0.15 < 1 per pixel
+        for (int c = 0; c < 3; ++c) {
+            in.P[s * 3 + c] = 200.f * u01(rng) - 100.f;
+            in.N[s * 3 + c] = u01(rng);
+            in.Ng[s * 3 + c] = u01(rng);
+            in.albedo[s * 3 + c] = u01(rng);
+            in.emission[s * 3 + c] = u01(rng);
+        }
+        for (int c = 0; c < 4; ++c) {
+            in.T[s * 4 + c] = u01(rng);
+            in.brdf[s * 4 + c] = u01(rng);
+            in.sheen[s * 4 + c] = u01(rng);
+        }
+        in.coat[s * 2] = u01(rng);
+        in.coat[s * 2 + 1] = u01(rng);
+        in.Z[s] = 100.f * u01(rng);
+        in.objectId[s] = 1 + rng() % 3;
+        in.materialId[s] = 1 + rng() % 2;
+    }
+    in.objectNames = {"a", "b", "c"};
+    in.materialNames = {"m", "n"};
+    in.sourceSha256 = std::string(64, 'a');
+    const std::string path = tempPath("deep.exr");
+    ASSERT_TRUE(writeDeepBuffer(in, path).ok());
+    auto r = readDeepBuffer(path);
+    ASSERT_TRUE(r.ok()) << r.error().toString();
+    const DeepBuffer& out = r.value();
+    EXPECT_FALSE(out.isFlat());
+    EXPECT_EQ(out.samplesPerPixel, 16);
+    EXPECT_EQ(out.sampleOffset, in.sampleOffset);
+    EXPECT_EQ(out.P, in.P);
+    EXPECT_EQ(out.Z, in.Z);
+    EXPECT_EQ(out.objectId, in.objectId);
+    EXPECT_EQ(out.materialId, in.materialId);
+    expectHalfNear(out.N, in.N, "N");
+    expectHalfNear(out.Ng, in.Ng, "Ng");
+    expectHalfNear(out.T, in.T, "T");
+    expectHalfNear(out.albedo, in.albedo, "albedo");
+    expectHalfNear(out.brdf, in.brdf, "brdf");
+    expectHalfNear(out.sheen, in.sheen, "sheen");
+    expectHalfNear(out.coat, in.coat, "coat");
+    expectHalfNear(out.emission, in.emission, "emission");
+    expectHalfNear(out.A, in.A, "A");
+    EXPECT_EQ(out.sourceSha256, in.sourceSha256);
     std::filesystem::remove(path);
 }
 

@@ -23,6 +23,7 @@ TEST(Fixtures, MalformedShotsGiveClearErrors) {
     const Case cases[] = {
         {"truncated.exr", ErrorCode::InvalidFile, "truncated.exr"},
         {"absurd_size.exr", ErrorCode::InvalidValue, "absurd image size 100000x100000"},
+        {"oversized_for_file.exr", ErrorCode::InvalidFile, "declares 67108864 pixels"},
         {"not_exr.exr", ErrorCode::InvalidFile, "not an OpenEXR file"},
         {"missing_channel.exr", ErrorCode::MissingData, "'N.Y' is missing"},
         {"wrong_channel_type.exr", ErrorCode::InvalidFile, "'id.object' has the wrong type"},
@@ -52,6 +53,8 @@ TEST(Fixtures, MalformedScenesGiveClearErrors) {
         {"nan_vertex.gltf", ErrorCode::InvalidFile, "non-finite vertex position 1"},
         {"accessor_overflow.gltf", ErrorCode::InvalidFile, "past the end"},
         {"no_triangles.gltf", ErrorCode::MissingData, "no triangles"},
+        // Found by scripts/fuzz: a buffer view naming a buffer that does not exist.
+        {"fuzz_crash_buffer_index.gltf", ErrorCode::InvalidFile, "buffer out of range"},
     };
     for (const Case& c : cases) {
         auto r = loadScene(DIR + c.file);
