@@ -2,6 +2,8 @@
 // std140 uniform blocks shared with the shaders. GLSL mirror: server/shaders/common_uniforms.glsl.
 // Every offset is pinned so that a change on one side fails the build until the other follows.
 
+#include <dfb/lightmath/BendyLight.h>
+
 #include <glm/glm.hpp>
 
 #include <cstddef>
@@ -22,7 +24,7 @@ enum TextureUnit : unsigned {
     TEX_GBUFFER_SHEEN = 9,
     TEX_GBUFFER_COAT = 10,
 };
-enum UniformBinding : unsigned { UBO_LIGHT = 0, UBO_VIEW = 1 };
+enum UniformBinding : unsigned { UBO_LIGHT = 0, UBO_VIEW = 1, UBO_BENDY = 2 };
 
 struct LightBlock {
     glm::mat4 worldToLightClip;
@@ -50,5 +52,37 @@ static_assert(offsetof(ViewBlock, cameraForward) == 16);
 static_assert(offsetof(ViewBlock, exposure) == 32);
 static_assert(offsetof(ViewBlock, sampleLayout) == 48);
 static_assert(sizeof(ViewBlock) == 64);
+
+/// A BendyLight's chain. GLSL mirror: BendyBlock in server/shaders/common_bendy.glsl.
+struct BendyBlock {
+    glm::vec4 p[lightmath::MAX_CONTROL_POINTS];      // xyz control point, w radius
+    glm::vec4 c[lightmath::MAX_CONTROL_POINTS];      // rgb colour
+    glm::vec4 frameV[lightmath::MAX_SEGMENTS + 1];   // xyz v_hat at segment start, w arc length there
+    glm::vec4 axisU;                                 // w tan(theta)
+    glm::vec4 axisV;                                 // w number of segments
+    glm::vec4 axisW;                                 // w 1 = exact light direction
+    glm::vec4 end;                                   // xyz end tangent, w end radius slope
+};
+static_assert(lightmath::MAX_CONTROL_POINTS == 17 && lightmath::MAX_SEGMENTS == 8,
+              "BENDY_MAX_POINTS / BENDY_MAX_SEGMENTS in common_bendy.glsl must follow");
+static_assert(offsetof(BendyBlock, c) == 17 * 16);
+static_assert(offsetof(BendyBlock, frameV) == 34 * 16);
+static_assert(offsetof(BendyBlock, axisU) == 43 * 16);
+static_assert(offsetof(BendyBlock, end) == 46 * 16);
+static_assert(sizeof(BendyBlock) == 47 * 16);
+
+inline BendyBlock toBendyBlock(const lightmath::Chain<float>& ch, bool exactDirection) {
+    BendyBlock b{};
+    for (int i = 0; i <= 2 * ch.segments; ++i) {
+        b.p[i] = glm::vec4(ch.p[i], ch.r[i]);
+        b.c[i] = glm::vec4(ch.c[i], 1.f);
+    }
+    for (int k = 0; k <= ch.segments; ++k) b.frameV[k] = glm::vec4(ch.frameV[k], ch.arcStart[k]);
+    b.axisU = glm::vec4(ch.axisU, ch.tanTheta);
+    b.axisV = glm::vec4(ch.axisV, float(ch.segments));
+    b.axisW = glm::vec4(ch.axisW, exactDirection ? 1.f : 0.f);
+    b.end = glm::vec4(ch.endTangent, ch.endRadiusSlope);
+    return b;
+}
 
 } // namespace dfb::engine

@@ -231,8 +231,10 @@ template <typename T> struct TubeCoords {
     T v = T(0), w = T(0);
 };
 
-// Tolerance on t for roots at segment ends, where neighbouring segments share the foot.
-template <typename T> constexpr T rootSlack() { return sizeof(T) == 4 ? T(1e-4) : T(1e-9); }
+// Tolerance on t for roots just past a segment's end, where neighbouring segments share the foot.
+// The same in float and double, so that both precisions (and the GLSL mirror) consider the same
+// candidates.
+template <typename T> constexpr T rootSlack() { return T(1e-4); }
 
 /// Evaluates a candidate foot (k, t) for Q; returns false when the radius is not positive.
 template <typename T> bool tubeCoordinates(const Chain<T>& ch, const vec3<T>& Q, int k, T t, TubeCoords<T>& out) {
@@ -275,11 +277,11 @@ template <typename T> TubeCoords<T> inverseMap(const Chain<T>& ch, const vec3<T>
             n = 1;
         }
         for (int i = 0; i < n; ++i) {
-            T t = roots[i];
+            const T t = roots[i];
             const T hi = k < ch.segments ? T(1) + slack : T(3.4e38);
+            // Roots a hair outside a segment (rounding at a join) are kept as they are: the
+            // segment's polynomial extends smoothly, so the foot stays exact.
             if (!(t >= -slack && t <= hi)) continue;
-            // Roots a hair outside a segment belong to its neighbour; clamp them onto this one.
-            t = glm::clamp(t, T(0), k < ch.segments ? T(1) : hi);
             TubeCoords<T> c;
             if (!tubeCoordinates(ch, Q, k, t, c)) continue;
             const T r2 = c.v * c.v + c.w * c.w;
