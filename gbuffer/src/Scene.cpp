@@ -141,6 +141,40 @@ Result<std::vector<uint32_t>> readIndices(const tinygltf::Model& m, int accessor
     return out;
 }
 
+// File access for external buffers and images: regular files only, at most 4 GiB, and none at all
+// for scenes loaded from memory (user_data == nullptr). tinygltf's default reader would try to
+// allocate a directory's "size" when a URI names one.
+bool fileExists(const std::string& path, void* allowed) {
+    std::error_code ec;
+    return allowed && std::filesystem::is_regular_file(path, ec);
+}
+
+std::string expandPath(const std::string& path, void*) { return path; }
+
+bool readWholeFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* allowed) {
+    std::error_code ec;
+    if (!allowed || !std::filesystem::is_regular_file(path, ec)) {
+        if (err) *err += "external file '" + path + "' is not available\n";
+        return false;
+    }
+    const auto size = std::filesystem::file_size(path, ec);
+    if (ec || size > 0xFFFFFFF0ull) {
+        if (err) *err += "external file '" + path + "' is unreadable or larger than 4 GiB\n";
+        return false;
+    }
+    out->resize(size_t(size));
+    FILE* f = std::fopen(path.c_str(), "rb");
+    const bool ok = f && (size == 0 || std::fread(out->data(), 1, out->size(), f) == out->size());
+    if (f) std::fclose(f);
+    if (!ok && err) *err += "cannot read external file '" + path + "'\n";
+    return ok;
+}
+
+bool refuseWrite(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+    if (err) *err += "writing is not supported\n";
+    return false;
+}
+
 struct ImageDecodeState {
     bool decode = true;
     std::string error;
@@ -292,6 +326,8 @@ Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir,
     tinygltf::TinyGLTF loader;
     ImageDecodeState imageState{options.loadImages, {}};
     loader.SetImageLoader(decodeImage, &imageState);
+    static int allowFiles = 1;
+    loader.SetFsCallbacks({fileExists, expandPath, readWholeFile, refuseWrite, baseDir.empty() ? nullptr : &allowFiles});
     std::string err, warn;
     bool ok = false;
     if (isGlb) {

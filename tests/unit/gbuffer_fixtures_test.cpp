@@ -55,6 +55,9 @@ TEST(Fixtures, MalformedScenesGiveClearErrors) {
         {"no_triangles.gltf", ErrorCode::MissingData, "no triangles"},
         // Found by scripts/fuzz: a buffer view naming a buffer that does not exist.
         {"fuzz_crash_buffer_index.gltf", ErrorCode::InvalidFile, "buffer out of range"},
+        // Found by scripts/fuzz: a buffer URI that names no regular file (tinygltf's own reader
+        // tried to allocate a directory's "size").
+        {"fuzz_crash_uri_directory.gltf", ErrorCode::InvalidFile, "glTF parse error"},
     };
     for (const Case& c : cases) {
         auto r = loadScene(DIR + c.file);
