@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 #include <set>
+#include <type_traits>
 
 namespace dfb::protocol {
 namespace {
@@ -48,15 +49,119 @@ Result<bool> getBool(const json& v, const std::string& path) {
 // Largest coordinate accepted: far beyond any scene, small enough that squares stay finite in float.
 constexpr double MAX_COORD = 1e7;
 
+// Resamples a per-control-point list to n entries (linear in the index), when a chain's segment
+// count changes.
+template <typename V> std::vector<V> resample(const std::vector<V>& in, size_t n) {
+    std::vector<V> out(n);
+    for (size_t i = 0; i < n; ++i) {
+        if (in.empty()) break;
+        const double x = n > 1 ? double(i) * double(in.size() - 1) / double(n - 1) : 0.0;
+        const size_t a = size_t(x), b = std::min(a + 1, in.size() - 1);
+        const float f = float(x - double(a));
+        if constexpr (std::is_same_v<V, float>) out[i] = in[a] + (in[b] - in[a]) * f;
+        else for (int c = 0; c < 3; ++c) out[i][size_t(c)] = in[a][size_t(c)] + (in[b][size_t(c)] - in[a][size_t(c)]) * f;
+    }
+    return out;
+}
+
+// "cp[3]" -> ("cp", 3); no index -> -1; a malformed index -> -2.
+std::pair<std::string, int> splitIndex(const std::string& prop) {
+    const size_t open = prop.find('[');
+    if (open == std::string::npos) return {prop, -1};
+    if (prop.back() != ']' || open + 2 > prop.size() - 1) return {prop.substr(0, open), -2};
+    const std::string digits = prop.substr(open + 1, prop.size() - open - 2);
+    if (digits.empty() || digits.size() > 3 || digits.find_first_not_of("0123456789") != std::string::npos) {
+        return {prop.substr(0, open), -2};
+    }
+    return {prop.substr(0, open), std::stoi(digits)};
+}
+
+Status setChainProperty(Light& l, const std::string& name, int index, const json& v, const std::string& path) {
+    if (l.type != LightType::Bendy) return invalid(path + ": '" + name + "' applies to BendyLights only (set type to \"bendy\")");
+    const int K = l.segments();
+    if (name == "controlPoints") {
+        if (!v.is_array() || v.size() < 2 || v.size() > size_t(2 * MAX_BENDY_SEGMENTS) || v.size() % 2 != 0) {
+            return invalid(path + ": expected an even number (2.." + std::to_string(2 * MAX_BENDY_SEGMENTS) +
+                           ") of [a, b, c] points in the light's frame");
+        }
+        std::vector<Vec3> pts;
+        for (size_t i = 0; i < v.size(); ++i) {
+            auto p = getVec3(v[i], path + "[" + std::to_string(i) + "]", -MAX_COORD, MAX_COORD);
+            if (!p) return p.error();
+            pts.push_back(p.value());
+        }
+        if (pts.size() != l.controlPoints.size()) {
+            l.radii = resample(l.radii, pts.size() + 1);
+            l.colors = resample(l.colors, pts.size() + 1);
+        }
+        l.controlPoints = std::move(pts);
+    } else if (name == "cp") {
+        if (index == 0) return invalid(path + ": cp[0] is the light's source; move the light instead");
+        if (index < 1 || index > 2 * K) return invalid(path + ": index out of range 1.." + std::to_string(2 * K));
+        auto p = getVec3(v, path, -MAX_COORD, MAX_COORD);
+        if (!p) return p.error();
+        l.controlPoints[size_t(index - 1)] = p.value();
+    } else if (name == "radii") {
+        if (!v.is_array() || v.size() != size_t(2 * K + 1)) return invalid(path + ": expected " + std::to_string(2 * K + 1) + " radii");
+        for (size_t i = 0; i < v.size(); ++i) {
+            auto r = getNumber(v[i], path + "[" + std::to_string(i) + "]", 0.0, MAX_COORD);
+            if (!r) return r.error();
+            l.radii[i] = r.value();
+        }
+    } else if (name == "r") {
+        if (index < 0 || index > 2 * K) return invalid(path + ": index out of range 0.." + std::to_string(2 * K));
+        auto r = getNumber(v, path, 0.0, MAX_COORD);
+        if (!r) return r.error();
+        l.radii[size_t(index)] = r.value();
+    } else if (name == "colors") {
+        if (!v.is_array() || v.size() != size_t(2 * K + 1)) return invalid(path + ": expected " + std::to_string(2 * K + 1) + " colours");
+        for (size_t i = 0; i < v.size(); ++i) {
+            auto c = getVec3(v[i], path + "[" + std::to_string(i) + "]", 0.0, 1e6);
+            if (!c) return c.error();
+            l.colors[i] = c.value();
+        }
+    } else if (name == "cpColor") {
+        if (index < 0 || index > 2 * K) return invalid(path + ": index out of range 0.." + std::to_string(2 * K));
+        auto c = getVec3(v, path, 0.0, 1e6);
+        if (!c) return c.error();
+        l.colors[size_t(index)] = c.value();
+    } else {
+        return invalid(path + ": unknown light property '" + name + "'");
+    }
+    return okStatus();
+}
+
 Status setLightProperty(Light& l, const std::string& prop, const json& v, const std::string& path) {
+    const auto [base, index] = splitIndex(prop);
+    if (index == -2) return invalid(path + ": malformed index (expected NAME[integer])");
+    if (index >= 0 || base == "controlPoints" || base == "radii" || base == "colors") {
+        if (index >= 0 && base != "cp" && base != "r" && base != "cpColor") {
+            return invalid(path + ": '" + base + "' takes no index");
+        }
+        return setChainProperty(l, base, index, v, path);
+    }
     if (prop == "name") {
         if (!v.is_string() || !validName(v.get<std::string>())) {
             return invalid(path + ": a name is 1-64 characters of letters, digits, '_' or '-'");
         }
         l.name = v.get<std::string>();
     } else if (prop == "type") {
-        if (v != "spot") return invalid(path + ": unknown light type " + v.dump() + " (v0 supports \"spot\")");
-        l.type = LightType::Spot;
+        if (v == "spot") {
+            l.type = LightType::Spot;
+        } else if (v == "bendy") {
+            // A new chain starts straight along the axis, matching the cone: it looks like the spot.
+            if (l.controlPoints.empty()) makeStraightChain(l, 4.f);
+            l.type = LightType::Bendy;
+        } else {
+            return invalid(path + ": unknown light type " + v.dump() + " (\"spot\" or \"bendy\")");
+        }
+    } else if (prop == "exactDirection") {
+        auto b = getBool(v, path);
+        if (!b) return b.error();
+        l.exactDirection = b.value();
+    } else if (prop == "warning") {
+        if (!v.is_string()) return invalid(path + ": expected a string");
+        // Server-computed: accepted in a whole rig (round trips) but not meaningful to set.
     } else if (prop == "enabled") {
         auto b = getBool(v, path);
         if (!b) return b.error();
@@ -113,27 +218,45 @@ Status setLightProperty(Light& l, const std::string& prop, const json& v, const 
 Result<Light> lightFromJson(const json& j, const std::string& where) {
     if (!j.is_object()) return invalid(where + ": a light must be an object");
     Light l;
-    // coneAngle before penumbra, so that a penumbra within a wider new cone validates.
-    if (j.contains("coneAngle")) {
-        if (auto s = setLightProperty(l, "coneAngle", j["coneAngle"], where + ".coneAngle"); !s) return s.error();
+    // Order matters: coneAngle before penumbra (a penumbra within a wider new cone validates),
+    // type and controlPoints before the other chain lists (they need the chain's size).
+    for (const char* first : {"coneAngle", "controlPoints", "type"}) {
+        if (!j.contains(first)) continue;
+        if (std::string(first) == "controlPoints") {
+            l.type = LightType::Bendy;
+            if (!j["controlPoints"].is_array()) return invalid(where + ".controlPoints: expected an array");
+            l.controlPoints.assign(j["controlPoints"].size(), Vec3{0, 0, 0});
+            l.radii.assign(l.controlPoints.size() + 1, 0.f);
+            l.colors.assign(l.controlPoints.size() + 1, Vec3{1, 1, 1});
+        }
+        if (auto s = setLightProperty(l, first, j[first], where + "." + first); !s) return s.error();
     }
     for (auto it = j.begin(); it != j.end(); ++it) {
-        if (it.key() == "coneAngle") continue;
+        if (it.key() == "coneAngle" || it.key() == "controlPoints" || it.key() == "type") continue;
         if (auto s = setLightProperty(l, it.key(), it.value(), where + "." + it.key()); !s) return s.error();
     }
     if (l.name.empty()) return invalid(where + ": a light needs a name");
+    if (l.type == LightType::Bendy && l.controlPoints.empty()) makeStraightChain(l, 4.f);
     return l;
 }
 
-std::string lightTypeName(LightType) { return "spot"; }
+std::string lightTypeName(LightType t) { return t == LightType::Bendy ? "bendy" : "spot"; }
 
 } // namespace
 
 json toJson(const Light& l) {
-    return json{{"name", l.name},         {"type", lightTypeName(l.type)}, {"enabled", l.enabled},
+    json j = json{{"name", l.name},         {"type", lightTypeName(l.type)}, {"enabled", l.enabled},
                 {"position", l.position}, {"direction", l.direction},      {"color", l.color},
                 {"intensity", l.intensityCd}, {"coneAngle", l.coneAngleDeg}, {"penumbra", l.penumbraDeg},
                 {"shadow", l.shadow},     {"shadowMapSize", l.shadowMapSize}, {"shadowBias", l.shadowBias}};
+    if (l.type == LightType::Bendy || !l.controlPoints.empty()) {
+        j["controlPoints"] = l.controlPoints;
+        j["radii"] = l.radii;
+        j["colors"] = l.colors;
+        j["exactDirection"] = l.exactDirection;
+    }
+    if (!l.warning.empty()) j["warning"] = l.warning;
+    return j;
 }
 
 json toJson(const Rig& rig) {

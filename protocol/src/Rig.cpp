@@ -23,6 +23,21 @@ float length(const Vec3& a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] 
 
 } // namespace
 
+void makeStraightChain(Light& light, float length, int segments) {
+    light.type = LightType::Bendy;
+    const int n = 2 * segments;
+    const float tanTheta = std::tan(light.coneAngleDeg * 3.14159265358979f / 180.f);
+    light.controlPoints.clear();
+    light.radii = {0.f};
+    light.colors = {Vec3{1.f, 1.f, 1.f}};
+    for (int i = 1; i <= n; ++i) {
+        const float a = length * float(i) / float(n);
+        light.controlPoints.push_back({a, 0.f, 0.f});
+        light.radii.push_back(a * tanTheta);
+        light.colors.push_back({1.f, 1.f, 1.f});
+    }
+}
+
 Rig defaultRig(const Vec3& bmin, const Vec3& bmax) {
     const Vec3 size = sub(bmax, bmin);
     const float radius = std::max(0.5f * length(size), 1e-3f);

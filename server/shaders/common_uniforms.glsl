@@ -19,6 +19,7 @@
 
 #define UBO_LIGHT 0
 #define UBO_VIEW 1
+#define UBO_BENDY 2
 
 layout(std140, binding = UBO_LIGHT) uniform LightBlock {
     mat4 worldToLightClip;  // spot light's view-projection (shadow map space)

@@ -17,6 +17,9 @@ layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(binding = TEX_SHADOW_MAP) uniform sampler2DShadow shadowMap;
 
 layout(location = 0) out vec4 oColor;
+// 0: the light's radiance. 1: its shadow mask: r = coverage-weighted visibility of the samples the
+// light reaches (inside the cone, facing it), g = their coverage.
+layout(location = 0) uniform int uOutput;
 
 // 3x3 percentage-closer filter on top of the hardware 2x2 comparison.
 float shadowVisibility(vec3 P, vec3 Ng, float dist) {
@@ -50,8 +53,9 @@ vec3 shadeSample(uint s) {
     float vis = 1.0;
     if (uLight.lightCone.z > 0.5) {
         vis = shadowVisibility(P, normalize(texelFetch(gNg, t, 0).xyz), dist);
-        if (vis <= 0.0) return vec3(0.0);
+        if (vis <= 0.0 && uOutput == 0) return vec3(0.0);
     }
+    if (uOutput == 1) return vec3(vis * pA.w, pA.w, 0.0);
     vec3 f = evaluateLayeredBrdfCos(N, L, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
                                     texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
     return f * uLight.lightRadiance.rgb * (spot * vis / dist2) * pA.w;

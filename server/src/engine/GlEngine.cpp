@@ -6,11 +6,14 @@
 
 #include "UniformBlocks.h"
 
+#include <dfb/server/BendyChain.h>
+
 #include <dfb/gl/Context.h>
 #include <dfb/gl/Objects.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -30,13 +33,15 @@ glm::vec3 toGlm(const Vec3& v) { return {v[0], v[1], v[2]}; }
 // What a light's shadow map depends on; any difference re-renders it.
 bool sameShadowInputs(const Light& a, const Light& b) {
     return a.position == b.position && a.direction == b.direction && a.coneAngleDeg == b.coneAngleDeg &&
-           a.shadow == b.shadow && a.shadowMapSize == b.shadowMapSize;
+           a.shadow == b.shadow && a.shadowMapSize == b.shadowMapSize && a.type == b.type &&
+           (a.type != LightType::Bendy || (a.controlPoints == b.controlPoints && a.radii == b.radii));
 }
 
 // What a light's contribution image depends on, besides its shadow map.
 bool sameShadingInputs(const Light& a, const Light& b) {
     return sameShadowInputs(a, b) && a.color == b.color && a.intensityCd == b.intensityCd &&
-           a.penumbraDeg == b.penumbraDeg && a.shadowBias == b.shadowBias && a.type == b.type;
+           a.penumbraDeg == b.penumbraDeg && a.shadowBias == b.shadowBias && a.type == b.type &&
+           (a.type != LightType::Bendy || (a.colors == b.colors && a.exactDirection == b.exactDirection));
 }
 
 struct LightCache {
@@ -49,6 +54,8 @@ struct LightCache {
     gl::Texture contribution;
     gl::Framebuffer contributionFb;
     glm::mat4 worldToLightClip{1.f};
+    gl::Buffer bendyUbo; // BendyBlock of a BendyLight
+    int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
 };
 
 class GlEngine final : public Engine {
@@ -60,15 +67,18 @@ public:
     Status init(const DeepBuffer& g, const ShadowGeometry& casters);
     Result<Image8> render(const Rig& rig, FrameStats* stats) override;
     Result<ImageF> renderLinear(const Rig& rig) override;
+    Result<ImageF> renderShadowMask(const Rig& rig, const std::string& lightName) override;
     std::string deviceDescription() const override { return mContext->description(); }
     int width() const override { return mWidth; }
+    void setShadowSubdivisionLimit(int maxLevel) override { mSubdivisionLimit = std::clamp(maxLevel, 1, 64); }
     int height() const override { return mHeight; }
 
 private:
     Result<gl::Program> program(const char* vert, const char* frag);
     glm::mat4 lightViewProj(const Light& l) const;
+    void uploadBendy(LightCache& c);
     Status renderShadow(LightCache& c);
-    Status shade(LightCache& c);
+    Status shade(LightCache& c, int output = 0);
     Status renderAccumulation(const Rig& rig, FrameStats& st);
 
     std::unique_ptr<gl::Context> mContext;
@@ -84,6 +94,8 @@ private:
     GLsizei mCasterIndexCount = 0;
     gl::Buffer mLightUbo, mViewUbo;
     gl::Program mShadowProgram, mSpotProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
+    gl::Program mBendyShadowProgram, mBendyProgram;
+    int mSubdivisionLimit = 64;
     gl::Texture mAccum, mLdr;
     gl::Framebuffer mAccumFb, mLdrFb;
     std::map<std::string, LightCache> mLights;
@@ -203,11 +215,21 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
                     {&mSpotProgram, "common_fullscreen.vert", "relight_spot.frag"},
                     {&mAddProgram, "common_fullscreen.vert", "composite_add.frag"},
                     {&mEmissionProgram, "common_fullscreen.vert", "composite_emission.frag"},
-                    {&mTonemapProgram, "common_fullscreen.vert", "composite_tonemap.frag"}};
+                    {&mTonemapProgram, "common_fullscreen.vert", "composite_tonemap.frag"},
+                    {&mBendyProgram, "common_fullscreen.vert", "relight_bendy.frag"}};
     for (P& p : programs) {
         auto r = program(p.vert, p.frag);
         if (!r) return r.error();
         *p.out = std::move(r.value());
+    }
+
+    {
+        auto tess = gl::buildProgram({{GL_VERTEX_SHADER, "shadow_bendy.vert", shaders::serverShader("shadow_bendy.vert")},
+                                      {GL_TESS_CONTROL_SHADER, "shadow_bendy.tesc", shaders::serverShader("shadow_bendy.tesc")},
+                                      {GL_TESS_EVALUATION_SHADER, "shadow_bendy.tese", shaders::serverShader("shadow_bendy.tese")},
+                                      {GL_FRAGMENT_SHADER, "shadow_bendy.frag", shaders::serverShader("shadow_bendy.frag")}});
+        if (!tess) return tess.error();
+        mBendyShadowProgram = std::move(tess.value());
     }
 
     mAccum = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
@@ -237,11 +259,24 @@ glm::mat4 GlEngine::lightViewProj(const Light& l) const {
                     (i & 4) ? mSceneMax.z : mSceneMin.z);
         farthest = std::max(farthest, glm::length(c - pos));
     }
+    if (l.type == LightType::Bendy && !l.controlPoints.empty()) {
+        // Deformed geometry lies at arc-length distances: up to the chain's length plus whatever
+        // the straight extension reaches (at most the scene's extent past the chain's end).
+        const auto ch = chainFromLight<float>(l);
+        farthest = std::max(farthest, ch.arcStart[ch.segments] + glm::length(mSceneMax - mSceneMin));
+    }
     const float zfar = std::max(farthest * 1.01f, 1e-3f);
     const float znear = std::max(zfar * 1e-4f, 1e-5f);
     // The frustum's half-angle must contain the cone's; a square map circumscribes the circle.
     const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
     return glm::perspective(fovy, 1.f, znear, zfar) * view;
+}
+
+void GlEngine::uploadBendy(LightCache& c) {
+    const engine::BendyBlock block = engine::toBendyBlock(chainFromLight<float>(c.params), c.params.exactDirection);
+    if (!c.bendyUbo) c.bendyUbo = gl::makeBuffer(nullptr, sizeof block, GL_DYNAMIC_STORAGE_BIT);
+    glNamedBufferSubData(c.bendyUbo.id(), 0, sizeof block, &block);
+    glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, c.bendyUbo.id());
 }
 
 Status GlEngine::renderShadow(LightCache& c) {
@@ -278,16 +313,28 @@ Status GlEngine::renderShadow(LightCache& c) {
     // Slope-scaled offset against self-shadowing acne; receivers add a normal offset too.
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1.5f, 2.f);
-    glUseProgram(mShadowProgram.id());
     glBindVertexArray(mCasterVao.id());
-    if (mCasterIndexCount > 0) glDrawElements(GL_TRIANGLES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+    if (l.type == LightType::Bendy) {
+        // Deformed shadow map: casters subdivided and mapped Q -> Q' in the tessellation stages.
+        uploadBendy(c);
+        glUseProgram(mBendyShadowProgram.id());
+        const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
+        glUniform1f(0, float(mSubdivisionLimit));
+        glUniform1f(1, 2.f * std::tan(0.5f * fovy) / float(c.shadowSize));
+        glPatchParameteri(GL_PATCH_VERTICES, 3);
+        if (mCasterIndexCount > 0) glDrawElements(GL_PATCHES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+        c.subdivisionLimit = mSubdivisionLimit;
+    } else {
+        glUseProgram(mShadowProgram.id());
+        if (mCasterIndexCount > 0) glDrawElements(GL_TRIANGLES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+    }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
     c.hasShadow = true;
     return okStatus();
 }
 
-Status GlEngine::shade(LightCache& c) {
+Status GlEngine::shade(LightCache& c, int output) {
     const Light& l = c.params;
     if (!c.contribution) {
         c.contribution = gl::makeTexture2D(GL_RGBA16F, mWidth, mHeight);
@@ -318,7 +365,13 @@ Status GlEngine::shade(LightCache& c) {
     glViewport(0, 0, mWidth, mHeight);
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);
-    glUseProgram(mSpotProgram.id());
+    if (l.type == LightType::Bendy) {
+        uploadBendy(c);
+        glUseProgram(mBendyProgram.id());
+    } else {
+        glUseProgram(mSpotProgram.id());
+    }
+    glUniform1i(0, output);
     glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
     glBindTextureUnit(engine::TEX_GBUFFER_N, mN.id());
     glBindTextureUnit(engine::TEX_GBUFFER_NG, mNg.id());
@@ -354,7 +407,8 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
-        const bool shadowValid = c.hasShadow && sameShadowInputs(c.params, l);
+        const bool shadowValid = c.hasShadow && sameShadowInputs(c.params, l) &&
+                                 (l.type != LightType::Bendy || c.subdivisionLimit == mSubdivisionLimit);
         if (l.shadow && !shadowValid) {
             c.params = l;
             c.hasContribution = false;
@@ -428,6 +482,25 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     glReadPixels(0, 0, mWidth, mHeight, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
     st.readbackMs = msSince(t);
     if (auto s = mContext->check("relight frame"); !s) return s.error();
+    return img;
+}
+
+Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lightName) {
+    const Light* l = rig.find(lightName);
+    if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error(); // brings the light's shadow map up to date
+    if (!l->enabled) return makeError(ErrorCode::InvalidValue, "light '" + lightName + "' is disabled");
+    LightCache& c = mLights[lightName];
+    // Shade the mask into the light's contribution target, then mark the contribution stale.
+    if (auto s = shade(c, 1); !s) return s.error();
+    c.hasContribution = false;
+    ImageF img;
+    img.width = mWidth;
+    img.height = mHeight;
+    img.rgba.resize(size_t(mWidth) * size_t(mHeight) * 4);
+    glGetTextureImage(c.contribution.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
+    if (auto s = mContext->check("shadow mask"); !s) return s.error();
     return img;
 }
 

@@ -11,8 +11,12 @@ namespace dfb {
 
 using Vec3 = std::array<float, 3>;
 
-/// Light types. v0 renders spot lights only; the others are reserved names.
-enum class LightType { Spot };
+/// Light types: a spot light, or a BendyLight (paper 000: a spot light whose light travels along a
+/// chain of quadratic Bezier segments; docs/lighting.md).
+enum class LightType { Spot, Bendy };
+
+/// Most Bezier segments a BendyLight chain may have (lightmath::MAX_SEGMENTS).
+constexpr int MAX_BENDY_SEGMENTS = 8;
 
 /// One light. Intensities follow glTF KHR_lights_punctual units (candela for spot lights).
 struct Light {
@@ -28,7 +32,26 @@ struct Light {
     bool shadow = true;               ///< casts shadows
     int shadowMapSize = 2048;         ///< shadow-map side in texels, power of two in [64, 8192]
     float shadowBias = 1.5f;          ///< receiver offset along the normal, in shadow-map texels, [0, 16]
+
+    // BendyLight chain (type Bendy). Control points are in the light's own frame, so that moving
+    // or turning the light moves the whole tube (paper 000 section 5, "Direct Control"):
+    // (a, b, c) is the world point position + a uL + b vL + c wL with uL = direction,
+    // wL = normalize(cross(uL, up)), vL = cross(wL, uL), up = +Y (or +X when uL is vertical).
+    // The source p[0] = (0, 0, 0) is implicit: controlPoints holds p[1..2K].
+    std::vector<Vec3> controlPoints;  ///< 2K points, K = 1..MAX_BENDY_SEGMENTS, scene units
+    std::vector<float> radii;         ///< 2K + 1 tube radii at p[0..2K], scene units, >= 0 (r[0] may be 0)
+    std::vector<Vec3> colors;         ///< 2K + 1 linear RGB multipliers at p[0..2K], each >= 0
+    bool exactDirection = false;      ///< exact flow-line tangent instead of paper eq. 9
+    /// Set by the server, not by clients: why the chain is doubtful (e.g. a self-intersecting
+    /// tube, paper section 7); empty when fine.
+    std::string warning;
+
+    int segments() const { return int(controlPoints.size() / 2); }
 };
+
+/// Makes `light` a BendyLight whose chain is straight along its axis, `length` long, in
+/// `segments` segments, with radii matching its cone: it renders exactly like the spot light.
+void makeStraightChain(Light& light, float length, int segments = 2);
 
 /// The whole rig plus the view settings that apply to the beauty image.
 struct Rig {

@@ -65,6 +65,15 @@ public:
     /// before exposure and the view transform (for compositing and tests).
     virtual Result<ImageF> renderLinear(const Rig& rig) = 0;
 
+    /// The shadow mask of one light of the rig: per pixel, r = coverage-weighted visibility (0..1)
+    /// of the samples the light reaches (inside its cone, facing it), g = the coverage of those
+    /// samples (0 where the light does not reach). Fails with MissingData for an unknown light.
+    virtual Result<ImageF> renderShadowMask(const Rig& rig, const std::string& lightName) = 0;
+
+    /// Most pieces one caster edge is cut into for a BendyLight's deformed shadow map (adaptive
+    /// tessellation, 1..64; default 64). 1 disables subdivision (for comparisons).
+    virtual void setShadowSubdivisionLimit(int maxLevel) = 0;
+
     /// "renderer | GL version | EGL platform".
     virtual std::string deviceDescription() const = 0;
     virtual int width() const = 0;

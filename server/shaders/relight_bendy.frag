@@ -1,0 +1,80 @@
+#version 450 core
+// One BendyLight's contribution per pixel (paper 000 sections 3-4; docs/lighting.md): per
+// G-buffer sample, the tube coordinates of P (eqs. 4-6), the deformed point Q' (eq. 7), the light
+// direction Li (eq. 9, or the exact flow-line tangent), the chain's colour c(u), the cone falloff
+// and the distance falloff of the undeformed spotlight evaluated at Q', and the deformed shadow
+// map looked up at the receiver's own Q'.
+#include "common_uniforms.glsl"
+#include "common_brdf.glsl"
+#include "common_bendy.glsl"
+
+layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
+layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
+layout(binding = TEX_GBUFFER_NG) uniform sampler2D gNg;
+layout(binding = TEX_GBUFFER_ALBEDO) uniform sampler2D gAlbedo;
+layout(binding = TEX_GBUFFER_BRDF) uniform sampler2D gBrdf;
+layout(binding = TEX_GBUFFER_SHEEN) uniform sampler2D gSheen;
+layout(binding = TEX_GBUFFER_COAT) uniform sampler2D gCoat;
+layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
+layout(binding = TEX_SHADOW_MAP) uniform sampler2DShadow shadowMap;
+
+layout(location = 0) out vec4 oColor;
+// 0: the light's radiance. 1: its shadow mask: r = coverage-weighted visibility of the samples the
+// light reaches (inside the cone, facing it), g = their coverage.
+layout(location = 0) uniform int uOutput;
+
+// The deformed shadow map at a receiver: bias along the geometric normal in world space, then
+// map the biased point like any caster vertex.
+float bendyShadow(vec3 P, vec3 Ng, float dist) {
+    TubeCoords c = inverseMap(P + Ng * (uLight.lightCone.w * dist));
+    if (!c.valid) return 0.0;
+    vec4 clip = uLight.worldToLightClip * vec4(deformedPoint(c), 1.0);
+    if (clip.w <= 0.0) return 0.0;
+    vec3 ndc = clip.xyz / clip.w;
+    vec2 uv = ndc.xy * 0.5 + 0.5;
+    float ref = ndc.z * 0.5 + 0.5;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
+    float texel = uLight.lightShadow.x;
+    float sum = 0.0;
+    for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) sum += texture(shadowMap, vec3(uv + vec2(x, y) * texel, ref));
+    return sum / 9.0;
+}
+
+vec3 shadeSample(uint s) {
+    ivec2 t = sampleTexel(s);
+    vec4 pA = texelFetch(gP, t, 0);
+    if (pA.w <= 0.0) return vec3(0.0);
+    vec3 P = pA.xyz;
+    TubeCoords c = inverseMap(P);
+    if (!c.valid) return vec3(0.0); // no foot: unlit
+    vec3 qd = deformedPoint(c);
+    vec3 toSource = uBendy.bendyP[0].xyz - qd;
+    float dist2 = max(dot(toSource, toSource), 1e-12);
+    float dist = sqrt(dist2);
+    float spot = smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-toSource / dist, uBendy.bendyAxisU.xyz));
+    if (spot <= 0.0) return vec3(0.0);
+    vec3 N = normalize(texelFetch(gN, t, 0).xyz);
+    vec3 Li = lightDirection(c, P, uBendy.bendyAxisW.w > 0.5);
+    if (dot(N, Li) <= 0.0) return vec3(0.0);
+    float vis = 1.0;
+    if (uLight.lightCone.z > 0.5) {
+        vis = bendyShadow(P, normalize(texelFetch(gNg, t, 0).xyz), dist);
+        if (vis <= 0.0 && uOutput == 0) return vec3(0.0);
+    }
+    if (uOutput == 1) return vec3(vis * pA.w, pA.w, 0.0);
+    vec3 f = evaluateLayeredBrdfCos(N, Li, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
+                                    texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
+    return f * uLight.lightRadiance.rgb * chainColor(c.segment, c.t) * (spot * vis / dist2) * pA.w;
+}
+
+void main() {
+#ifdef DFB_FLAT_SAMPLES
+    oColor = vec4(shadeSample(uint(gl_FragCoord.y) * uint(uView.sampleLayout.x) + uint(gl_FragCoord.x)), 1.0);
+#else
+    uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
+    vec3 sum = vec3(0.0);
+    for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(s);
+    oColor = vec4(sum, 1.0);
+#endif
+}
