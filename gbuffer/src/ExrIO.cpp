@@ -205,6 +205,37 @@ Status writeDeep(const DeepBuffer& b, const std::string& tmp) {
     return okStatus();
 }
 
+// OpenEXR 3.1 allocates whatever size a header attribute declares before reading it (a corrupt
+// 1 KB file made it allocate 2 GB; found by scripts/fuzz). Walk the header's attribute list first
+// and refuse sizes that exceed the file: name\0 type\0 int32 size, value; an empty name ends it.
+bool headerAttributeSizesFit(const std::string& path, uint64_t fileSize) {
+    FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return false;
+    std::vector<char> head(size_t(std::min<uint64_t>(fileSize, 1u << 20)));
+    const size_t n = std::fread(head.data(), 1, head.size(), f);
+    std::fclose(f);
+    size_t at = 8; // magic, version
+    auto readName = [&](std::string& out) {
+        out.clear();
+        while (at < n && head[at] != '\0' && out.size() < 256) out.push_back(head[at++]);
+        if (at >= n || head[at] != '\0') return false;
+        ++at;
+        return true;
+    };
+    std::string name, type;
+    while (at < n) {
+        if (!readName(name)) return false;
+        if (name.empty()) return true; // end of the header
+        if (!readName(type) || at + 4 > n) return false;
+        int32_t size;
+        std::memcpy(&size, &head[at], 4);
+        at += 4;
+        if (size < 0 || uint64_t(at) + uint64_t(size) > fileSize) return false;
+        at += size_t(size);
+    }
+    return false;
+}
+
 Error fileError(ErrorCode code, const std::string& path, const std::string& what) {
     return makeError(code, path + ": " + what);
 }
@@ -307,6 +338,8 @@ Status readFlat(const std::string& path, DeepBuffer& b, std::set<std::string>& m
     if (!dw) return dw.error();
     if (auto s = checkChannels(h, path, missing); !s) return s;
     if (auto s = readHeaderAttributes(h, path, b); !s) return s;
+    // A truncated file is refused before its pixels are allocated (its line offsets are missing).
+    if (!file.isComplete()) return fileError(ErrorCode::InvalidFile, path, "the file is truncated or incomplete");
     const long w = long(dw->max.x) - dw->min.x + 1, hgt = long(dw->max.y) - dw->min.y + 1;
     b.allocate(int(w), int(hgt));
     Imf::FrameBuffer fb;
@@ -333,6 +366,7 @@ Status readDeep(const std::string& path, DeepBuffer& b, std::set<std::string>& m
     if (!dw) return dw.error();
     if (auto s = checkChannels(h, path, missing); !s) return s;
     if (auto s = readHeaderAttributes(h, path, b); !s) return s;
+    if (!file.isComplete()) return fileError(ErrorCode::InvalidFile, path, "the file is truncated or incomplete");
     const long w = long(dw->max.x) - dw->min.x + 1, hgt = long(dw->max.y) - dw->min.y + 1;
     const size_t np = size_t(w) * size_t(hgt);
     std::vector<uint32_t> counts(np);
@@ -434,6 +468,9 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
             return makeError(ErrorCode::InvalidFile, path + ": not an OpenEXR file");
         }
         if (tiled) return makeError(ErrorCode::InvalidFile, path + ": tiled EXR files are not supported (write scanlines)");
+        if (!headerAttributeSizesFit(path, uint64_t(st.st_size))) {
+            return makeError(ErrorCode::InvalidFile, path + ": corrupt header (an attribute is larger than the file)");
+        }
         {
             // Check the size in the header alone before OpenEXR reads the line-offset table that
             // a corrupt size would make it allocate.

@@ -33,6 +33,8 @@ TEST(Fixtures, MalformedShotsGiveClearErrors) {
         {"coverage_over_one.exr", ErrorCode::InvalidValue, "add up to more than 1"},
         {"future_version.exr", ErrorCode::InvalidFile, "format version 99"},
         {"bad_manifest.exr", ErrorCode::InvalidFile, "dfb.manifest"},
+        // Found by scripts/fuzz: a header attribute declaring 2 GB in a 1 KB file.
+        {"fuzz_slow_attribute_size.exr", ErrorCode::InvalidFile, "corrupt header"},
     };
     for (const Case& c : cases) {
         auto r = readDeepBuffer(DIR + c.file);
