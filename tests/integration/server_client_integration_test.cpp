@@ -289,6 +289,40 @@ TEST_F(ServerClient, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
     EXPECT_EQ(rc, 0) << out;
 }
 
+TEST_F(ServerClient, BendyLightOutputsAndSelfIntersectionWarning) {
+    // Bend the key light; its shadow mask and its contribution alone are served as images.
+    auto [rc, out] = client({"--set", "key.type=\"bendy\"", "--set", "key.controlPoints=[[1.5,0,0],[3,0,0],[4.2,0,0.6],[4.8,0,1.9]]",
+                             "--set", "key.radii=[0,0.8,1.6,1.9,2.2]"});
+    ASSERT_EQ(rc, 0) << out;
+    const std::string mask = (mDir / "mask.png").string(), alone = (mDir / "fill.png").string();
+    std::tie(rc, out) = client({"--frame", mask, "--output", "shadow:key"});
+    ASSERT_EQ(rc, 0) << out;
+    const Gray m = readGray(mask);
+    ASSERT_EQ(m.width, mShot.width);
+    size_t lit = 0, shadowed = 0;
+    for (float v : m.lum) {
+        lit += v > 0.9f;
+        shadowed += v < 0.1f;
+    }
+    EXPECT_GT(lit, 500u);
+    EXPECT_GT(shadowed, 500u);
+    std::tie(rc, out) = client({"--frame", alone, "--output", "light:fill"});
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_EQ(readGray(alone).width, mShot.width);
+    std::tie(rc, out) = client({"--frame", alone, "--output", "light:nobody"});
+    EXPECT_EQ(rc, 3) << out;
+    EXPECT_NE(out.find("nobody"), std::string::npos) << out;
+    // A chain that loops back through itself: accepted, rendered, and flagged on the light.
+    std::tie(rc, out) = client({"--set", "key.controlPoints=[[2,0,0],[2,2,0],[0,2,0],[0.5,0,0]]", "--set", "key.radii=[0,1,1,1,1]"});
+    ASSERT_EQ(rc, 0) << out;
+    std::tie(rc, out) = client({"--rig"});
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("\"warning\""), std::string::npos) << out;
+    EXPECT_NE(out.find("intersect"), std::string::npos) << out;
+    std::tie(rc, out) = client({"--frame", mask});
+    EXPECT_EQ(rc, 0) << out;
+}
+
 TEST(BadInput, ProgramsExitWithClearMessages) {
     const auto dir = std::filesystem::temp_directory_path() / ("dfb_bad_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);

@@ -68,6 +68,7 @@ public:
     Result<Image8> render(const Rig& rig, FrameStats* stats) override;
     Result<ImageF> renderLinear(const Rig& rig) override;
     Result<ImageF> renderShadowMask(const Rig& rig, const std::string& lightName) override;
+    Result<ImageF> renderLightLinear(const Rig& rig, const std::string& lightName) override;
     std::string deviceDescription() const override { return mContext->description(); }
     int width() const override { return mWidth; }
     void setShadowSubdivisionLimit(int maxLevel) override { mSubdivisionLimit = std::clamp(maxLevel, 1, 64); }
@@ -482,6 +483,23 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     glReadPixels(0, 0, mWidth, mHeight, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
     st.readbackMs = msSince(t);
     if (auto s = mContext->check("relight frame"); !s) return s.error();
+    return img;
+}
+
+Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& lightName) {
+    const Light* l = rig.find(lightName);
+    if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error();
+    ImageF img;
+    img.width = mWidth;
+    img.height = mHeight;
+    img.rgba.assign(size_t(mWidth) * size_t(mHeight) * 4, 0.f);
+    if (l->enabled) {
+        glGetTextureImage(mLights[lightName].contribution.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)),
+                          img.rgba.data());
+    }
+    if (auto s = mContext->check("light alone"); !s) return s.error();
     return img;
 }
 

@@ -89,12 +89,19 @@ void HttpSession::handle(http::request<http::string_body>&& req) {
         return send(makeResponse(req, http::status::ok, "application/json", mState->session().description().dump(2)));
     }
     if (path == "/v1/frame.png" || path == "/v1/frame.jpg" || path == "/v1/frame.jpeg") {
-        return sendFrame(path == "/v1/frame.png", req.version(), req.keep_alive());
+        // ?output=beauty | light:NAME | shadow:NAME
+        std::string output = "beauty";
+        if (q != std::string::npos) {
+            const std::string query = target.substr(q + 1);
+            const size_t at = query.find("output=");
+            if (at != std::string::npos) output = query.substr(at + 7, query.find('&', at) - (at + 7));
+        }
+        return sendFrame(path == "/v1/frame.png", req.version(), req.keep_alive(), output);
     }
     send(errorResponse(req, http::status::not_found, ErrorCode::MissingData, "no such resource: " + path));
 }
 
-void HttpSession::sendFrame(bool png, unsigned version, bool keepAlive) {
+void HttpSession::sendFrame(bool png, unsigned version, bool keepAlive, const std::string& output) {
     // Rendering and encoding happen on the render thread; the response is written back here.
     mState->render().requestImage([self = shared_from_this(), png, version, keepAlive](Result<Image8> image, uint64_t rigVersion) {
         http::request<http::string_body> req;
@@ -102,7 +109,9 @@ void HttpSession::sendFrame(bool png, unsigned version, bool keepAlive) {
         req.keep_alive(keepAlive);
         http::response<http::string_body> res;
         if (!image) {
-            res = errorResponse(req, http::status::internal_server_error, image.error().code, image.error().message);
+            const bool badRequest = image.error().code == ErrorCode::InvalidValue || image.error().code == ErrorCode::MissingData;
+            res = errorResponse(req, badRequest ? http::status::bad_request : http::status::internal_server_error,
+                                image.error().code, image.error().message);
         } else {
             auto bytes = png ? encodePng(image.value()) : encodeJpeg(image.value(), 92);
             if (!bytes) {
@@ -114,7 +123,7 @@ void HttpSession::sendFrame(bool png, unsigned version, bool keepAlive) {
             }
         }
         asio::post(self->mStream.get_executor(), [self, r = std::move(res)]() mutable { self->send(std::move(r)); });
-    });
+    }, output);
 }
 
 void HttpSession::send(http::response<http::string_body>&& res) {

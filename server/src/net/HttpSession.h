@@ -21,7 +21,7 @@ private:
     void handle(http::request<http::string_body>&& req);
     void send(http::response<http::string_body>&& res);
     void onWrite(bool close, error_code ec, size_t bytes);
-    void sendFrame(bool png, unsigned version, bool keepAlive);
+    void sendFrame(bool png, unsigned version, bool keepAlive, const std::string& output);
 
     beast::tcp_stream mStream;
     beast::flat_buffer mBuffer;

@@ -3,11 +3,46 @@
 #include <dfb/protocol/Codec.h>
 #include <dfb/server/ImageCodec.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <future>
 
 namespace dfb {
+namespace {
+
+float srgbEncode(float c) {
+    c = std::clamp(c, 0.f, 1.f);
+    return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.f / 2.4f) - 0.055f;
+}
+
+// The non-beauty outputs, tone-mapped on the CPU (they are requested rarely).
+Result<Image8> renderOutput(Engine& engine, const Rig& rig, const std::string& output) {
+    const size_t colon = output.find(':');
+    const std::string kind = output.substr(0, colon), name = colon == std::string::npos ? "" : output.substr(colon + 1);
+    if ((kind != "light" && kind != "shadow") || name.empty()) {
+        return makeError(ErrorCode::InvalidValue, "unknown output '" + output + "' (beauty, light:NAME, shadow:NAME)");
+    }
+    auto linear = kind == "light" ? engine.renderLightLinear(rig, name) : engine.renderShadowMask(rig, name);
+    if (!linear) return linear.error();
+    Image8 img;
+    img.width = linear->width;
+    img.height = linear->height;
+    img.rgba.resize(linear->rgba.size());
+    const float exposure = std::exp2(rig.exposureStops);
+    for (size_t i = 0; i < linear->rgba.size(); i += 4) {
+        for (int c = 0; c < 3; ++c) {
+            const float v = kind == "light" ? srgbEncode(linear->rgba[i + size_t(c)] * exposure)
+                                            : std::clamp(linear->rgba[i], 0.f, 1.f); // grey visibility
+            img.rgba[i + size_t(c)] = uint8_t(std::lround(v * 255.f));
+        }
+        img.rgba[i + 3] = 255;
+    }
+    return img;
+}
+
+} // namespace
 
 Result<std::unique_ptr<RenderService>> RenderService::start(const DeepBuffer& shot, ShadowGeometry casters,
                                                             Session& session, FrameCallback onFrame, int jpegQuality) {
@@ -42,10 +77,10 @@ void RenderService::requestFrame() {
     mWake.notify_one();
 }
 
-void RenderService::requestImage(ImageCallback done) {
+void RenderService::requestImage(ImageCallback done, std::string output) {
     {
         std::lock_guard lock(mMutex);
-        mImageRequests.push_back(std::move(done));
+        mImageRequests.emplace_back(std::move(done), std::move(output));
     }
     mWake.notify_one();
 }
@@ -73,7 +108,7 @@ void RenderService::run(const DeepBuffer* shot, ShadowGeometry casters, std::pro
     uint64_t frameNumber = 0;
     for (;;) {
         bool wantFrame = false;
-        std::deque<ImageCallback> requests;
+        std::deque<std::pair<ImageCallback, std::string>> requests;
         {
             std::unique_lock lock(mMutex);
             mWake.wait(lock, [&] { return mStop || mFrameWanted || !mImageRequests.empty(); });
@@ -87,7 +122,7 @@ void RenderService::run(const DeepBuffer* shot, ShadowGeometry casters, std::pro
             auto r = engine->render(rig, &stats);
             if (!r) {
                 std::fprintf(stderr, "dfb-server: render failed: %s\n", r.error().toString().c_str());
-                for (auto& cb : requests) cb(r.error(), rig.version);
+                for (auto& req : requests) req.first(r.error(), rig.version);
                 continue;
             }
             image = std::move(r.value());
@@ -122,7 +157,13 @@ void RenderService::run(const DeepBuffer* shot, ShadowGeometry casters, std::pro
         } else if (wantFrame) {
             // Nothing changed since the last frame (for example an edit that was refused).
         }
-        for (auto& cb : requests) cb(image, imageVersion);
+        for (auto& [cb, output] : requests) {
+            if (output == "beauty" || output.empty()) {
+                cb(image, imageVersion);
+            } else {
+                cb(renderOutput(*engine, rig, output), imageVersion);
+            }
+        }
     }
 }
 

@@ -39,7 +39,9 @@ public:
     /// Asks for a frame of the session's current rig; cheap and non-blocking.
     void requestFrame();
     /// Calls `done` on the render thread with an image of the current rig (rendered if needed).
-    void requestImage(ImageCallback done);
+    /// `output`: "beauty" (default), "light:NAME" (one light alone, with the rig's exposure) or
+    /// "shadow:NAME" (that light's shadow mask: visibility as grey, black where it does not reach).
+    void requestImage(ImageCallback done, std::string output = "beauty");
     /// The newest encoded frame, or null before the first one.
     std::shared_ptr<const EncodedFrame> latestFrame() const;
     std::string deviceDescription() const { return mDevice; }
@@ -58,7 +60,7 @@ private:
     std::condition_variable mWake;
     bool mStop = false;
     bool mFrameWanted = false;
-    std::deque<ImageCallback> mImageRequests;
+    std::deque<std::pair<ImageCallback, std::string>> mImageRequests;
     std::shared_ptr<const EncodedFrame> mLatest;
 };
 

@@ -1,8 +1,18 @@
 #include "session/Session.h"
 
+#include <dfb/server/BendyChain.h>
+
 namespace dfb {
 
+namespace {
+// The server, not clients, says what is doubtful about a BendyLight's chain (paper section 7).
+void updateWarnings(Rig& rig) {
+    for (Light& l : rig.lights) l.warning = chainWarning(l);
+}
+} // namespace
+
 Session::Session(const DeepBuffer& shot, std::string shotPath, Rig initialRig) : mRig(std::move(initialRig)) {
+    updateWarnings(mRig);
     auto mat = [](const glm::mat4& m) {
         nlohmann::json a = nlohmann::json::array();
         for (int c = 0; c < 4; ++c)
@@ -27,6 +37,7 @@ Session::Session(const DeepBuffer& shot, std::string shotPath, Rig initialRig) :
 Result<uint64_t> Session::applyEdit(const std::vector<protocol::Change>& changes) {
     std::lock_guard lock(mMutex);
     if (auto s = protocol::applyChanges(mRig, changes); !s) return s.error();
+    updateWarnings(mRig);
     return ++mRig.version;
 }
 

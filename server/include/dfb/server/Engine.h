@@ -65,6 +65,10 @@ public:
     /// before exposure and the view transform (for compositing and tests).
     virtual Result<ImageF> renderLinear(const Rig& rig) = 0;
 
+    /// One light's contribution alone (linear radiance, before exposure), from the same cache as
+    /// the beauty image. Fails with MissingData for an unknown light.
+    virtual Result<ImageF> renderLightLinear(const Rig& rig, const std::string& lightName) = 0;
+
     /// The shadow mask of one light of the rig: per pixel, r = coverage-weighted visibility (0..1)
     /// of the samples the light reaches (inside its cone, facing it), g = the coverage of those
     /// samples (0 where the light does not reach). Fails with MissingData for an unknown light.
