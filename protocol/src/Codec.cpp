@@ -1,5 +1,6 @@
 #include <dfb/protocol/Codec.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <set>
@@ -131,7 +132,83 @@ Status setChainProperty(Light& l, const std::string& name, int index, const json
     return okStatus();
 }
 
+Status setLightProperty(Light& l, const std::string& prop, const json& v, const std::string& path);
+
+json keyToJson(const Key& k) {
+    return json{{"t", k.time}, {"value", k.value}, {"interp", k.interp == Interp::Smooth ? "smooth" : "linear"}};
+}
+
+// Parses and validates one key of `prop` (its value must be acceptable to the property).
+Result<Key> keyFromJson(const Light& l, const std::string& prop, const json& j, const std::string& path) {
+    if (!j.is_object() || !j.contains("t") || !j["t"].is_number() || !j.contains("value")) {
+        return invalid(path + ": a key is {\"t\": seconds, \"value\": ..., \"interp\": \"linear\"|\"smooth\"}");
+    }
+    Key k;
+    k.time = j["t"].get<double>();
+    if (!std::isfinite(k.time)) return invalid(path + ".t: not a finite number");
+    k.value = j["value"];
+    if (!(k.value.is_number() || (k.value.is_array() && !k.value.empty() &&
+                                  std::all_of(k.value.begin(), k.value.end(), [](const json& e) { return e.is_number(); })))) {
+        return invalid(path + ".value: only numeric properties can be keyed");
+    }
+    const std::string interp = j.value("interp", std::string("linear"));
+    if (interp != "linear" && interp != "smooth") return invalid(path + ".interp: \"linear\" or \"smooth\"");
+    k.interp = interp == "smooth" ? Interp::Smooth : Interp::Linear;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        if (it.key() != "t" && it.key() != "value" && it.key() != "interp") return invalid(path + ": unknown key field '" + it.key() + "'");
+    }
+    Light probe = l;
+    if (auto s = setLightProperty(probe, prop, k.value, path + ".value"); !s) return s.error();
+    return k;
+}
+
+void insertKey(std::vector<Key>& keys, Key k) {
+    auto it = std::find_if(keys.begin(), keys.end(), [&](const Key& e) { return e.time >= k.time; });
+    if (it != keys.end() && it->time == k.time) *it = std::move(k);
+    else keys.insert(it, std::move(k));
+}
+
+Status setKeys(Light& l, const std::string& name, const json& v, const std::string& path) {
+    if (name == "keys") { // the whole set: {"prop": [key, ...], ...}
+        if (!v.is_object()) return invalid(path + ": expected {\"property\": [keys...]}");
+        std::map<std::string, std::vector<Key>> all;
+        for (auto it = v.begin(); it != v.end(); ++it) {
+            if (!it->is_array()) return invalid(path + "." + it.key() + ": expected an array of keys");
+            for (size_t i = 0; i < it->size(); ++i) {
+                auto k = keyFromJson(l, it.key(), (*it)[i], path + "." + it.key() + "[" + std::to_string(i) + "]");
+                if (!k) return k.error();
+                insertKey(all[it.key()], k.value());
+            }
+        }
+        l.keys = std::move(all);
+        return okStatus();
+    }
+    // "key": {"path": PROP, "t": .., "value": .., "interp": ..} adds or replaces the key at t;
+    // "unkey": {"path": PROP, "t": ..} removes it.
+    if (!v.is_object() || !v.contains("path") || !v["path"].is_string()) return invalid(path + ": expected {\"path\": property, ...}");
+    const std::string prop = v["path"];
+    if (name == "key") {
+        json k = v;
+        k.erase("path");
+        auto key = keyFromJson(l, prop, k, path);
+        if (!key) return key.error();
+        insertKey(l.keys[prop], key.value());
+        return okStatus();
+    }
+    if (!v.contains("t") || !v["t"].is_number()) return invalid(path + ".t: expected a number");
+    auto it = l.keys.find(prop);
+    const double t = v["t"].get<double>();
+    if (it == l.keys.end()) return makeError(ErrorCode::MissingData, path + ": '" + prop + "' has no keys");
+    auto& ks = it->second;
+    const auto before = ks.size();
+    ks.erase(std::remove_if(ks.begin(), ks.end(), [&](const Key& k) { return std::abs(k.time - t) < 1e-9; }), ks.end());
+    if (ks.size() == before) return makeError(ErrorCode::MissingData, path + ": no key of '" + prop + "' at t = " + json(t).dump());
+    if (ks.empty()) l.keys.erase(it);
+    return okStatus();
+}
+
 Status setLightProperty(Light& l, const std::string& prop, const json& v, const std::string& path) {
+    if (prop == "keys" || prop == "key" || prop == "unkey") return setKeys(l, prop, v, path);
     const auto [base, index] = splitIndex(prop);
     if (index == -2) return invalid(path + ": malformed index (expected NAME[integer])");
     if (index >= 0 || base == "controlPoints" || base == "radii" || base == "colors") {
@@ -232,11 +309,14 @@ Result<Light> lightFromJson(const json& j, const std::string& where) {
         if (auto s = setLightProperty(l, first, j[first], where + "." + first); !s) return s.error();
     }
     for (auto it = j.begin(); it != j.end(); ++it) {
-        if (it.key() == "coneAngle" || it.key() == "controlPoints" || it.key() == "type") continue;
+        if (it.key() == "coneAngle" || it.key() == "controlPoints" || it.key() == "type" || it.key() == "keys") continue;
         if (auto s = setLightProperty(l, it.key(), it.value(), where + "." + it.key()); !s) return s.error();
     }
     if (l.name.empty()) return invalid(where + ": a light needs a name");
     if (l.type == LightType::Bendy && l.controlPoints.empty()) makeStraightChain(l, 4.f);
+    if (j.contains("keys")) {
+        if (auto s = setLightProperty(l, "keys", j["keys"], where + ".keys"); !s) return s.error();
+    }
     return l;
 }
 
@@ -256,13 +336,22 @@ json toJson(const Light& l) {
         j["exactDirection"] = l.exactDirection;
     }
     if (!l.warning.empty()) j["warning"] = l.warning;
+    if (!l.keys.empty()) {
+        json keys = json::object();
+        for (const auto& [prop, ks] : l.keys) {
+            json arr = json::array();
+            for (const Key& k : ks) arr.push_back(keyToJson(k));
+            keys[prop] = arr;
+        }
+        j["keys"] = keys;
+    }
     return j;
 }
 
 json toJson(const Rig& rig) {
     json lights = json::array();
     for (const Light& l : rig.lights) lights.push_back(toJson(l));
-    return json{{"version", rig.version}, {"exposure", rig.exposureStops}, {"lights", lights}};
+    return json{{"version", rig.version}, {"exposure", rig.exposureStops}, {"time", rig.time}, {"lights", lights}};
 }
 
 Result<Rig> rigFromJson(const json& j) {
@@ -276,6 +365,9 @@ Result<Rig> rigFromJson(const json& j) {
             auto n = getNumber(*it, "rig.exposure", -20.0, 20.0);
             if (!n) return n.error();
             rig.exposureStops = n.value();
+        } else if (it.key() == "time") {
+            if (!it->is_number() || !std::isfinite(it->get<double>())) return invalid("rig.time: expected a finite number");
+            rig.time = it->get<double>();
         } else if (it.key() == "lights") {
             if (!it->is_array()) return invalid("rig.lights: expected an array");
             std::set<std::string> names;
@@ -293,6 +385,11 @@ Result<Rig> rigFromJson(const json& j) {
 }
 
 Status applyChange(Rig& rig, const Change& c) {
+    if (c.path == "time") {
+        if (!c.value.is_number() || !std::isfinite(c.value.get<double>())) return invalid("time: expected a finite number of seconds");
+        rig.time = c.value.get<double>();
+        return okStatus();
+    }
     if (c.path == "exposure") {
         auto n = getNumber(c.value, c.path, -20.0, 20.0);
         if (!n) return n.error();
@@ -322,6 +419,62 @@ Status applyChanges(Rig& rig, const std::vector<Change>& changes) {
     }
     rig = std::move(copy);
     return okStatus();
+}
+
+namespace {
+
+// Catmull-Rom on scalars: p1 at s = 0, p2 at s = 1, with the neighbours p0, p3 (non-uniform in
+// time: tangents from the neighbours' time spacing).
+double catmullRom(double p0, double p1, double p2, double p3, double t0, double t1, double t2, double t3, double s) {
+    const double dt = t2 - t1;
+    const double m1 = (t2 - t0) > 0 ? (p2 - p0) / (t2 - t0) * dt : 0.0;
+    const double m2 = (t3 - t1) > 0 ? (p3 - p1) / (t3 - t1) * dt : 0.0;
+    const double s2 = s * s, s3 = s2 * s;
+    return (2 * s3 - 3 * s2 + 1) * p1 + (s3 - 2 * s2 + s) * m1 + (-2 * s3 + 3 * s2) * p2 + (s3 - s2) * m2;
+}
+
+json interpolateKeys(const std::vector<Key>& ks, double time) {
+    if (time <= ks.front().time) return ks.front().value;
+    if (time >= ks.back().time) return ks.back().value;
+    size_t i = 0;
+    while (i + 1 < ks.size() && ks[i + 1].time <= time) ++i;
+    const Key &a = ks[i], &b = ks[i + 1];
+    const double s = (time - a.time) / (b.time - a.time);
+    const Key& before = i > 0 ? ks[i - 1] : a;
+    const Key& after = i + 2 < ks.size() ? ks[i + 2] : b;
+    auto one = [&](const json& va, const json& vb, const json& v0, const json& v3) {
+        const double x1 = va.get<double>(), x2 = vb.get<double>();
+        if (a.interp == Interp::Linear) return x1 + (x2 - x1) * s;
+        return catmullRom(v0.get<double>(), x1, x2, v3.get<double>(), before.time, a.time, b.time, after.time, s);
+    };
+    if (a.value.is_number()) {
+        if (!b.value.is_number()) return a.value;
+        const json v0 = before.value.is_number() ? before.value : a.value, v3 = after.value.is_number() ? after.value : b.value;
+        return one(a.value, b.value, v0, v3);
+    }
+    if (!b.value.is_array() || b.value.size() != a.value.size()) return a.value;
+    json out = json::array();
+    for (size_t c = 0; c < a.value.size(); ++c) {
+        const json v0 = before.value.is_array() && before.value.size() == a.value.size() ? before.value[c] : a.value[c];
+        const json v3 = after.value.is_array() && after.value.size() == a.value.size() ? after.value[c] : b.value[c];
+        out.push_back(one(a.value[c], b.value[c], v0, v3));
+    }
+    return out;
+}
+
+} // namespace
+
+Rig evaluateRig(const Rig& rig) {
+    Rig out = rig;
+    for (Light& l : out.lights) {
+        const auto keys = l.keys; // assigning `l` below replaces its key map
+        for (const auto& [prop, ks] : keys) {
+            if (ks.empty()) continue;
+            Light probe = l;
+            if (setLightProperty(probe, prop, interpolateKeys(ks, rig.time), l.name + "." + prop).ok()) l = probe;
+        }
+    }
+    return out;
 }
 
 Result<Change> parseAssignment(std::string_view text) {

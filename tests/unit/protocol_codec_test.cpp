@@ -115,3 +115,42 @@ TEST(Codec, FrameHeaderRoundTripsAndRejectsGarbage) {
     buf[0] = 'X';
     EXPECT_FALSE(readFrameHeader(buf, sizeof buf).ok());
 }
+
+TEST(Keyframes, LinearAndSmoothInterpolationOfNumbersAndControlPoints) {
+    Rig rig = testRig();
+    Light& key = *rig.find("key");
+    ASSERT_TRUE(applyChange(rig, {"key.type", "bendy"}).ok());
+    // Intensity: linear 0 s -> 10, 2 s -> 30, then smooth to 4 s -> 10.
+    ASSERT_TRUE(applyChange(rig, {"key.key", {{"path", "intensity"}, {"t", 0}, {"value", 10}}}).ok());
+    ASSERT_TRUE(applyChange(rig, {"key.key", {{"path", "intensity"}, {"t", 2}, {"value", 30}, {"interp", "smooth"}}}).ok());
+    ASSERT_TRUE(applyChange(rig, {"key.key", {{"path", "intensity"}, {"t", 4}, {"value", 10}}}).ok());
+    // A control point, linear between two positions.
+    ASSERT_TRUE(applyChange(rig, {"key.key", {{"path", "cp[2]"}, {"t", 0}, {"value", {2, 0, 0}}}}).ok());
+    ASSERT_TRUE(applyChange(rig, {"key.key", {{"path", "cp[2]"}, {"t", 1}, {"value", {2, 1, 0}}}}).ok());
+    (void)key;
+    auto at = [&](double t) {
+        Rig r = rig;
+        EXPECT_TRUE(applyChange(r, {"time", t}).ok());
+        return evaluateRig(r);
+    };
+    EXPECT_FLOAT_EQ(at(-1).find("key")->intensityCd, 10.f); // clamped before the first key
+    EXPECT_FLOAT_EQ(at(1).find("key")->intensityCd, 20.f);  // linear
+    EXPECT_FLOAT_EQ(at(2).find("key")->intensityCd, 30.f);  // through the key
+    EXPECT_FLOAT_EQ(at(9).find("key")->intensityCd, 10.f);  // clamped after the last
+    // Smooth: symmetric keys 30 -> 10 with neighbours 10 (before) and 10 (after, clamped) give a
+    // curve above the straight line's value at the middle (the tangent at 2 s is flat).
+    const float smoothMid = at(3).find("key")->intensityCd;
+    EXPECT_GT(smoothMid, 20.f);
+    EXPECT_LT(smoothMid, 30.f);
+    const Vec3 cp = at(0.25).find("key")->controlPoints[1];
+    EXPECT_FLOAT_EQ(cp[1], 0.25f);
+    // Keys survive the rig's JSON.
+    auto back = rigFromJson(toJson(rig));
+    ASSERT_TRUE(back.ok()) << back.error().toString();
+    EXPECT_EQ(toJson(back.value()), toJson(rig));
+    // Bad keys are refused with the reason: a value the property refuses, a non-numeric value.
+    EXPECT_FALSE(applyChange(rig, {"key.key", {{"path", "coneAngle"}, {"t", 0}, {"value", 300}}}).ok());
+    EXPECT_FALSE(applyChange(rig, {"key.key", {{"path", "name"}, {"t", 0}, {"value", "x"}}}).ok());
+    ASSERT_TRUE(applyChange(rig, {"key.unkey", {{"path", "intensity"}, {"t", 2}}}).ok());
+    EXPECT_FLOAT_EQ(at(2).find("key")->intensityCd, 10.f); // 0 s -> 10 and 4 s -> 10 remain
+}

@@ -116,7 +116,8 @@ void RenderService::run(const DeepBuffer* shot, ShadowGeometry casters, std::pro
             wantFrame = std::exchange(mFrameWanted, false);
             requests.swap(mImageRequests);
         }
-        const Rig rig = mSession.rig();
+        // Keyframed properties take their values at the session's time.
+        const Rig rig = protocol::evaluateRig(mSession.rig());
         if (imageVersion != rig.version) {
             FrameStats stats;
             auto r = engine->render(rig, &stats);

@@ -40,6 +40,10 @@ Status applyChange(Rig& rig, const Change& change);
 /// Applies all changes or none (validated on a copy first).
 Status applyChanges(Rig& rig, const std::vector<Change>& changes);
 
+/// The rig as it is at its session time: every keyed property replaced by its interpolated value
+/// (keys whose value the property refuses are skipped). Unkeyed properties are unchanged.
+Rig evaluateRig(const Rig& rig);
+
 /// Parses "PATH=VALUE" from a command line. VALUE is JSON if it parses as JSON, else a
 /// comma-separated list of numbers ("1,2,3"), else a string.
 Result<Change> parseAssignment(std::string_view text);

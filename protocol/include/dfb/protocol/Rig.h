@@ -2,8 +2,11 @@
 // The light rig: the shared vocabulary of the server and every client (docs/protocol.md).
 // Plain data; JSON conversion and property-path edits are in Codec.h.
 
+#include <nlohmann/json.hpp>
+
 #include <array>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -17,6 +20,17 @@ enum class LightType { Spot, Bendy };
 
 /// Most Bezier segments a BendyLight chain may have (lightmath::MAX_SEGMENTS).
 constexpr int MAX_BENDY_SEGMENTS = 8;
+
+/// Interpolation from a key to the next one: straight lines, or a smooth Catmull-Rom curve through
+/// the neighbouring keys (C1; the ends use their nearest neighbour as the missing one).
+enum class Interp { Linear, Smooth };
+
+/// A keyframe of one property: its value from `time` on, blended towards the next key.
+struct Key {
+    double time = 0.0;     ///< seconds on the session clock
+    nlohmann::json value;  ///< a number or an array of numbers, as the property takes
+    Interp interp = Interp::Linear;
+};
 
 /// One light. Intensities follow glTF KHR_lights_punctual units (candela for spot lights).
 struct Light {
@@ -42,6 +56,10 @@ struct Light {
     std::vector<float> radii;         ///< 2K + 1 tube radii at p[0..2K], scene units, >= 0 (r[0] may be 0)
     std::vector<Vec3> colors;         ///< 2K + 1 linear RGB multipliers at p[0..2K], each >= 0
     bool exactDirection = false;      ///< exact flow-line tangent instead of paper eq. 9
+    /// Keyframes by property path relative to the light ("intensity", "position", "cp[2]", "r[1]",
+    /// ...): every numeric property can be animated. Keys are kept sorted by time.
+    std::map<std::string, std::vector<Key>> keys;
+
     /// Set by the server, not by clients: why the chain is doubtful (e.g. a self-intersecting
     /// tube, paper section 7); empty when fine.
     std::string warning;
@@ -57,6 +75,7 @@ void makeStraightChain(Light& light, float length, int segments = 2);
 struct Rig {
     uint64_t version = 0;             ///< bumped by the server on every accepted change
     float exposureStops = 0.f;        ///< exposure in stops (image * 2^exposure), [-20, 20]
+    double time = 0.0;                ///< session clock, seconds: where keyframes are evaluated
     std::vector<Light> lights;
 
     Light* find(const std::string& name);
