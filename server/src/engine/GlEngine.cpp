@@ -95,7 +95,9 @@ private:
     GLsizei mCasterIndexCount = 0;
     gl::Buffer mLightUbo, mViewUbo;
     gl::Program mShadowProgram, mSpotProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
-    gl::Program mBendyShadowProgram, mBendyProgram;
+    gl::Program mBendyShadowProgram, mBendyProgram, mBendyDeformProgram;
+    gl::Buffer mDeformed; // 2 vec4 per caster vertex (bendy_deform.comp)
+    GLuint mCasterVertexCount = 0;
     int mSubdivisionLimit = 64;
     gl::Texture mAccum, mLdr;
     gl::Framebuffer mAccumFb, mLdrFb;
@@ -231,6 +233,11 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
                                       {GL_FRAGMENT_SHADER, "shadow_bendy.frag", shaders::serverShader("shadow_bendy.frag")}});
         if (!tess) return tess.error();
         mBendyShadowProgram = std::move(tess.value());
+        auto deform = gl::buildProgram({{GL_COMPUTE_SHADER, "bendy_deform.comp", shaders::serverShader("bendy_deform.comp")}});
+        if (!deform) return deform.error();
+        mBendyDeformProgram = std::move(deform.value());
+        mCasterVertexCount = GLuint(casters.positions.size());
+        mDeformed = gl::makeBuffer(nullptr, std::max<size_t>(casters.positions.size(), 1) * 2 * sizeof(glm::vec4));
     }
 
     mAccum = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
@@ -318,6 +325,13 @@ Status GlEngine::renderShadow(LightCache& c) {
     if (l.type == LightType::Bendy) {
         // Deformed shadow map: casters subdivided and mapped Q -> Q' in the tessellation stages.
         uploadBendy(c);
+        // Deform every caster vertex once, then draw patches that reuse it.
+        glUseProgram(mBendyDeformProgram.id());
+        glUniform1ui(0, mCasterVertexCount);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mCasterVbo.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mDeformed.id());
+        glDispatchCompute((mCasterVertexCount + 63) / 64, 1, 1);
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
         glUseProgram(mBendyShadowProgram.id());
         const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
         glUniform1f(0, float(mSubdivisionLimit));

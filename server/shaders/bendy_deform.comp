@@ -1,0 +1,33 @@
+#version 450 core
+// Deforms every shadow-casting vertex once per chain edit (eqs. 4-7), for the deformed shadow
+// map's tessellation stages: out[2v] = (Q', 1 if mapped), out[2v+1].x = the local bending
+// curvature kappa_eff (1/length) the control stage sizes its edge levels with.
+#include "common_uniforms.glsl"
+#include "common_bendy.glsl"
+
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Casters { float casterXyz[]; };
+layout(std430, binding = 1) writeonly buffer Deformed { vec4 deformed[]; };
+layout(location = 0) uniform uint uVertexCount;
+
+void main() {
+    uint v = gl_GlobalInvocationID.x;
+    if (v >= uVertexCount) return;
+    vec3 q = vec3(casterXyz[3u * v], casterXyz[3u * v + 1u], casterXyz[3u * v + 2u]);
+    TubeCoords c = inverseMap(q);
+    if (!c.valid) {
+        deformed[2u * v] = vec4(uBendy.bendyP[0].xyz, 0.0);
+        deformed[2u * v + 1u] = vec4(0.0);
+        return;
+    }
+    // A straight edge near Q bends in the deformed space about as much as the chain turns there
+    // (curvature kappa = |P' x P''| / |P'|^3), scaled by how much the lateral offsets grow
+    // (rho / R: the cone's radius over the tube's).
+    vec3 d = chainDerivative(c.segment, c.t);
+    float speed = max(length(d), 1e-20);
+    float kappa = length(cross(d, chainSecondDerivative(c.segment))) / (speed * speed * speed);
+    float s = arcLength(c.segment, c.t);
+    float ratio = s * uBendy.bendyAxisU.w / max(chainRadius(c.segment, c.t), 1e-20);
+    deformed[2u * v] = vec4(deformedPoint(c), 1.0);
+    deformed[2u * v + 1u] = vec4(kappa * max(ratio, 1.0), 0.0, 0.0, 0.0);
+}
