@@ -231,3 +231,17 @@ vec3 lightDirection(TubeCoords c, vec3 Q, bool exact) {
     }
     return -normalize(flow);
 }
+
+// Tessellation level of a caster edge for the deformed shadow map (shadow_bendy.tesc and
+// bendy_classify.comp): a straight edge of deformed length L where the deformation bends with
+// curvature kappa deviates from the true deformed curve by about e = kappa L^2 / 8; n pieces cut
+// that to e / n^2, so n = sqrt(e / tol) with tol = 0.25 shadow-map texels at the edge's distance.
+// a, b: deformed endpoints (w = 1 if mapped).
+float bendyEdgeLevel(vec4 a, vec4 b, float kappa, float texelPerDistance, float maxLevel) {
+    if (a.w < 0.5 || b.w < 0.5) return 1.0; // dropped by the fragment stage anyway
+    vec3 m = 0.5 * (a.xyz + b.xyz);
+    float dist = max(dot(m - uBendy.bendyP[0].xyz, uBendy.bendyAxisU.xyz), 1e-6);
+    float L = length(a.xyz - b.xyz);
+    float e = kappa * L * L / 8.0 / (texelPerDistance * dist);
+    return clamp(ceil(sqrt(e / 0.25)), 1.0, maxLevel);
+}

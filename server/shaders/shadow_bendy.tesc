@@ -16,15 +16,9 @@ out vec4 tcDeformed[];
 
 layout(location = 0) uniform float uMaxLevel;         // 1 = no subdivision (coarse, for comparison)
 layout(location = 1) uniform float uTexelPerDistance; // shadow-map texel size at unit distance
-const float TOLERANCE_TEXELS = 0.25;
 
 float edgeLevel(int a, int b) {
-    if (vDeformed[a].w < 0.5 || vDeformed[b].w < 0.5) return 1.0; // dropped by the fragment stage
-    vec3 m = 0.5 * (vDeformed[a].xyz + vDeformed[b].xyz);
-    float dist = max(dot(m - uBendy.bendyP[0].xyz, uBendy.bendyAxisU.xyz), 1e-6);
-    float L = length(vDeformed[a].xyz - vDeformed[b].xyz);
-    float e = max(vKappa[a], vKappa[b]) * L * L / 8.0 / (uTexelPerDistance * dist);
-    return clamp(ceil(sqrt(e / TOLERANCE_TEXELS)), 1.0, uMaxLevel);
+    return bendyEdgeLevel(vDeformed[a], vDeformed[b], max(vKappa[a], vKappa[b]), uTexelPerDistance, uMaxLevel);
 }
 
 void main() {

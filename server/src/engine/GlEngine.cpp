@@ -95,7 +95,9 @@ private:
     GLsizei mCasterIndexCount = 0;
     gl::Buffer mLightUbo, mViewUbo;
     gl::Program mShadowProgram, mSpotProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
-    gl::Program mBendyShadowProgram, mBendyProgram, mBendyDeformProgram;
+    gl::Program mBendyShadowProgram, mBendyProgram, mBendyDeformProgram, mBendyClassifyProgram, mBendyFlatProgram;
+    gl::Buffer mFlatIndices, mTessIndices, mIndirect; // triangle lists sorted by bendy_classify.comp
+    gl::VertexArray mFlatVao, mTessVao;
     gl::Buffer mDeformed; // 2 vec4 per caster vertex (bendy_deform.comp)
     GLuint mCasterVertexCount = 0;
     int mSubdivisionLimit = 64;
@@ -238,6 +240,28 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         mBendyDeformProgram = std::move(deform.value());
         mCasterVertexCount = GLuint(casters.positions.size());
         mDeformed = gl::makeBuffer(nullptr, std::max<size_t>(casters.positions.size(), 1) * 2 * sizeof(glm::vec4));
+        auto classify = gl::buildProgram({{GL_COMPUTE_SHADER, "bendy_classify.comp", shaders::serverShader("bendy_classify.comp")}});
+        if (!classify) return classify.error();
+        mBendyClassifyProgram = std::move(classify.value());
+        auto flat = gl::buildProgram({{GL_VERTEX_SHADER, "shadow_bendy_flat.vert", shaders::serverShader("shadow_bendy_flat.vert")},
+                                      {GL_FRAGMENT_SHADER, "shadow_bendy.frag", shaders::serverShader("shadow_bendy.frag")}});
+        if (!flat) return flat.error();
+        mBendyFlatProgram = std::move(flat.value());
+        const size_t indexBytes = std::max<size_t>(casters.indices.size(), 3) * sizeof(uint32_t);
+        mFlatIndices = gl::makeBuffer(nullptr, indexBytes);
+        mTessIndices = gl::makeBuffer(nullptr, indexBytes);
+        mIndirect = gl::makeBuffer(nullptr, 10 * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
+        GLuint v = 0;
+        glCreateVertexArrays(1, &v);
+        mFlatVao = gl::VertexArray(v); // positions come from the deformed buffer by index
+        glVertexArrayElementBuffer(v, mFlatIndices.id());
+        glCreateVertexArrays(1, &v);
+        mTessVao = gl::VertexArray(v);
+        glVertexArrayVertexBuffer(v, 0, mCasterVbo.id(), 0, sizeof(glm::vec3));
+        glVertexArrayElementBuffer(v, mTessIndices.id());
+        glEnableVertexArrayAttrib(v, 0);
+        glVertexArrayAttribFormat(v, 0, 3, GL_FLOAT, GL_FALSE, 0);
+        glVertexArrayAttribBinding(v, 0, 0);
     }
 
     mAccum = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
@@ -332,12 +356,33 @@ Status GlEngine::renderShadow(LightCache& c) {
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mDeformed.id());
         glDispatchCompute((mCasterVertexCount + 63) / 64, 1, 1);
         glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        glUseProgram(mBendyShadowProgram.id());
         const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
+        const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(c.shadowSize);
+        // Sort the triangles: plain draw where no edge needs subdividing, tessellation elsewhere.
+        const uint32_t commands[10] = {0, 1, 0, 0, 0, 0, 1, 0, 0, 0};
+        glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, commands);
+        glUseProgram(mBendyClassifyProgram.id());
+        const GLuint triangles = GLuint(mCasterIndexCount / 3);
+        glUniform1ui(0, triangles);
+        glUniform1f(1, float(mSubdivisionLimit));
+        glUniform1f(2, texelPerDistance);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mCasterIbo.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, mFlatIndices.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, mTessIndices.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, mIndirect.id());
+        glDispatchCompute((triangles + 63) / 64, 1, 1);
+        glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, mIndirect.id());
+        glUseProgram(mBendyFlatProgram.id());
+        glBindVertexArray(mFlatVao.id());
+        glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr);
+        glUseProgram(mBendyShadowProgram.id());
+        glBindVertexArray(mTessVao.id());
         glUniform1f(0, float(mSubdivisionLimit));
-        glUniform1f(1, 2.f * std::tan(0.5f * fovy) / float(c.shadowSize));
+        glUniform1f(1, texelPerDistance);
         glPatchParameteri(GL_PATCH_VERTICES, 3);
-        if (mCasterIndexCount > 0) glDrawElements(GL_PATCHES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+        glDrawElementsIndirect(GL_PATCHES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(5 * sizeof(uint32_t)));
+        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
         c.subdivisionLimit = mSubdivisionLimit;
     } else {
         glUseProgram(mShadowProgram.id());

@@ -1,0 +1,40 @@
+#version 450 core
+// Sorts shadow-casting triangles for the deformed shadow map (after bendy_deform.comp): those the
+// deformation bends by less than the tolerance at every edge go to a plain indexed draw of their
+// deformed vertices; the others to the tessellation pipeline. llvmpipe's tessellation stage costs
+// about a microsecond per patch even when it subdivides nothing, so most triangles skip it.
+// Triangles without any mapped vertex are dropped. Both lists are drawn with indirect commands
+// whose index counts this pass accumulates.
+#include "common_uniforms.glsl"
+#include "common_bendy.glsl"
+
+layout(local_size_x = 64) in;
+layout(std430, binding = 1) readonly buffer Deformed { vec4 deformed[]; };
+layout(std430, binding = 2) readonly buffer Indices { uint indices[]; };
+layout(std430, binding = 3) writeonly buffer FlatIndices { uint flatIndices[]; };
+layout(std430, binding = 4) writeonly buffer TessIndices { uint tessIndices[]; };
+// Two DrawElementsIndirectCommand {count, instanceCount, firstIndex, baseVertex, baseInstance}.
+layout(std430, binding = 5) coherent buffer Commands { uint commands[10]; };
+
+layout(location = 0) uniform uint uTriangleCount;
+layout(location = 1) uniform float uMaxLevel;
+layout(location = 2) uniform float uTexelPerDistance;
+
+void main() {
+    uint t = gl_GlobalInvocationID.x;
+    if (t >= uTriangleCount) return;
+    uint i0 = indices[3u * t], i1 = indices[3u * t + 1u], i2 = indices[3u * t + 2u];
+    vec4 d0 = deformed[2u * i0], d1 = deformed[2u * i1], d2 = deformed[2u * i2];
+    if (d0.w + d1.w + d2.w < 0.5) return; // nothing mapped: cannot occlude
+    float k0 = deformed[2u * i0 + 1u].x, k1 = deformed[2u * i1 + 1u].x, k2 = deformed[2u * i2 + 1u].x;
+    float level = max(bendyEdgeLevel(d1, d2, max(k1, k2), uTexelPerDistance, uMaxLevel),
+                      max(bendyEdgeLevel(d2, d0, max(k2, k0), uTexelPerDistance, uMaxLevel),
+                          bendyEdgeLevel(d0, d1, max(k0, k1), uTexelPerDistance, uMaxLevel)));
+    if (level <= 1.0) {
+        uint at = atomicAdd(commands[0], 3u);
+        flatIndices[at] = i0; flatIndices[at + 1u] = i1; flatIndices[at + 2u] = i2;
+    } else {
+        uint at = atomicAdd(commands[5], 3u);
+        tessIndices[at] = i0; tessIndices[at + 1u] = i1; tessIndices[at + 2u] = i2;
+    }
+}
