@@ -1,6 +1,9 @@
 #version 450 core
-// Adds one cached contribution into the accumulation target (additive blending is enabled).
+// Adds one cached contribution, times its rescale, into the accumulation target (additive
+// blending is enabled). A colour or intensity edit changes only the rescale: the contribution was
+// shaded with the colour x intensity it had then, and uScale = new / shaded (DESIGN section 6).
 #include "common_uniforms.glsl"
 layout(binding = TEX_INPUT) uniform sampler2D uInput;
+layout(location = 0) uniform vec3 uScale;
 layout(location = 0) out vec4 oColor;
-void main() { oColor = vec4(texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb, 0.0); }
+void main() { oColor = vec4(texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb * uScale, 0.0); }

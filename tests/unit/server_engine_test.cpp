@@ -123,7 +123,16 @@ TEST(Engine, CacheRerendersOnlyWhatChanged) {
     ASSERT_TRUE(engine.value()->render(rig, &st).ok());
     EXPECT_EQ(st.shadowMapsRendered, 0);
     EXPECT_EQ(st.lightsShaded, 0);
-    rig.lights[1].intensityCd *= 2.f; // shading only
+    rig.lights[1].intensityCd *= 2.f; // a rescale of the cached contribution only
+    rig.lights[1].color = {1.f, 0.5f, 0.25f};
+    ASSERT_TRUE(engine.value()->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 0);
+    EXPECT_EQ(st.lightsShaded, 0);
+    rig.lights[1].penumbraDeg = 10.f; // shading only
+    ASSERT_TRUE(engine.value()->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 0);
+    EXPECT_EQ(st.lightsShaded, 1);
+    rig.lights[0].coneAngleDeg = 72.f; // 70 -> 72: the shadow frustum (cone + 1, rounded up to 5: 75) stays
     ASSERT_TRUE(engine.value()->render(rig, &st).ok());
     EXPECT_EQ(st.shadowMapsRendered, 0);
     EXPECT_EQ(st.lightsShaded, 1);

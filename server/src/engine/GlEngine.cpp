@@ -30,17 +30,27 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 
 glm::vec3 toGlm(const Vec3& v) { return {v[0], v[1], v[2]}; }
 
+// Half-angle of a light's shadow frustum, degrees: the cone plus a degree, rounded up to 5 degrees
+// for spot lights so that dragging the cone re-shades without re-rendering the shadow map until it
+// crosses a step (a BendyLight's deformation depends on the exact cone). At most 86: a perspective
+// projection degenerates towards 90.
+float shadowHalfAngleDeg(const Light& l) {
+    const float a = l.coneAngleDeg + 1.f;
+    return std::min(l.type == LightType::Bendy ? a : 5.f * std::ceil(a / 5.f), 86.f);
+}
+
 // What a light's shadow map depends on; any difference re-renders it.
 bool sameShadowInputs(const Light& a, const Light& b) {
-    return a.position == b.position && a.direction == b.direction && a.coneAngleDeg == b.coneAngleDeg &&
+    return a.position == b.position && a.direction == b.direction && shadowHalfAngleDeg(a) == shadowHalfAngleDeg(b) &&
+           (a.type != LightType::Bendy || a.coneAngleDeg == b.coneAngleDeg) &&
            a.shadow == b.shadow && a.shadowMapSize == b.shadowMapSize && a.type == b.type &&
            (a.type != LightType::Bendy || (a.controlPoints == b.controlPoints && a.radii == b.radii));
 }
 
-// What a light's contribution image depends on, besides its shadow map.
+// What a light's contribution image depends on, besides its shadow map. Colour and intensity are
+// not among them: they only rescale the cached image.
 bool sameShadingInputs(const Light& a, const Light& b) {
-    return sameShadowInputs(a, b) && a.color == b.color && a.intensityCd == b.intensityCd &&
-           a.penumbraDeg == b.penumbraDeg && a.shadowBias == b.shadowBias && a.type == b.type &&
+    return sameShadowInputs(a, b) && a.coneAngleDeg == b.coneAngleDeg && a.penumbraDeg == b.penumbraDeg && a.shadowBias == b.shadowBias && a.type == b.type &&
            (a.type != LightType::Bendy || (a.colors == b.colors && a.exactDirection == b.exactDirection));
 }
 
@@ -56,6 +66,10 @@ struct LightCache {
     glm::mat4 worldToLightClip{1.f};
     gl::Buffer bendyUbo; // BendyBlock of a BendyLight
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
+    glm::vec3 shadedRadiance{0.f}; // colour x intensity the contribution was shaded with
+    glm::vec3 scale{1.f};          // current colour x intensity / shadedRadiance
+    uint64_t version = 0;          // bumped whenever the contribution or its scale changes
+    uint64_t compositedVersion = ~0ull;
 };
 
 class GlEngine final : public Engine {
@@ -104,6 +118,13 @@ private:
     gl::Texture mAccum, mLdr;
     gl::Framebuffer mAccumFb, mLdrFb;
     std::map<std::string, LightCache> mLights;
+    // The sum of emission and every enabled light but the one being edited ("hot"), so that an
+    // edit of one light costs two composite draws whatever the rig's size (DESIGN section 6).
+    gl::Texture mStatic;
+    gl::Framebuffer mStaticFb;
+    bool mStaticValid = false;
+    std::string mHot;
+    std::string mStructure; // enabled light names the static sum was built for
 };
 
 Result<gl::Program> GlEngine::program(const char* vert, const char* frag) {
@@ -266,6 +287,14 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
 
     mAccum = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
     mLdr = gl::makeTexture2D(GL_RGBA8, mWidth, mHeight);
+    mStatic = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
+    {
+        GLuint sfb = 0;
+        glCreateFramebuffers(1, &sfb);
+        mStaticFb = gl::Framebuffer(sfb);
+        glNamedFramebufferTexture(sfb, GL_COLOR_ATTACHMENT0, mStatic.id(), 0);
+        if (auto s = gl::checkFramebuffer(sfb, "static sum"); !s) return s;
+    }
     GLuint fb = 0;
     glCreateFramebuffers(1, &fb);
     mAccumFb = gl::Framebuffer(fb);
@@ -300,7 +329,7 @@ glm::mat4 GlEngine::lightViewProj(const Light& l) const {
     const float zfar = std::max(farthest * 1.01f, 1e-3f);
     const float znear = std::max(zfar * 1e-4f, 1e-5f);
     // The frustum's half-angle must contain the cone's; a square map circumscribes the circle.
-    const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
+    const float fovy = 2.f * glm::radians(shadowHalfAngleDeg(l));
     return glm::perspective(fovy, 1.f, znear, zfar) * view;
 }
 
@@ -356,7 +385,7 @@ Status GlEngine::renderShadow(LightCache& c) {
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mDeformed.id());
         glDispatchCompute((mCasterVertexCount + 63) / 64, 1, 1);
         glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-        const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
+        const float fovy = 2.f * glm::radians(shadowHalfAngleDeg(l));
         const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(c.shadowSize);
         // Sort the triangles: plain draw where no edge needs subdividing, tessellation elsewhere.
         const uint32_t commands[10] = {0, 1, 0, 0, 0, 0, 1, 0, 0, 0};
@@ -413,7 +442,7 @@ Status GlEngine::shade(LightCache& c, int output) {
     const float inner = glm::radians(std::max(l.coneAngleDeg - l.penumbraDeg, 0.f));
     const bool shadowed = l.shadow;
     // Normal offset: `shadowBias` shadow-map texels, whose world size grows linearly with distance.
-    const float fovy = 2.f * glm::radians(std::min(l.coneAngleDeg + 1.f, 86.f));
+    const float fovy = 2.f * glm::radians(shadowHalfAngleDeg(l));
     const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(std::max(l.shadowMapSize, 1));
     block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
                                 shadowed ? 1.f : 0.f, l.shadowBias * texelPerDistance);
@@ -445,6 +474,11 @@ Status GlEngine::shade(LightCache& c, int output) {
     glBindVertexArray(mEmptyVao.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     c.hasContribution = true;
+    if (output == 0) {
+        c.shadedRadiance = toGlm(l.color) * l.intensityCd;
+        c.scale = glm::vec3(1.f);
+        ++c.version;
+    }
     return okStatus();
 }
 
@@ -487,7 +521,24 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
-        if (c.hasContribution && sameShadingInputs(c.params, l)) continue;
+        if (c.hasContribution && sameShadingInputs(c.params, l)) {
+            // Colour or intensity only: rescale, unless a channel shaded at zero must now light.
+            const glm::vec3 radiance = toGlm(l.color) * l.intensityCd;
+            bool rescalable = true;
+            glm::vec3 scale(0.f);
+            for (int k = 0; k < 3; ++k) {
+                if (c.shadedRadiance[k] > 0.f) scale[k] = radiance[k] / c.shadedRadiance[k];
+                else rescalable = rescalable && radiance[k] <= 0.f;
+            }
+            if (rescalable) {
+                if (scale != c.scale) {
+                    c.scale = scale;
+                    ++c.version;
+                }
+                c.params = l;
+                continue;
+            }
+        }
         c.params = l;
         if (auto s = shade(c); !s) return s;
         ++st.lightsShaded;
@@ -496,24 +547,72 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     st.shadeMs = msSince(t);
 
     t = Clock::now();
-    glBindFramebuffer(GL_FRAMEBUFFER, mAccumFb.id());
-    glViewport(0, 0, mWidth, mHeight);
-    glBindVertexArray(mEmptyVao.id());
-    glDisable(GL_BLEND);
-    glUseProgram(mEmissionProgram.id());
-    glBindTextureUnit(engine::TEX_GBUFFER_EMISSION, mEmission.id());
-    glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
-    glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
-    glDrawArrays(GL_TRIANGLES, 0, 3);
-    glEnable(GL_BLEND);
-    glBlendFunc(GL_ONE, GL_ONE);
-    glUseProgram(mAddProgram.id());
+    std::string structure;
+    std::vector<std::string> changed;
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
-        glBindTextureUnit(engine::TEX_INPUT, mLights[l.name].contribution.id());
+        structure += l.name + '\n';
+        const LightCache& c = mLights[l.name];
+        if (c.version != c.compositedVersion) changed.push_back(l.name);
+    }
+    glBindVertexArray(mEmptyVao.id());
+    glViewport(0, 0, mWidth, mHeight);
+    auto addLight = [&](const std::string& name) {
+        const LightCache& c = mLights[name];
+        glUniform3f(0, c.scale.x, c.scale.y, c.scale.z);
+        glBindTextureUnit(engine::TEX_INPUT, c.contribution.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
+    };
+    auto emission = [&]() {
+        glDisable(GL_BLEND);
+        glUseProgram(mEmissionProgram.id());
+        glBindTextureUnit(engine::TEX_GBUFFER_EMISSION, mEmission.id());
+        glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
+        glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+    };
+    const bool sameStructure = structure == mStructure;
+    const bool onlyHotChanged = sameStructure && mStaticValid &&
+                                (changed.empty() || (changed.size() == 1 && changed[0] == mHot));
+    if (!onlyHotChanged && sameStructure && changed.size() == 1) {
+        // A new light is being edited: sum every other one once into the static image.
+        mHot = changed[0];
+        glBindFramebuffer(GL_FRAMEBUFFER, mStaticFb.id());
+        emission();
+        glEnable(GL_BLEND);
+        glBlendFunc(GL_ONE, GL_ONE);
+        glUseProgram(mAddProgram.id());
+        for (const Light& l : rig.lights)
+            if (l.enabled && l.name != mHot) addLight(l.name);
+        mStaticValid = true;
+    } else if (!onlyHotChanged) {
+        mStaticValid = false;
+        mHot.clear();
+    }
+    mStructure = structure;
+    glBindFramebuffer(GL_FRAMEBUFFER, mAccumFb.id());
+    if (mStaticValid) {
+        // Frame = static + the hot light: two draws whatever the number of lights.
+        glDisable(GL_BLEND);
+        glUseProgram(mAddProgram.id());
+        glUniform3f(0, 1.f, 1.f, 1.f);
+        glBindTextureUnit(engine::TEX_INPUT, mStatic.id());
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glEnable(GL_BLEND);
+        glBlendFunc(GL_ONE, GL_ONE);
+        if (rig.find(mHot)) addLight(mHot);
+    } else {
+        emission();
+        glEnable(GL_BLEND);
+        glBlendFunc(GL_ONE, GL_ONE);
+        glUseProgram(mAddProgram.id());
+        for (const Light& l : rig.lights)
+            if (l.enabled) addLight(l.name);
     }
     glDisable(GL_BLEND);
+    for (const Light& l : rig.lights) {
+        if (l.enabled) mLights[l.name].compositedVersion = mLights[l.name].version;
+    }
     glFinish();
     st.compositeMs = msSince(t);
     return okStatus();
@@ -555,8 +654,10 @@ Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& li
     img.height = mHeight;
     img.rgba.assign(size_t(mWidth) * size_t(mHeight) * 4, 0.f);
     if (l->enabled) {
-        glGetTextureImage(mLights[lightName].contribution.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)),
-                          img.rgba.data());
+        const LightCache& c = mLights[lightName];
+        glGetTextureImage(c.contribution.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
+        for (size_t i = 0; i < img.rgba.size(); i += 4)
+            for (int k = 0; k < 3; ++k) img.rgba[i + size_t(k)] *= c.scale[k];
     }
     if (auto s = mContext->check("light alone"); !s) return s.error();
     return img;
@@ -571,7 +672,8 @@ Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lig
     LightCache& c = mLights[lightName];
     // Shade the mask into the light's contribution target, then mark the contribution stale.
     if (auto s = shade(c, 1); !s) return s.error();
-    c.hasContribution = false;
+    c.hasContribution = false; // the next frame re-shades it (and rebuilds the sums that hold it)
+    ++c.version;
     ImageF img;
     img.width = mWidth;
     img.height = mHeight;
