@@ -94,7 +94,8 @@ double shadowAgreement(Shot& shot, const Rig& rig, const std::string& lightName,
     auto mask = shot.engine->renderShadowMask(rig, lightName);
     EXPECT_TRUE(mask.ok()) << mask.error().toString();
     const DeepBuffer& g = shot.buffer;
-    const float fovy = 2.f * glm::radians(std::min(light.coneAngleDeg + 1.f, 86.f));
+    // The engine's shadow frustum: the cone plus a degree, rounded up to 5 degrees, at most 86.
+    const float fovy = 2.f * glm::radians(std::min(5.f * std::ceil((light.coneAngleDeg + 1.f) / 5.f), 86.f));
     const double texelPerDistance = 2.0 * std::tan(0.5 * fovy) / light.shadowMapSize;
     size_t lit = 0, agree = 0;
     for (size_t p = 0; p < g.pixelCount(); ++p) {

@@ -31,12 +31,12 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 glm::vec3 toGlm(const Vec3& v) { return {v[0], v[1], v[2]}; }
 
 // Half-angle of a light's shadow frustum, degrees: the cone plus a degree, rounded up to 5 degrees
-// for spot lights so that dragging the cone re-shades without re-rendering the shadow map until it
-// crosses a step (a BendyLight's deformation depends on the exact cone). At most 86: a perspective
-// projection degenerates towards 90.
+// so that dragging a spot light's cone re-shades without re-rendering its shadow map until it
+// crosses a step (a BendyLight's deformed geometry depends on the exact cone, so its map is
+// re-rendered on every cone edit anyway). At most 86: a perspective projection degenerates
+// towards 90. Documented in docs/lighting.md (tests compute the receiver bias with it).
 float shadowHalfAngleDeg(const Light& l) {
-    const float a = l.coneAngleDeg + 1.f;
-    return std::min(l.type == LightType::Bendy ? a : 5.f * std::ceil(a / 5.f), 86.f);
+    return std::min(5.f * std::ceil((l.coneAngleDeg + 1.f) / 5.f), 86.f);
 }
 
 // What a light's shadow map depends on; any difference re-renders it.
