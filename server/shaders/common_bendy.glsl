@@ -180,7 +180,9 @@ bool tubeCoordinates(vec3 Q, int k, float t, out TubeCoords c) {
 TubeCoords inverseMap(vec3 Q) {
     TubeCoords best;
     best.valid = false; best.inside = false; best.segment = 0; best.t = 0.0; best.v = 0.0; best.w = 0.0;
-    float bestR2 = 0.0;
+    bool found = false, bestInside = false;
+    float bestR2 = 0.0, bestT = 0.0;
+    int bestK = 0;
     const float slack = 1e-4;
     int K = bendySegments();
     for (int k = 0; k <= K; ++k) {
@@ -201,13 +203,22 @@ TubeCoords inverseMap(vec3 Q) {
             float t = roots[i];
             float hi = k < K ? 1.0 + slack : 3.4e38;
             if (!(t >= -slack && t <= hi)) continue;
-            TubeCoords c;
-            if (!tubeCoordinates(Q, k, t, c)) continue;
-            float r2 = c.v * c.v + c.w * c.w;
-            bool better = !best.valid || (c.inside && !best.inside) || (c.inside == best.inside && r2 < bestR2);
-            if (better) { best = c; bestR2 = r2; }
+            float R = chainRadius(k, t);
+            if (!(R > 0.0)) continue;
+            // At a foot v^2 + w^2 = |Q - P|^2 / R^2: rank without frames (see the C++).
+            vec3 d = Q - chainPoint(k, t);
+            float r2 = dot(d, d) / (R * R);
+            bool inside = r2 <= 1.0;
+            if (!found || (inside && !bestInside) || (inside == bestInside && r2 < bestR2)) {
+                found = true;
+                bestInside = inside;
+                bestR2 = r2;
+                bestK = k;
+                bestT = t;
+            }
         }
     }
+    if (found) tubeCoordinates(Q, bestK, bestT, best);
     return best;
 }
 

@@ -259,7 +259,9 @@ template <typename T> bool tubeCoordinates(const Chain<T>& ch, const vec3<T>& Q,
 /// eq. 4 is the cubic 2|A|^2 t^3 + 3 (A.B) t^2 + (|B|^2 - 2 A.D) t - B.D = 0.
 template <typename T> TubeCoords<T> inverseMap(const Chain<T>& ch, const vec3<T>& Q) {
     TubeCoords<T> best;
-    T bestR2 = T(0);
+    bool found = false, bestInside = false;
+    T bestR2 = T(0), bestT = T(0);
+    int bestK = 0;
     const T slack = rootSlack<T>();
     for (int k = 0; k <= ch.segments; ++k) {
         T roots[3];
@@ -282,17 +284,24 @@ template <typename T> TubeCoords<T> inverseMap(const Chain<T>& ch, const vec3<T>
             // Roots a hair outside a segment (rounding at a join) are kept as they are: the
             // segment's polynomial extends smoothly, so the foot stays exact.
             if (!(t >= -slack && t <= hi)) continue;
-            TubeCoords<T> c;
-            if (!tubeCoordinates(ch, Q, k, t, c)) continue;
-            const T r2 = c.v * c.v + c.w * c.w;
+            const T R = chainRadius(ch, k, t);
+            if (!(R > T(0))) continue;
+            // At a foot Q - P is orthogonal to u_hat, so v^2 + w^2 = |Q - P|^2 / R^2: candidates
+            // are ranked without their frames, which only the chosen one needs.
+            const vec3<T> d = Q - chainPoint(ch, k, t);
+            const T r2 = glm::dot(d, d) / (R * R);
+            const bool inside = r2 <= T(1);
             // Inside beats outside; then the most central.
-            const bool better = !best.valid || (c.inside && !best.inside) || (c.inside == best.inside && r2 < bestR2);
-            if (better) {
-                best = c;
+            if (!found || (inside && !bestInside) || (inside == bestInside && r2 < bestR2)) {
+                found = true;
+                bestInside = inside;
                 bestR2 = r2;
+                bestK = k;
+                bestT = t;
             }
         }
     }
+    if (found) tubeCoordinates(ch, Q, bestK, bestT, best);
     return best;
 }
 
