@@ -104,13 +104,15 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
             ASSERT_TRUE(a.ok() && c.ok());
             const double d = relativeDifference(c.value(), a.value());
             if (std::getenv("DFB_CACHE_DEBUG")) {
-                for (const Light& l : rig.lights) {
-                    auto la = cached.value()->renderLightLinear(rig, l.name);
-                    auto lc = fresh.value()->renderLightLinear(rig, l.name);
+                for (const Light& each : rig.lights) {
+                    const Light& l2 = each;
+                    auto la = cached.value()->renderLightLinear(rig, l2.name);
+                    auto lc = fresh.value()->renderLightLinear(rig, l2.name);
                     double ma = 0, mc = 0;
                     for (size_t i = 0; i < la->rgba.size(); i += 4) { ma += la->rgba[i]; mc += lc->rgba[i]; }
-                    std::printf("edit %d light %s type %d enabled %d shadow %d: %.2e (means %.6f vs %.6f) I %.3f cone %.2f pen %.2f col %.3f\n", e, l.name.c_str(), int(l.type),
-                                int(l.enabled), int(l.shadow), relativeDifference(lc.value(), la.value()), ma, mc, l.intensityCd, l.coneAngleDeg, l.penumbraDeg, l.color[0]);
+                    std::printf("edit %d light %s type %d enabled %d shadow %d: %.2e (means %.6f vs %.6f) I %.3f cone %.2f pen %.2f col %.3f\n", e, l2.name.c_str(), int(l2.type),
+                                int(l2.enabled), int(l2.shadow), relativeDifference(lc.value(), la.value()), ma, mc, l2.intensityCd,
+                                l2.coneAngleDeg, l2.penumbraDeg, l2.color[0]);
                 }
             }
             worst = std::max(worst, d);

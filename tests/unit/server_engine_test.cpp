@@ -81,6 +81,35 @@ TEST(Engine, LambertPlaneMatchesClosedForm) {
     EXPECT_GT(checked, 20);
 }
 
+TEST(Engine, LambertPlaneMatchesClosedFormWithinOnePercentInLinearOutput) {
+    // Issue 5's numeric check on the float output (no 8-bit quantisation): every lit pixel of a
+    // Lambertian plane equals albedo / pi * I * cos(theta) / d^2 within 1%.
+    const float albedo = 0.5f;
+    auto engine = Engine::create(planeShot(albedo), ShadowGeometry{});
+    ASSERT_TRUE(engine.ok()) << engine.error().toString();
+    const Rig rig = spotRig();
+    auto img = engine.value()->renderLinear(rig);
+    ASSERT_TRUE(img.ok()) << img.error().toString();
+    const Light& l = rig.lights[0];
+    double worst = 0;
+    int checked = 0;
+    for (int y = 0; y < 64; ++y)
+        for (int x = 0; x < 64; ++x) {
+            const glm::vec3 p(-2.f + 4.f * (x + 0.5f) / 64.f, 0.f, -2.f + 4.f * (y + 0.5f) / 64.f);
+            const glm::vec3 toLight = glm::vec3(l.position[0], l.position[1], l.position[2]) - p;
+            const float d = glm::length(toLight);
+            const float cosTheta = toLight.y / d;
+            if (std::acos(cosTheta) > glm::radians(l.coneAngleDeg - l.penumbraDeg - 1.f)) continue;
+            const double expected = albedo / M_PI * l.intensityCd * cosTheta / (d * d);
+            const double got = img->rgba[(size_t(y) * 64 + x) * 4];
+            worst = std::max(worst, std::abs(got - expected) / expected);
+            ++checked;
+        }
+    std::printf("Lambert plane: %d pixels, worst relative error %.2e\n", checked, worst);
+    EXPECT_GT(checked, 1000);
+    EXPECT_LT(worst, 0.01);
+}
+
 TEST(Engine, BlockerCastsAShadowOnlyWhereExpected) {
     // A small square blocker 1 unit above the plane, under a light straight above it.
     ShadowGeometry g;

@@ -118,5 +118,42 @@ int main(int argc, char** argv) {
                     percentile(encode, 0.5));
     }
     std::printf("\n(stage columns are medians; the stages of one edit add up to its total)\n");
+
+    // Scaling with the number of lights: editing one light (position: shadow map + shading) of
+    // a rig of N shadowed spot lights spread over the scene.
+    std::printf("\nlights in the rig   edit one light's position (median)   edit its intensity (median)\n");
+    double single = 0;
+    for (int n : {1, 2, 8, 32, 64}) {
+        Rig many = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+        const Light base = many.lights[0];
+        many.lights.clear();
+        for (int i = 0; i < n; ++i) {
+            Light l = base;
+            l.name = "light" + std::to_string(i);
+            const float a = 6.2831853f * float(i) / float(n);
+            l.position[0] += 1.5f * std::cos(a);
+            l.position[2] += 1.5f * std::sin(a);
+            l.intensityCd /= float(n);
+            l.shadowMapSize = 1024;
+            many.lights.push_back(l);
+        }
+        if (!engine.value()->render(many).ok()) return 3;
+        std::vector<double> pos, inten;
+        for (int i = 0; i < std::max(10, edits / 5); ++i) {
+            many.lights[0].position[0] += (i % 2) ? 0.01f : -0.01f;
+            auto t0 = std::chrono::steady_clock::now();
+            auto img = engine.value()->render(many);
+            if (!img || !encodeJpeg(img.value(), quality)) return 3;
+            pos.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+            many.lights[0].intensityCd *= (i % 2) ? 1.01f : 0.99f;
+            t0 = std::chrono::steady_clock::now();
+            img = engine.value()->render(many);
+            if (!img || !encodeJpeg(img.value(), quality)) return 3;
+            inten.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+        const double p50 = percentile(pos, 0.5);
+        if (n == 1) single = p50;
+        std::printf("%17d   %20.2f ms (%.2fx of one)   %20.2f ms\n", n, p50, p50 / single, percentile(inten, 0.5));
+    }
     return 0;
 }
