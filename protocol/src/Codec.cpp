@@ -232,6 +232,16 @@ Status setLightProperty(Light& l, const std::string& prop, const json& v, const 
         } else {
             return invalid(path + ": unknown light type " + v.dump() + " (\"spot\" or \"bendy\")");
         }
+    } else if (prop == "include" || prop == "exclude") {
+        if (!v.is_array() || v.size() > 4096) return invalid(path + ": expected an array of object ids (at most 4096)");
+        std::vector<uint32_t> ids;
+        for (size_t i = 0; i < v.size(); ++i) {
+            if (!v[i].is_number_unsigned() || v[i].get<uint64_t>() < 1 || v[i].get<uint64_t>() > (1u << 24)) {
+                return invalid(path + "[" + std::to_string(i) + "]: object ids are integers from 1");
+            }
+            ids.push_back(uint32_t(v[i].get<uint64_t>()));
+        }
+        (prop == "include" ? l.include : l.exclude) = std::move(ids);
     } else if (prop == "exactDirection") {
         auto b = getBool(v, path);
         if (!b) return b.error();
@@ -335,6 +345,8 @@ json toJson(const Light& l) {
         j["colors"] = l.colors;
         j["exactDirection"] = l.exactDirection;
     }
+    if (!l.include.empty()) j["include"] = l.include;
+    if (!l.exclude.empty()) j["exclude"] = l.exclude;
     if (!l.warning.empty()) j["warning"] = l.warning;
     if (!l.keys.empty()) {
         json keys = json::object();

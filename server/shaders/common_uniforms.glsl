@@ -16,6 +16,15 @@
 #define TEX_PIXEL_SAMPLES 8   // RG32UI: first sample, sample count
 #define TEX_GBUFFER_SHEEN 9   // RGBA16F: sheen rgb, sheen roughness
 #define TEX_GBUFFER_COAT 10   // RG16F: coat weight, coat roughness
+#define TEX_GBUFFER_ID 11     // R32UI: object id (light linking)
+#define SSBO_LINK_MASK 6      // per light: bit (id % 32) of word (id / 32) set = the object is lit
+
+layout(std430, binding = SSBO_LINK_MASK) readonly buffer LinkMask { uint linkMask[]; };
+// uLinked (location 1 of the relight passes): 1 when the light has include/exclude lists.
+bool objectLinked(uint id) {
+    uint word = id >> 5u;
+    return word < uint(linkMask.length()) && (linkMask[word] & (1u << (id & 31u))) != 0u;
+}
 
 #define UBO_LIGHT 0
 #define UBO_VIEW 1

@@ -22,6 +22,8 @@ layout(location = 0) out vec4 oColor;
 // 0: the light's radiance. 1: its shadow mask: r = coverage-weighted visibility of the samples the
 // light reaches (inside the cone, facing it), g = their coverage.
 layout(location = 0) uniform int uOutput;
+layout(location = 1) uniform int uLinked;
+layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 // The deformed shadow map at a receiver: bias along the geometric normal in world space, then
 // map the biased point like any caster vertex.
@@ -45,6 +47,7 @@ vec3 shadeSample(uint s) {
     ivec2 t = sampleTexel(s);
     vec4 pA = texelFetch(gP, t, 0);
     if (pA.w <= 0.0) return vec3(0.0);
+    if (uLinked != 0 && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 P = pA.xyz;
     TubeCoords c = inverseMap(P);
     if (!c.valid) return vec3(0.0); // no foot: unlit

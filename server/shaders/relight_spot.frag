@@ -20,6 +20,8 @@ layout(location = 0) out vec4 oColor;
 // 0: the light's radiance. 1: its shadow mask: r = coverage-weighted visibility of the samples the
 // light reaches (inside the cone, facing it), g = their coverage.
 layout(location = 0) uniform int uOutput;
+layout(location = 1) uniform int uLinked;
+layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 // 3x3 percentage-closer filter on top of the hardware 2x2 comparison.
 float shadowVisibility(vec3 P, vec3 Ng, float dist) {
@@ -41,6 +43,7 @@ vec3 shadeSample(uint s) {
     ivec2 t = sampleTexel(s);
     vec4 pA = texelFetch(gP, t, 0);
     if (pA.w <= 0.0) return vec3(0.0);
+    if (uLinked != 0 && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 P = pA.xyz;
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
     vec3 toLight = uLight.lightPosition.xyz - P;

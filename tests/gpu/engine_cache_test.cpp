@@ -125,3 +125,48 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
     EXPECT_LT(worst, 2e-3);
     EXPECT_EQ(checks, 5);
 }
+
+TEST(LightLinking, ExcludedObjectsAreUnlitByThatLightAndEverythingElseIsUnchanged) {
+    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
+    ASSERT_TRUE(scene.ok()) << scene.error().toString();
+    BakeOptions o;
+    o.width = 160;
+    o.height = 90;
+    auto shot = bake(scene.value(), o);
+    ASSERT_TRUE(shot.ok()) << shot.error().toString();
+    auto engine = Engine::create(shot.value(), castersOf(scene.value()));
+    ASSERT_TRUE(engine.ok()) << engine.error().toString();
+    const Bounds& b = scene->bounds;
+    Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+    uint32_t bunny = 0, table = 0;
+    for (size_t i = 0; i < shot->objectNames.size(); ++i) {
+        if (shot->objectNames[i] == "bunny") bunny = uint32_t(i + 1);
+        if (shot->objectNames[i] == "table") table = uint32_t(i + 1);
+    }
+    ASSERT_NE(bunny, 0u);
+    auto before = engine.value()->renderLightLinear(rig, "key");
+    ASSERT_TRUE(before.ok());
+    rig.lights[0].exclude = {bunny};
+    auto excluded = engine.value()->renderLightLinear(rig, "key");
+    rig.lights[0].exclude.clear();
+    rig.lights[0].include = {table};
+    auto included = engine.value()->renderLightLinear(rig, "key");
+    ASSERT_TRUE(excluded.ok() && included.ok());
+    size_t bunnyLitBefore = 0, bunnyLitAfter = 0, otherChanged = 0, notTableLit = 0;
+    for (size_t p = 0; p < shot->pixelCount(); ++p) {
+        const float a = before->rgba[p * 4 + 1], e = excluded->rgba[p * 4 + 1], in = included->rgba[p * 4 + 1];
+        if (shot->objectId[p] == bunny) {
+            bunnyLitBefore += a > 0.f;
+            bunnyLitAfter += e > 0.f;
+        } else if (e != a) {
+            ++otherChanged;
+        }
+        if (shot->objectId[p] != table) notTableLit += in > 0.f;
+        else if (in != a) ++otherChanged;
+    }
+    std::printf("bunny pixels lit by the key: %zu, with the bunny excluded: %zu\n", bunnyLitBefore, bunnyLitAfter);
+    EXPECT_GT(bunnyLitBefore, 200u);
+    EXPECT_EQ(bunnyLitAfter, 0u);
+    EXPECT_EQ(otherChanged, 0u); // linking is shading only: the table still receives the bunny's shadow
+    EXPECT_EQ(notTableLit, 0u);
+}

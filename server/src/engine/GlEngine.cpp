@@ -51,6 +51,7 @@ bool sameShadowInputs(const Light& a, const Light& b) {
 // not among them: they only rescale the cached image.
 bool sameShadingInputs(const Light& a, const Light& b) {
     return sameShadowInputs(a, b) && a.coneAngleDeg == b.coneAngleDeg && a.penumbraDeg == b.penumbraDeg && a.shadowBias == b.shadowBias && a.type == b.type &&
+           a.include == b.include && a.exclude == b.exclude &&
            (a.type != LightType::Bendy || (a.colors == b.colors && a.exactDirection == b.exactDirection));
 }
 
@@ -65,6 +66,7 @@ struct LightCache {
     gl::Framebuffer contributionFb;
     glm::mat4 worldToLightClip{1.f};
     gl::Buffer bendyUbo; // BendyBlock of a BendyLight
+    gl::Buffer linkMask; // light linking: one bit per object id
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
     glm::vec3 shadedRadiance{0.f}; // colour x intensity the contribution was shaded with
     glm::vec3 scale{1.f};          // current colour x intensity / shadedRadiance
@@ -103,7 +105,9 @@ private:
     bool mFlat = false; // one sample per pixel, stored at the pixel: specialised shaders
     int mSampleRow = 0;
     glm::vec3 mSceneMin{0.f}, mSceneMax{0.f};
-    gl::Texture mP, mN, mNg, mAlbedo, mBrdf, mEmission, mSheen, mCoat, mPixelSamples;
+    gl::Texture mP, mN, mNg, mAlbedo, mBrdf, mEmission, mSheen, mCoat, mPixelSamples, mIds;
+    uint32_t mMaxObjectId = 0;
+    gl::Buffer mNoLink; // bound when a light has no linking (the shader declares the buffer)
     gl::Buffer mCasterVbo, mCasterIbo;
     gl::VertexArray mCasterVao, mEmptyVao;
     GLsizei mCasterIndexCount = 0;
@@ -186,6 +190,15 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mEmission = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.emission, 3, nullptr);
     mSheen = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.sheen, 4, nullptr);
     mCoat = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.coat, 2, nullptr);
+    {
+        std::vector<uint32_t> ids(size_t(mSampleRow) * size_t(rows), 0);
+        for (size_t i = 0; i < g.sampleCount(); ++i) {
+            ids[i] = g.objectId[i];
+            mMaxObjectId = std::max(mMaxObjectId, g.objectId[i]);
+        }
+        mIds = gl::makeTexture2D(GL_R32UI, mSampleRow, rows);
+        glTextureSubImage2D(mIds.id(), 0, 0, 0, mSampleRow, rows, GL_RED_INTEGER, GL_UNSIGNED_INT, ids.data());
+    }
     // Per pixel: first sample and count. Row 0 of the deep buffer (top) goes to GL row 0: every
     // pass is per pixel, so the image is rendered top-down and read back without a flip.
     std::vector<uint32_t> ranges(g.pixelCount() * 2);
@@ -461,6 +474,28 @@ Status GlEngine::shade(LightCache& c, int output) {
         glUseProgram(mSpotProgram.id());
     }
     glUniform1i(0, output);
+    // Light linking: a bit per object id, lit where set.
+    const bool linked = !l.include.empty() || !l.exclude.empty();
+    glUniform1i(1, linked ? 1 : 0);
+    if (linked) {
+        std::vector<uint32_t> mask((std::max(mMaxObjectId, 1u) + 32) / 32, l.include.empty() ? ~0u : 0u);
+        auto setBit = [&](uint32_t id, bool on) {
+            if (id / 32 >= mask.size()) return;
+            if (on) mask[id / 32] |= 1u << (id % 32);
+            else mask[id / 32] &= ~(1u << (id % 32));
+        };
+        for (uint32_t id : l.include) setBit(id, true);
+        for (uint32_t id : l.exclude) setBit(id, false);
+        c.linkMask = gl::makeBuffer(mask.data(), mask.size() * sizeof(uint32_t));
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_LINK_MASK, c.linkMask.id());
+    } else {
+        if (!mNoLink) {
+            const uint32_t all = ~0u;
+            mNoLink = gl::makeBuffer(&all, sizeof all);
+        }
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_LINK_MASK, mNoLink.id());
+    }
+    glBindTextureUnit(engine::TEX_GBUFFER_ID, mIds.id());
     glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
     glBindTextureUnit(engine::TEX_GBUFFER_N, mN.id());
     glBindTextureUnit(engine::TEX_GBUFFER_NG, mNg.id());

@@ -23,7 +23,9 @@ enum TextureUnit : unsigned {
     TEX_PIXEL_SAMPLES = 8,
     TEX_GBUFFER_SHEEN = 9,
     TEX_GBUFFER_COAT = 10,
+    TEX_GBUFFER_ID = 11,
 };
+enum StorageBinding : unsigned { SSBO_LINK_MASK = 6 };
 enum UniformBinding : unsigned { UBO_LIGHT = 0, UBO_VIEW = 1, UBO_BENDY = 2 };
 
 struct LightBlock {

@@ -46,6 +46,11 @@ struct Light {
     bool shadow = true;               ///< casts shadows
     int shadowMapSize = 2048;         ///< shadow-map side in texels, power of two in [64, 8192]
     float shadowBias = 1.5f;          ///< receiver offset along the normal, in shadow-map texels, [0, 16]
+    /// Light linking by object id (1-based ids of the shot's manifest; paper 000 section 6.3
+    /// compares BendyLights with linked lights). Non-empty `include`: the light lights only those
+    /// objects; `exclude`: never those. Shading only: every object still casts shadows.
+    std::vector<uint32_t> include;
+    std::vector<uint32_t> exclude;
 
     // BendyLight chain (type Bendy). Control points are in the light's own frame, so that moving
     // or turning the light moves the whole tube (paper 000 section 5, "Direct Control"):
