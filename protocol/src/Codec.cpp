@@ -225,12 +225,14 @@ Status setLightProperty(Light& l, const std::string& prop, const json& v, const 
     } else if (prop == "type") {
         if (v == "spot") {
             l.type = LightType::Spot;
+        } else if (v == "directional") {
+            l.type = LightType::Directional;
         } else if (v == "bendy") {
             // A new chain starts straight along the axis, matching the cone: it looks like the spot.
             if (l.controlPoints.empty()) makeStraightChain(l, 4.f);
             l.type = LightType::Bendy;
         } else {
-            return invalid(path + ": unknown light type " + v.dump() + " (\"spot\" or \"bendy\")");
+            return invalid(path + ": unknown light type " + v.dump() + " (\"spot\", \"bendy\" or \"directional\")");
         }
     } else if (prop == "include" || prop == "exclude") {
         if (!v.is_array() || v.size() > 4096) return invalid(path + ": expected an array of object ids (at most 4096)");
@@ -330,7 +332,9 @@ Result<Light> lightFromJson(const json& j, const std::string& where) {
     return l;
 }
 
-std::string lightTypeName(LightType t) { return t == LightType::Bendy ? "bendy" : "spot"; }
+std::string lightTypeName(LightType t) {
+    return t == LightType::Bendy ? "bendy" : t == LightType::Directional ? "directional" : "spot";
+}
 
 } // namespace
 

@@ -46,12 +46,22 @@ vec3 shadeSample(uint s) {
     if (uLinked != 0 && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 P = pA.xyz;
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
-    vec3 toLight = uLight.lightPosition.xyz - P;
-    float dist2 = max(dot(toLight, toLight), 1e-12);
-    float dist = sqrt(dist2);
-    vec3 L = toLight / dist;
-    // Cone falloff: smooth between the outer and inner cosines.
-    float spot = smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-L, uLight.lightAxis.xyz));
+    vec3 L;
+    float dist2, dist, spot;
+    if (uLight.lightPosition.w == 0.0) {
+        // Directional (KHR_lights_punctual): parallel light, intensity in lux, no falloff.
+        L = -uLight.lightAxis.xyz;
+        dist2 = 1.0;
+        dist = 1.0;
+        spot = 1.0;
+    } else {
+        vec3 toLight = uLight.lightPosition.xyz - P;
+        dist2 = max(dot(toLight, toLight), 1e-12);
+        dist = sqrt(dist2);
+        L = toLight / dist;
+        // Cone falloff: smooth between the outer and inner cosines.
+        spot = smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-L, uLight.lightAxis.xyz));
+    }
     if (spot <= 0.0 || dot(N, L) <= 0.0) return vec3(0.0);
     float vis = 1.0;
     if (uLight.lightCone.z > 0.5) {

@@ -110,6 +110,39 @@ TEST(Engine, LambertPlaneMatchesClosedFormWithinOnePercentInLinearOutput) {
     EXPECT_LT(worst, 0.01);
 }
 
+TEST(Engine, DirectionalLightIsParallelInLuxAndCastsShadows) {
+    // A sun at 60 degrees from the zenith over the Lambertian plane, with a square blocker 1 unit
+    // above the centre: radiance albedo / pi * E * cos(theta) everywhere lit, and the blocker's
+    // shadow displaced by tan(60) along the light's horizontal direction.
+    ShadowGeometry g;
+    g.positions = {{-0.25f, 1.f, -0.25f}, {0.25f, 1.f, -0.25f}, {0.25f, 1.f, 0.25f}, {-0.25f, 1.f, 0.25f}};
+    g.indices = {0, 1, 2, 0, 2, 3};
+    const float albedo = 0.5f;
+    auto engine = Engine::create(planeShot(albedo), g);
+    ASSERT_TRUE(engine.ok()) << engine.error().toString();
+    Rig rig;
+    Light sun;
+    sun.name = "sun";
+    sun.type = LightType::Directional;
+    const float theta = glm::radians(60.f);
+    sun.direction = {std::sin(theta), -std::cos(theta), 0.f}; // travelling towards +x, downwards
+    sun.intensityCd = 3.f;                                     // lux
+    sun.shadowMapSize = 1024;
+    rig.lights.push_back(sun);
+    auto img = engine.value()->renderLinear(rig);
+    ASSERT_TRUE(img.ok()) << img.error().toString();
+    auto at = [&](float wx, float wz) {
+        const int x = int((wx + 2.f) / 4.f * 64.f), y = int((wz + 2.f) / 4.f * 64.f);
+        return double(img->rgba[(size_t(y) * 64 + x) * 4]);
+    };
+    const double expected = albedo / M_PI * 3.0 * std::cos(theta);
+    EXPECT_NEAR(at(-1.5f, 1.5f), expected, 0.01 * expected);
+    EXPECT_NEAR(at(-1.5f, -1.5f), expected, 0.01 * expected);
+    // The shadow of the square lands at x in [-0.25, 0.25] + tan(60) = [1.48, 1.98], z in [-0.25, 0.25].
+    EXPECT_LT(at(1.73f, 0.f), 0.05 * expected);
+    EXPECT_NEAR(at(0.f, 0.f), expected, 0.01 * expected); // right under the blocker: lit (oblique sun)
+}
+
 TEST(Engine, BlockerCastsAShadowOnlyWhereExpected) {
     // A small square blocker 1 unit above the plane, under a light straight above it.
     ShadowGeometry g;

@@ -105,6 +105,7 @@ private:
     bool mFlat = false; // one sample per pixel, stored at the pixel: specialised shaders
     int mSampleRow = 0;
     glm::vec3 mSceneMin{0.f}, mSceneMax{0.f};
+    glm::vec3 mReceiverMin{0.f}, mReceiverMax{0.f}; // bounds of the shot's covered samples
     gl::Texture mP, mN, mNg, mAlbedo, mBrdf, mEmission, mSheen, mCoat, mPixelSamples, mIds;
     uint32_t mMaxObjectId = 0;
     gl::Buffer mNoLink; // bound when a light has no linking (the shader declares the buffer)
@@ -217,12 +218,17 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         mSceneMax = glm::max(mSceneMax, p);
     }
     // Receivers bound the scene too (a shot may be relit with fewer casters than it shows).
+    mReceiverMin = glm::vec3(1e30f);
+    mReceiverMax = glm::vec3(-1e30f);
     for (size_t i = 0; i < g.sampleCount(); ++i) {
         if (g.A[i] <= 0.f) continue;
         glm::vec3 p(g.P[i * 3], g.P[i * 3 + 1], g.P[i * 3 + 2]);
         mSceneMin = glm::min(mSceneMin, p);
         mSceneMax = glm::max(mSceneMax, p);
+        mReceiverMin = glm::min(mReceiverMin, p);
+        mReceiverMax = glm::max(mReceiverMax, p);
     }
+    if (mReceiverMin.x > mReceiverMax.x) mReceiverMin = mReceiverMax = glm::vec3(0.f);
     if (mSceneMin.x > mSceneMax.x) mSceneMin = mSceneMax = glm::vec3(0.f);
     // Zero-sized buffer storage is a GL error: a shot without casters gets one dummy element.
     const glm::vec3 dummyVertex(0.f);
@@ -321,10 +327,27 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
 }
 
 glm::mat4 GlEngine::lightViewProj(const Light& l) const {
-    const glm::vec3 pos = toGlm(l.position);
     const glm::vec3 axis = glm::normalize(toGlm(l.direction));
     glm::vec3 up(0, 1, 0);
     if (std::abs(glm::dot(up, axis)) > 0.99f) up = glm::vec3(1, 0, 0);
+    if (l.type == LightType::Directional) {
+        // An orthographic frustum fitted to what the camera sees (the receivers' bounds) across
+        // the light, and stretched towards the light over the whole scene so that every caster
+        // that can shadow a receiver is inside.
+        const glm::vec3 centre = 0.5f * (mSceneMin + mSceneMax);
+        const float radius = 0.5f * glm::length(mSceneMax - mSceneMin) + 1e-3f;
+        const glm::mat4 view = glm::lookAt(centre - axis * (2.f * radius), centre, up);
+        glm::vec3 lo(1e30f), hi(-1e30f);
+        for (int i = 0; i < 8; ++i) {
+            const glm::vec3 c((i & 1) ? mReceiverMax.x : mReceiverMin.x, (i & 2) ? mReceiverMax.y : mReceiverMin.y,
+                              (i & 4) ? mReceiverMax.z : mReceiverMin.z);
+            const glm::vec3 v = glm::vec3(view * glm::vec4(c, 1.f));
+            lo = glm::min(lo, v);
+            hi = glm::max(hi, v);
+        }
+        return glm::ortho(lo.x, hi.x, lo.y, hi.y, 1e-3f * radius, 4.f * radius) * view;
+    }
+    const glm::vec3 pos = toGlm(l.position);
     const glm::mat4 view = glm::lookAt(pos, pos + axis, up);
     // Near/far from the scene's bounds seen from the light: tight planes keep depth precision.
     float farthest = 0.f;
@@ -448,7 +471,8 @@ Status GlEngine::shade(LightCache& c, int output) {
     }
     engine::LightBlock block{};
     block.worldToLightClip = c.worldToLightClip;
-    block.lightPosition = glm::vec4(toGlm(l.position), 1.f);
+    // w = 0 marks a directional light: parallel rays, no distance or cone falloff.
+    block.lightPosition = glm::vec4(toGlm(l.position), l.type == LightType::Directional ? 0.f : 1.f);
     block.lightAxis = glm::vec4(glm::normalize(toGlm(l.direction)), 0.f);
     block.lightRadiance = glm::vec4(toGlm(l.color) * l.intensityCd, 0.f);
     const float outer = glm::radians(l.coneAngleDeg);
@@ -457,8 +481,16 @@ Status GlEngine::shade(LightCache& c, int output) {
     // Normal offset: `shadowBias` shadow-map texels, whose world size grows linearly with distance.
     const float fovy = 2.f * glm::radians(shadowHalfAngleDeg(l));
     const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(std::max(l.shadowMapSize, 1));
+    float normalOffset = l.shadowBias * texelPerDistance;
+    if (l.type == LightType::Directional) {
+        // Orthographic texels have one world size: the frustum's width over the map's.
+        const glm::mat4 m = glm::inverse(c.worldToLightClip);
+        const float width = glm::length(glm::vec3(m * glm::vec4(1, 0, 0, 1)) / (m * glm::vec4(1, 0, 0, 1)).w -
+                                        glm::vec3(m * glm::vec4(-1, 0, 0, 1)) / (m * glm::vec4(-1, 0, 0, 1)).w);
+        normalOffset = l.shadowBias * width / float(std::max(l.shadowMapSize, 1));
+    }
     block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
-                                shadowed ? 1.f : 0.f, l.shadowBias * texelPerDistance);
+                                shadowed ? 1.f : 0.f, normalOffset);
     block.lightShadow = glm::vec4(1.f / float(std::max(l.shadowMapSize, 1)), 0.f, 0.f, 0.f);
     glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());

@@ -16,7 +16,8 @@ using Vec3 = std::array<float, 3>;
 
 /// Light types: a spot light, or a BendyLight (paper 000: a spot light whose light travels along a
 /// chain of quadratic Bezier segments; docs/lighting.md).
-enum class LightType { Spot, Bendy };
+/// Directional: parallel light along `direction` (the sun), intensity in lux, no cone.
+enum class LightType { Spot, Bendy, Directional };
 
 /// Most Bezier segments a BendyLight chain may have (lightmath::MAX_SEGMENTS).
 constexpr int MAX_BENDY_SEGMENTS = 8;
@@ -40,7 +41,7 @@ struct Light {
     Vec3 position{0.f, 3.f, 3.f};     ///< world space, scene units
     Vec3 direction{0.f, -0.7071f, -0.7071f}; ///< world space, towards where the light points; normalised on set
     Vec3 color{1.f, 1.f, 1.f};        ///< linear RGB, each >= 0
-    float intensityCd = 50.f;         ///< candela, >= 0
+    float intensityCd = 50.f;         ///< candela (spot, BendyLight) or lux (directional), >= 0
     float coneAngleDeg = 35.f;        ///< outer half-angle of the cone, (0, 85] degrees
     float penumbraDeg = 8.f;          ///< width of the soft edge inside the cone, [0, coneAngleDeg]
     bool shadow = true;               ///< casts shadows
