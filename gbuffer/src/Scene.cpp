@@ -521,6 +521,23 @@ Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir,
             scene.cameras.push_back(cam);
         }
 
+        if (auto lit = node.extensions.find("KHR_lights_punctual"); lit != node.extensions.end() && lit->second.Has("light")) {
+            const int index = lit->second.Get("light").GetNumberAsInt();
+            if (index >= 0 && size_t(index) < model.lights.size()) {
+                const tinygltf::Light& gl = model.lights[size_t(index)];
+                SceneLight l;
+                l.name = !gl.name.empty() ? gl.name : (!node.name.empty() ? node.name : "light" + std::to_string(index));
+                l.type = gl.type;
+                l.position = glm::vec3(world[3]);
+                l.direction = glm::normalize(-glm::vec3(world[2]));
+                if (gl.color.size() == 3) l.color = glm::vec3(float(gl.color[0]), float(gl.color[1]), float(gl.color[2]));
+                l.intensity = float(gl.intensity);
+                l.innerConeRadians = float(gl.spot.innerConeAngle);
+                l.outerConeRadians = float(gl.spot.outerConeAngle);
+                scene.lights.push_back(l);
+            }
+        }
+
         if (node.mesh >= 0) {
             if (size_t(node.mesh) >= model.meshes.size()) {
                 failure = "node '" + nodeName + "' references a missing mesh";

@@ -12,6 +12,10 @@
 #include <dfb/gbuffer/Scene.h>
 
 #include <CLI/CLI.hpp>
+#include <glm/glm.hpp>
+
+#include <algorithm>
+#include <cctype>
 
 #include <cstdio>
 #include <filesystem>
@@ -54,8 +58,34 @@ int main(int argc, char** argv) {
         for (uint32_t i : p.indices) casters.indices.push_back(base + i);
     }
     const dfb::Bounds& b = scene->bounds;
-    dfb::Session session(shot.value(), shotPath,
-                         dfb::defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z}));
+    dfb::Rig rig = dfb::defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+    // Lights of the scene's KHR_lights_punctual extension become the initial rig when present.
+    dfb::Rig imported;
+    imported.version = 1;
+    for (const dfb::SceneLight& sl : scene->lights) {
+        if (sl.type == "point") {
+            std::fprintf(stderr, "dfb-server: scene light '%s' is a point light, not supported yet: skipped\n", sl.name.c_str());
+            continue;
+        }
+        dfb::Light l;
+        std::string name;
+        for (char ch : sl.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-') ? ch : '_';
+        l.name = name.substr(0, 64);
+        while (imported.find(l.name)) l.name += "_";
+        l.type = sl.type == "directional" ? dfb::LightType::Directional : dfb::LightType::Spot;
+        l.position = {sl.position.x, sl.position.y, sl.position.z};
+        l.direction = {sl.direction.x, sl.direction.y, sl.direction.z};
+        l.color = {sl.color.r, sl.color.g, sl.color.b};
+        l.intensityCd = std::max(sl.intensity, 0.f);
+        l.coneAngleDeg = std::clamp(glm::degrees(sl.outerConeRadians), 0.1f, 85.f);
+        l.penumbraDeg = std::clamp(glm::degrees(sl.outerConeRadians - sl.innerConeRadians), 0.f, l.coneAngleDeg);
+        imported.lights.push_back(l);
+    }
+    if (!imported.lights.empty()) {
+        std::printf("dfb-server: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", imported.lights.size());
+        rig = imported;
+    }
+    dfb::Session session(shot.value(), shotPath, rig);
 
     boost::asio::io_context ioc(1);
     auto state = std::make_shared<dfb::net::SharedState>(ioc, session);

@@ -3,6 +3,7 @@
 #include <dfb/gbuffer/Scene.h>
 
 #include "support/Assets.h"
+#include "support/GltfBuilder.h"
 
 #include <gtest/gtest.h>
 
@@ -60,5 +61,51 @@ TEST(Scene, MissingFileAndGarbageGiveClearErrors) {
     auto c = loadScene(path);
     ASSERT_FALSE(c.ok());
     EXPECT_NE(c.error().message.find("KHR_draco_mesh_compression"), std::string::npos) << c.error().message;
+    std::filesystem::remove(path);
+}
+
+TEST(Scene, KhrLightsPunctualArePlacedByTheirNodes) {
+    test::GltfBuilder b;
+    tinygltf::Material m;
+    m.name = "grey";
+    b.addQuad("floor", -1, -1, 1, 1, 0, b.addMaterial(m));
+    tinygltf::Light spot;
+    spot.name = "key";
+    spot.type = "spot";
+    spot.intensity = 120;
+    spot.color = {1.0, 0.5, 0.25};
+    spot.spot.innerConeAngle = 0.3;
+    spot.spot.outerConeAngle = 0.5;
+    b.model.lights.push_back(spot);
+    tinygltf::Light sun;
+    sun.type = "directional";
+    sun.intensity = 3;
+    b.model.lights.push_back(sun);
+    b.model.extensionsUsed.push_back("KHR_lights_punctual");
+    for (int i = 0; i < 2; ++i) {
+        tinygltf::Node n;
+        n.name = i == 0 ? "key_node" : "sun_node";
+        n.translation = {1.0, 4.0, 2.0};
+        // Rotate -90 degrees about X: the light's -Z points down (-Y).
+        n.rotation = {-0.7071067811865476, 0, 0, 0.7071067811865476};
+        tinygltf::Value::Object ext{{"light", tinygltf::Value(i)}};
+        n.extensions["KHR_lights_punctual"] = tinygltf::Value(ext);
+        b.model.nodes.push_back(n);
+        b.model.scenes[0].nodes.push_back(int(b.model.nodes.size()) - 1);
+    }
+    const std::string path = (std::filesystem::temp_directory_path() / "dfb_lights.glb").string();
+    ASSERT_TRUE(b.write(path));
+    auto s = loadScene(path);
+    ASSERT_TRUE(s.ok()) << s.error().toString();
+    ASSERT_EQ(s->lights.size(), 2u);
+    const SceneLight& k = s->lights[0];
+    EXPECT_EQ(k.name, "key");
+    EXPECT_EQ(k.type, "spot");
+    EXPECT_NEAR(k.position.y, 4.f, 1e-5f);
+    EXPECT_NEAR(k.direction.y, -1.f, 1e-5f);
+    EXPECT_NEAR(k.outerConeRadians, 0.5f, 1e-6f);
+    EXPECT_NEAR(k.intensity, 120.f, 1e-4f);
+    EXPECT_NEAR(k.color.g, 0.5f, 1e-6f);
+    EXPECT_EQ(s->lights[1].type, "directional");
     std::filesystem::remove(path);
 }

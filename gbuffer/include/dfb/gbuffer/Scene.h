@@ -92,6 +92,18 @@ struct SceneCamera {
     bool orthographic = false;
 };
 
+/// A light of the file's KHR_lights_punctual extension, placed by its node.
+struct SceneLight {
+    std::string name;
+    std::string type;               ///< "spot", "directional" or "point"
+    glm::vec3 position{0.f};        ///< world space
+    glm::vec3 direction{0, 0, -1};  ///< world space, unit: the node's -Z
+    glm::vec3 color{1.f};
+    float intensity = 1.f;          ///< candela (point, spot) or lux (directional)
+    float innerConeRadians = 0.f;
+    float outerConeRadians = 0.785398f;
+};
+
 struct Bounds {
     glm::vec3 min{1e30f};
     glm::vec3 max{-1e30f};
@@ -112,6 +124,7 @@ struct Scene {
     std::vector<SceneTexture> textures;
     std::vector<std::string> objectNames;   ///< objectNames[id - 1]
     std::vector<SceneCamera> cameras;
+    std::vector<SceneLight> lights; ///< KHR_lights_punctual, in node order
     Bounds bounds;
 
     size_t triangleCount() const;
