@@ -51,12 +51,7 @@ int main(int argc, char** argv) {
                   << (scenePath == shot->sourcePath ? " (the shot's source scene; pass --scene)" : "") << "\n";
         return 2;
     }
-    dfb::ShadowGeometry casters;
-    for (const dfb::MeshPart& p : scene->parts) {
-        const auto base = uint32_t(casters.positions.size());
-        casters.positions.insert(casters.positions.end(), p.positions.begin(), p.positions.end());
-        for (uint32_t i : p.indices) casters.indices.push_back(base + i);
-    }
+    dfb::ShadowGeometry casters = dfb::shadowCasters(scene.value());
     const dfb::Bounds& b = scene->bounds;
     dfb::Rig rig = dfb::defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     // Lights of the scene's KHR_lights_punctual extension become the initial rig when present.

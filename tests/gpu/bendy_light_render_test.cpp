@@ -18,16 +18,6 @@ using namespace dfb::lightmath;
 
 namespace {
 
-ShadowGeometry castersOf(const Scene& s) {
-    ShadowGeometry g;
-    for (const MeshPart& p : s.parts) {
-        const auto base = uint32_t(g.positions.size());
-        g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
-        for (uint32_t i : p.indices) g.indices.push_back(base + i);
-    }
-    return g;
-}
-
 struct Shot {
     Scene scene;
     DeepBuffer buffer;
@@ -45,7 +35,7 @@ Shot makeShot(const std::string& path, int w, int h) {
     auto b = bake(s.scene, o);
     EXPECT_TRUE(b.ok()) << b.error().toString();
     s.buffer = std::move(b.value());
-    auto e = Engine::create(s.buffer, castersOf(s.scene));
+    auto e = Engine::create(s.buffer, shadowCasters(s.scene));
     EXPECT_TRUE(e.ok()) << e.error().toString();
     s.engine = std::move(e.value());
     return s;

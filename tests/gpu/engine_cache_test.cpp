@@ -13,16 +13,6 @@ using namespace dfb;
 
 namespace {
 
-ShadowGeometry castersOf(const Scene& s) {
-    ShadowGeometry g;
-    for (const MeshPart& p : s.parts) {
-        const auto base = uint32_t(g.positions.size());
-        g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
-        for (uint32_t i : p.indices) g.indices.push_back(base + i);
-    }
-    return g;
-}
-
 // Largest difference relative to the image's mean value (per channel value).
 double relativeDifference(const ImageF& a, const ImageF& b) {
     double worst = 0, mean = 0;
@@ -48,7 +38,7 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
     o.samples = 4; // deep: samples are shaded and averaged in every path
     auto shot = bake(scene.value(), o);
     ASSERT_TRUE(shot.ok()) << shot.error().toString();
-    const ShadowGeometry casters = castersOf(scene.value());
+    const ShadowGeometry casters = shadowCasters(scene.value());
     auto cached = Engine::create(shot.value(), casters);
     ASSERT_TRUE(cached.ok()) << cached.error().toString();
 
@@ -134,7 +124,7 @@ TEST(LightLinking, ExcludedObjectsAreUnlitByThatLightAndEverythingElseIsUnchange
     o.height = 90;
     auto shot = bake(scene.value(), o);
     ASSERT_TRUE(shot.ok()) << shot.error().toString();
-    auto engine = Engine::create(shot.value(), castersOf(scene.value()));
+    auto engine = Engine::create(shot.value(), shadowCasters(scene.value()));
     ASSERT_TRUE(engine.ok()) << engine.error().toString();
     const Bounds& b = scene->bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});

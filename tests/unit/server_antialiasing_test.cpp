@@ -11,16 +11,6 @@ using namespace dfb;
 
 namespace {
 
-ShadowGeometry castersOf(const Scene& s) {
-    ShadowGeometry g;
-    for (const MeshPart& p : s.parts) {
-        const auto base = uint32_t(g.positions.size());
-        g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
-        for (uint32_t i : p.indices) g.indices.push_back(base + i);
-    }
-    return g;
-}
-
 ImageF relight(const Scene& scene, int w, int h, int samples, const Rig& rig) {
     BakeOptions o;
     o.width = w;
@@ -28,7 +18,7 @@ ImageF relight(const Scene& scene, int w, int h, int samples, const Rig& rig) {
     o.samples = samples;
     auto shot = bake(scene, o);
     EXPECT_TRUE(shot.ok()) << shot.error().toString();
-    auto engine = Engine::create(shot.value(), castersOf(scene));
+    auto engine = Engine::create(shot.value(), shadowCasters(scene));
     EXPECT_TRUE(engine.ok()) << engine.error().toString();
     auto img = engine.value()->renderLinear(rig);
     EXPECT_TRUE(img.ok()) << img.error().toString();
@@ -51,7 +41,7 @@ TEST(AntiAliasing, MultiSampleEdgesMatchABoxFilteredSupersampledRelight) {
     o.samples = F * F; // the 4x4 stratified grid: the supersampled bake's pixel centres
     auto aaShot = bake(scene.value(), o);
     ASSERT_TRUE(aaShot.ok()) << aaShot.error().toString();
-    auto engine = Engine::create(aaShot.value(), castersOf(scene.value()));
+    auto engine = Engine::create(aaShot.value(), shadowCasters(scene.value()));
     ASSERT_TRUE(engine.ok()) << engine.error().toString();
     auto aa = engine.value()->renderLinear(rig);
     ASSERT_TRUE(aa.ok());

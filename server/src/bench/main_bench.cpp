@@ -51,12 +51,7 @@ int main(int argc, char** argv) {
         std::cerr << "dfb-bench: " << scene.error().toString() << "\n";
         return 2;
     }
-    ShadowGeometry casters;
-    for (const MeshPart& p : scene->parts) {
-        const auto base = uint32_t(casters.positions.size());
-        casters.positions.insert(casters.positions.end(), p.positions.begin(), p.positions.end());
-        for (uint32_t i : p.indices) casters.indices.push_back(base + i);
-    }
+    ShadowGeometry casters = shadowCasters(scene.value());
     auto engine = Engine::create(shot.value(), casters);
     if (!engine) {
         std::cerr << "dfb-bench: " << engine.error().toString() << "\n";

@@ -39,16 +39,6 @@ double median(std::vector<double> v) {
     return v.empty() ? 0 : v[v.size() / 2];
 }
 
-ShadowGeometry castersOf(const Scene& s) {
-    ShadowGeometry g;
-    for (const MeshPart& p : s.parts) {
-        const auto base = uint32_t(g.positions.size());
-        g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
-        for (uint32_t i : p.indices) g.indices.push_back(base + i);
-    }
-    return g;
-}
-
 // A key light over the scene's bounds, bent sideways by ~65 degrees (as in the tests).
 Light bentLight(const Bounds& b, int mapSize) {
     const Rig def = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
@@ -96,7 +86,7 @@ int main(int argc, char** argv) {
         o.height = 135;
         auto shot = bake(scene.value(), o);
         if (!shot) return 3;
-        auto engine = Engine::create(shot.value(), castersOf(scene.value()));
+        auto engine = Engine::create(shot.value(), shadowCasters(scene.value()));
         if (!engine) {
             std::fprintf(stderr, "%s\n", engine.error().toString().c_str());
             return 3;
@@ -208,7 +198,7 @@ void main() {
             if (!r) return 3;
             shot = std::move(r.value());
         }
-        auto engine = Engine::create(shot, castersOf(scene.value()));
+        auto engine = Engine::create(shot, shadowCasters(scene.value()));
         if (!engine) return 3;
         const Bounds& b = scene->bounds;
         Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});

@@ -764,6 +764,16 @@ Result<ImageF> GlEngine::renderLinear(const Rig& rig) {
 
 } // namespace
 
+ShadowGeometry shadowCasters(const Scene& scene) {
+    ShadowGeometry g;
+    for (const MeshPart& p : scene.parts) {
+        const auto base = uint32_t(g.positions.size());
+        g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
+        for (uint32_t i : p.indices) g.indices.push_back(base + i);
+    }
+    return g;
+}
+
 Result<std::unique_ptr<Engine>> Engine::create(const DeepBuffer& gbuffer, const ShadowGeometry& casters) {
     auto e = std::make_unique<GlEngine>();
     if (auto s = e->init(gbuffer, casters); !s) return s.error();

@@ -7,6 +7,7 @@
 
 #include <dfb/core/Result.h>
 #include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/gbuffer/Scene.h>
 #include <dfb/protocol/Rig.h>
 
 #include <glm/glm.hpp>
@@ -37,6 +38,9 @@ struct ShadowGeometry {
     std::vector<glm::vec3> positions;
     std::vector<uint32_t> indices;
 };
+
+/// Every triangle of a scene as one shadow-casting mesh.
+ShadowGeometry shadowCasters(const Scene& scene);
 
 /// Where the time of one render went, in milliseconds of wall time (GPU work is waited for at
 /// each stage boundary, so the split is honest on llvmpipe and on discrete GPUs).
