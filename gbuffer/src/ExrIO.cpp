@@ -331,15 +331,23 @@ Result<Imath::Box2i> checkWindow(const Imf::Header& h, const std::string& path) 
     return dw;
 }
 
-Status readFlat(const std::string& path, DeepBuffer& b, std::set<std::string>& missing) {
-    Imf::InputFile file(path.c_str());
+// What flat and deep reads check before allocating: window, channels, attributes, completeness
+// (a truncated file is refused before its pixels are allocated: its line offsets are missing).
+template <typename File>
+Result<Imath::Box2i> readPrelude(File& file, const std::string& path, DeepBuffer& b, std::set<std::string>& missing) {
     const Imf::Header& h = file.header();
     auto dw = checkWindow(h, path);
     if (!dw) return dw.error();
-    if (auto s = checkChannels(h, path, missing); !s) return s;
-    if (auto s = readHeaderAttributes(h, path, b); !s) return s;
-    // A truncated file is refused before its pixels are allocated (its line offsets are missing).
+    if (auto s = checkChannels(h, path, missing); !s) return s.error();
+    if (auto s = readHeaderAttributes(h, path, b); !s) return s.error();
     if (!file.isComplete()) return fileError(ErrorCode::InvalidFile, path, "the file is truncated or incomplete");
+    return dw;
+}
+
+Status readFlat(const std::string& path, DeepBuffer& b, std::set<std::string>& missing) {
+    Imf::InputFile file(path.c_str());
+    auto dw = readPrelude(file, path, b, missing);
+    if (!dw) return dw.error();
     const long w = long(dw->max.x) - dw->min.x + 1, hgt = long(dw->max.y) - dw->min.y + 1;
     b.allocate(int(w), int(hgt));
     Imf::FrameBuffer fb;
@@ -361,12 +369,8 @@ Status readFlat(const std::string& path, DeepBuffer& b, std::set<std::string>& m
 
 Status readDeep(const std::string& path, DeepBuffer& b, std::set<std::string>& missing) {
     Imf::DeepScanLineInputFile file(path.c_str());
-    const Imf::Header& h = file.header();
-    auto dw = checkWindow(h, path);
+    auto dw = readPrelude(file, path, b, missing);
     if (!dw) return dw.error();
-    if (auto s = checkChannels(h, path, missing); !s) return s;
-    if (auto s = readHeaderAttributes(h, path, b); !s) return s;
-    if (!file.isComplete()) return fileError(ErrorCode::InvalidFile, path, "the file is truncated or incomplete");
     const long w = long(dw->max.x) - dw->min.x + 1, hgt = long(dw->max.y) - dw->min.y + 1;
     const size_t np = size_t(w) * size_t(hgt);
     std::vector<uint32_t> counts(np);

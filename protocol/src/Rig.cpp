@@ -46,29 +46,24 @@ Rig defaultRig(const Vec3& bmin, const Vec3& bmax) {
     Rig rig;
     rig.version = 1;
 
-    Light key;
-    key.name = "key";
-    key.position = add(target, scale({-0.55f, 0.95f, 0.6f}, radius));
-    const Vec3 toTarget = sub(target, key.position);
-    const float dKey = length(toTarget);
-    key.direction = scale(toTarget, 1.f / dKey);
-    key.color = {1.f, 0.95f, 0.88f};
-    // Irradiance of about 2 lux at the target: a mid-grey Lambertian surface then reads about 0.5.
-    key.intensityCd = 2.f * dKey * dKey;
-    key.coneAngleDeg = 28.f;
-    key.penumbraDeg = 6.f;
-    rig.lights.push_back(key);
-
-    Light fill;
-    fill.name = "fill";
-    fill.position = add(target, scale({0.9f, 0.45f, 0.8f}, radius));
-    const Vec3 toTarget2 = sub(target, fill.position);
-    const float dFill = length(toTarget2);
-    fill.direction = scale(toTarget2, 1.f / dFill);
-    fill.color = {0.8f, 0.88f, 1.f};
-    fill.intensityCd = 0.35f * dFill * dFill;
-    fill.coneAngleDeg = 60.f;
-    fill.penumbraDeg = 30.f;
+    // A spot light at `offset` (in units of the bounds' radius) from the target, aimed at it, with
+    // an intensity giving `lux` of irradiance there (2 lux: a mid-grey Lambertian surface reads
+    // about 0.5).
+    auto aimed = [&](const char* name, const Vec3& offset, float lux, const Vec3& color, float cone, float penumbra) {
+        Light l;
+        l.name = name;
+        l.position = add(target, scale(offset, radius));
+        const Vec3 toTarget = sub(target, l.position);
+        const float d = length(toTarget);
+        l.direction = scale(toTarget, 1.f / d);
+        l.color = color;
+        l.intensityCd = lux * d * d;
+        l.coneAngleDeg = cone;
+        l.penumbraDeg = penumbra;
+        return l;
+    };
+    rig.lights.push_back(aimed("key", {-0.55f, 0.95f, 0.6f}, 2.f, {1.f, 0.95f, 0.88f}, 28.f, 6.f));
+    Light fill = aimed("fill", {0.9f, 0.45f, 0.8f}, 0.35f, {0.8f, 0.88f, 1.f}, 60.f, 30.f);
     fill.shadow = false;
     rig.lights.push_back(fill);
     return rig;

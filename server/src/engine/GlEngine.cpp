@@ -97,6 +97,7 @@ private:
     Status renderShadow(LightCache& c);
     Status shade(LightCache& c, int output = 0);
     Status renderAccumulation(const Rig& rig, FrameStats& st);
+    Result<ImageF> readFloat(GLuint texture, const char* what, glm::vec3 scale = glm::vec3(1.f));
 
     std::unique_ptr<gl::Context> mContext;
     int mWidth = 0, mHeight = 0;
@@ -711,23 +712,35 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     return img;
 }
 
+// Reads an image-sized float texture back, times `scale` per channel.
+Result<ImageF> GlEngine::readFloat(GLuint texture, const char* what, glm::vec3 scale) {
+    ImageF img;
+    img.width = mWidth;
+    img.height = mHeight;
+    img.rgba.resize(size_t(mWidth) * size_t(mHeight) * 4);
+    glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
+    if (scale != glm::vec3(1.f)) {
+        for (size_t i = 0; i < img.rgba.size(); i += 4)
+            for (int k = 0; k < 3; ++k) img.rgba[i + size_t(k)] *= scale[k];
+    }
+    if (auto s = mContext->check(what); !s) return s.error();
+    return img;
+}
+
 Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& lightName) {
     const Light* l = rig.find(lightName);
     if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error();
-    ImageF img;
-    img.width = mWidth;
-    img.height = mHeight;
-    img.rgba.assign(size_t(mWidth) * size_t(mHeight) * 4, 0.f);
-    if (l->enabled) {
-        const LightCache& c = mLights[lightName];
-        glGetTextureImage(c.contribution.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
-        for (size_t i = 0; i < img.rgba.size(); i += 4)
-            for (int k = 0; k < 3; ++k) img.rgba[i + size_t(k)] *= c.scale[k];
+    if (!l->enabled) {
+        ImageF black;
+        black.width = mWidth;
+        black.height = mHeight;
+        black.rgba.assign(size_t(mWidth) * size_t(mHeight) * 4, 0.f);
+        return black;
     }
-    if (auto s = mContext->check("light alone"); !s) return s.error();
-    return img;
+    const LightCache& c = mLights[lightName];
+    return readFloat(c.contribution.id(), "light alone", c.scale);
 }
 
 Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lightName) {
@@ -741,25 +754,13 @@ Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lig
     if (auto s = shade(c, 1); !s) return s.error();
     c.hasContribution = false; // the next frame re-shades it (and rebuilds the sums that hold it)
     ++c.version;
-    ImageF img;
-    img.width = mWidth;
-    img.height = mHeight;
-    img.rgba.resize(size_t(mWidth) * size_t(mHeight) * 4);
-    glGetTextureImage(c.contribution.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
-    if (auto s = mContext->check("shadow mask"); !s) return s.error();
-    return img;
+    return readFloat(c.contribution.id(), "shadow mask");
 }
 
 Result<ImageF> GlEngine::renderLinear(const Rig& rig) {
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error();
-    ImageF img;
-    img.width = mWidth;
-    img.height = mHeight;
-    img.rgba.resize(size_t(mWidth) * size_t(mHeight) * 4);
-    glGetTextureImage(mAccum.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
-    if (auto s = mContext->check("relight frame (linear)"); !s) return s.error();
-    return img;
+    return readFloat(mAccum.id(), "relight frame (linear)");
 }
 
 } // namespace
