@@ -27,6 +27,21 @@ Result<Url> parseUrl(const std::string& text) {
         return makeError(ErrorCode::InvalidValue, "'" + text + "': TLS is not supported; use http:// or ws://");
     }
     Url u;
+    if (const size_t q = rest.find('?'); q != std::string::npos) {
+        // ?session=ID&token=T, as in the links dfb-server prints.
+        std::string query = rest.substr(q + 1);
+        rest = rest.substr(0, q);
+        size_t start = 0;
+        while (start <= query.size()) {
+            size_t end = query.find('&', start);
+            if (end == std::string::npos) end = query.size();
+            const std::string item = query.substr(start, end - start);
+            const size_t eq = item.find('=');
+            if (eq != std::string::npos && item.substr(0, eq) == "session") u.session = item.substr(eq + 1);
+            if (eq != std::string::npos && item.substr(0, eq) == "token") u.token = item.substr(eq + 1);
+            start = end + 1;
+        }
+    }
     const size_t slash = rest.find('/');
     u.path = slash == std::string::npos ? "/" : rest.substr(slash);
     const std::string hostPort = rest.substr(0, slash);
@@ -75,7 +90,7 @@ struct Connection::Impl {
 Connection::Connection(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
 Connection::~Connection() { close(); }
 
-Result<std::unique_ptr<Connection>> Connection::open(const Url& url, std::chrono::milliseconds timeout) {
+Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::string& target, std::chrono::milliseconds timeout) {
     auto impl = std::make_unique<Impl>();
     beast::error_code ec;
     tcp::resolver resolver(impl->ioc);
@@ -85,7 +100,15 @@ Result<std::unique_ptr<Connection>> Connection::open(const Url& url, std::chrono
     if (ec) return netError("connecting to " + url.host + ":" + url.port, ec);
     setDeadline(impl->ws.next_layer(), timeout);
     impl->ws.read_message_max(256u << 20);
-    impl->ws.handshake(url.host + ":" + url.port, "/v1/ws", ec);
+    websocket::response_type res;
+    impl->ws.handshake(res, url.host + ":" + url.port, target, ec);
+    if (ec == websocket::error::upgrade_declined) {
+        // The server said why (no token, unknown session): its JSON error, verbatim.
+        auto j = nlohmann::json::parse(res.body(), nullptr, false);
+        const std::string code = j.is_object() ? j.value("code", "") : "";
+        const ErrorCode c = code == "unauthorized" ? ErrorCode::Unauthorized : code == "missing_data" ? ErrorCode::MissingData : ErrorCode::Protocol;
+        return makeError(c, "HTTP " + std::to_string(res.result_int()) + ": " + res.body());
+    }
     if (ec) return netError("WebSocket handshake with " + url.host + ":" + url.port, ec);
     return std::unique_ptr<Connection>(new Connection(std::move(impl)));
 }
@@ -122,7 +145,8 @@ void Connection::close() {
     mImpl->ws.close(websocket::close_code::normal, ec);
 }
 
-Result<std::string> httpGet(const Url& url, const std::string& target, std::chrono::milliseconds timeout) {
+Result<HttpResponse> httpRequest(const Url& url, const std::string& method, const std::string& target, const std::string& token,
+                                 const std::string& body, const std::string& ifMatch, std::chrono::milliseconds timeout) {
     asio::io_context ioc;
     beast::error_code ec;
     tcp::resolver resolver(ioc);
@@ -132,21 +156,30 @@ Result<std::string> httpGet(const Url& url, const std::string& target, std::chro
     asio::connect(socket, results, ec);
     if (ec) return netError("connecting to " + url.host + ":" + url.port, ec);
     setDeadline(socket, timeout);
-    http::request<http::empty_body> req{http::verb::get, target, 11};
+    http::request<http::string_body> req{http::string_to_verb(method), target, 11};
     req.set(http::field::host, url.host);
     req.set(http::field::user_agent, "dfb-client");
+    if (!token.empty()) req.set(http::field::authorization, "Bearer " + token);
+    if (!ifMatch.empty()) req.set(http::field::if_match, ifMatch);
+    if (!body.empty()) {
+        req.set(http::field::content_type, "application/json");
+        req.body() = body;
+    }
+    req.prepare_payload();
     http::write(socket, req, ec);
-    if (ec) return netError("GET " + target, ec);
+    if (ec) return netError(method + " " + target, ec);
     beast::flat_buffer buffer;
     http::response_parser<http::string_body> parser;
     parser.body_limit(512u << 20);
     http::read(socket, buffer, parser, ec);
-    if (ec) return netError("GET " + target, ec);
+    if (ec) return netError(method + " " + target, ec);
     auto res = parser.release();
-    if (res.result_int() / 100 != 2) {
-        return makeError(ErrorCode::Protocol, "GET " + target + ": HTTP " + std::to_string(res.result_int()) + ": " + res.body());
-    }
-    return std::move(res.body());
+    HttpResponse out;
+    out.status = int(res.result_int());
+    out.body = std::move(res.body());
+    out.etag = std::string(res[http::field::etag]);
+    out.rigVersion = std::string(res["X-Rig-Version"]);
+    return out;
 }
 
 } // namespace dfb::client

@@ -16,9 +16,12 @@ namespace dfb::client {
 struct Url {
     std::string host;
     std::string port;
-    std::string path; ///< without host, starting with '/'
+    std::string path;    ///< without host, starting with '/'
+    std::string session; ///< from a "?session=ID" query (the links dfb-server prints), else empty
+    std::string token;   ///< from a "?token=T" query, else empty
 };
-/// Accepts http://, ws:// or a bare host:port; the default port is 8080.
+/// Accepts http://, ws:// or a bare host:port; the default port is 8080. The query of the URLs
+/// the server prints (?session=ID&token=T) fills `session` and `token`.
 Result<Url> parseUrl(const std::string& text);
 
 /// A message from the server: JSON text or a binary frame.
@@ -33,8 +36,10 @@ using ServerMessage = std::variant<TextMessage, FrameMessage>;
 
 class Connection {
 public:
-    /// Connects and completes the WebSocket handshake on /v1/ws. Fails with Network.
-    static Result<std::unique_ptr<Connection>> open(const Url& url, std::chrono::milliseconds timeout);
+    /// Connects and completes the WebSocket handshake on `target` (path and query, e.g.
+    /// "/v1/sessions/ID/ws?token=T"). Fails with Network, or Unauthorized / MissingData /
+    /// Protocol with the server's refusal verbatim.
+    static Result<std::unique_ptr<Connection>> open(const Url& url, const std::string& target, std::chrono::milliseconds timeout);
     ~Connection();
 
     Status sendText(const std::string& text);
@@ -48,7 +53,15 @@ private:
     std::unique_ptr<Impl> mImpl;
 };
 
-/// HTTP GET; returns the body on 2xx, else Protocol with the server's error body verbatim.
-Result<std::string> httpGet(const Url& url, const std::string& target, std::chrono::milliseconds timeout);
+struct HttpResponse {
+    int status = 0;
+    std::string body;
+    std::string etag;
+    std::string rigVersion; ///< X-Rig-Version of frames
+};
+/// One HTTP request with an optional bearer token, body and If-Match. Any status is a value; only
+/// failing to talk to the server is an error (Network).
+Result<HttpResponse> httpRequest(const Url& url, const std::string& method, const std::string& target, const std::string& token,
+                                 const std::string& body, const std::string& ifMatch, std::chrono::milliseconds timeout);
 
 } // namespace dfb::client

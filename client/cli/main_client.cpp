@@ -1,161 +1,471 @@
-// dfb-client: command-line client of dfb-server (protocol v0, docs/protocol.md).
+// dfb-client: command-line client of dfb-server (protocol v1, docs/protocol.md).
 //
-//   dfb-client URL --rig                         print the rig as JSON
-//   dfb-client URL --set key.intensity=500 ...   apply an edit (all changes at once, or none)
-//   dfb-client URL --frame out.jpg               save the next frame (after the edit, if any)
+//   dfb-client sessions | info | rig get|put | set | apply | frame | watch | pick | undo | redo | bench
 //
-// Exit codes: 0 success; 1 bad command line; 2 cannot reach the server; 3 the server refused
-// the request (its error is printed verbatim); 4 timed out or the connection broke; 5 the
-// output file could not be written.
+// Every subcommand takes --server URL (the links dfb-server prints carry the session and the
+// token), --session ID, --token T and --timeout S; DFB_SERVER, DFB_SESSION and DFB_TOKEN are the
+// defaults. Exit codes (also in --help and docs/operations.md): 0 success; 1 bad command line;
+// 2 cannot reach the server; 3 the server refused (its error is printed verbatim); 4 timed out or
+// the connection broke; 5 cannot read or write a local file.
 
 #include "Connection.h"
 
+#include <dfb/protocol/Messages.h>
+
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <atomic>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <thread>
 
 using namespace dfb;
+using json = nlohmann::json;
 
 namespace {
 
-constexpr int EXIT_USAGE = 1, EXIT_UNREACHABLE = 2, EXIT_REFUSED = 3, EXIT_BROKEN = 4, EXIT_WRITE = 5;
+constexpr int EXIT_OK = 0, EXIT_USAGE = 1, EXIT_UNREACHABLE = 2, EXIT_REFUSED = 3, EXIT_BROKEN = 4, EXIT_FILE = 5;
 
-bool endsWith(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+struct Options {
+    std::string server = "http://127.0.0.1:8080";
+    std::string session;
+    std::string token;
+    std::string name = "dfb-client";
+    double timeoutS = 30.0;
+};
+
+/// Thrown inside a subcommand to leave with an exit code (caught in main only).
+struct Exit {
+    int code;
+};
+
+[[noreturn]] void die(int code, const std::string& message) {
+    std::cerr << "dfb-client: " << message << "\n";
+    throw Exit{code};
 }
 
-int writeFile(const std::string& path, const void* data, size_t size) {
+class Client {
+public:
+    explicit Client(const Options& o) : mOpt(o) {
+        auto u = client::parseUrl(o.server);
+        if (!u) die(EXIT_USAGE, u.error().message);
+        mUrl = u.value();
+        mToken = !o.token.empty() ? o.token : mUrl.token;
+        mSession = !o.session.empty() ? o.session : mUrl.session;
+    }
+    std::chrono::milliseconds timeout() const { return std::chrono::milliseconds(long(mOpt.timeoutS * 1000)); }
+
+    /// One request; a refusal (non-2xx) prints the server's error verbatim and exits 3.
+    client::HttpResponse request(const std::string& method, const std::string& target, const std::string& body = "",
+                                 const std::string& ifMatch = "") {
+        auto r = client::httpRequest(mUrl, method, target, mToken, body, ifMatch, timeout());
+        if (!r) fail(r.error());
+        if (r->status / 100 != 2) {
+            die(EXIT_REFUSED, "server refused " + method + " " + target.substr(0, target.find('?')) + " (HTTP " +
+                                  std::to_string(r->status) + "): " + r->body);
+        }
+        return r.value();
+    }
+
+    [[noreturn]] void fail(const Error& e) {
+        if (e.code == ErrorCode::Network) {
+            const bool unreachable = e.message.rfind("connecting", 0) == 0 || e.message.rfind("resolving", 0) == 0;
+            die(unreachable ? EXIT_UNREACHABLE : EXIT_BROKEN, e.message);
+        }
+        die(EXIT_REFUSED, "server refused: " + e.message);
+    }
+
+    /// The session to talk to: --session, the URL's, or the only one the token opens.
+    const std::string& session() {
+        if (!mSession.empty()) return mSession;
+        auto r = request("GET", "/v1/sessions");
+        json j = json::parse(r.body, nullptr, false);
+        if (!j.is_object() || !j["sessions"].is_array()) die(EXIT_BROKEN, "GET /v1/sessions: unreadable answer");
+        if (j["sessions"].size() != 1) {
+            std::string ids;
+            for (const auto& s : j["sessions"]) ids += " " + s.value("id", "");
+            die(EXIT_USAGE, "the token opens several sessions; pick one with --session:" + ids);
+        }
+        mSession = j["sessions"][0].value("id", "");
+        return mSession;
+    }
+    std::string base() { return "/v1/sessions/" + session(); }
+
+    /// A WebSocket on the session, greeted: returns the welcome message.
+    std::unique_ptr<client::Connection> connect(json* welcome) {
+        auto c = client::Connection::open(mUrl, base() + "/ws?token=" + mToken, timeout());
+        if (!c) fail(c.error());
+        if (auto s = c.value()->sendText(protocol::encode(protocol::HelloMessage{protocol::PROTOCOL_VERSION, mOpt.name})); !s) fail(s.error());
+        for (;;) {
+            auto m = c.value()->receive();
+            if (!m) fail(m.error());
+            if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
+                if (t->json.value("type", "") == "welcome") {
+                    *welcome = t->json;
+                    return std::move(c.value());
+                }
+                if (t->json.value("type", "") == "error") die(EXIT_REFUSED, "server refused: " + t->json.dump());
+            }
+        }
+    }
+
+private:
+    Options mOpt;
+    client::Url mUrl;
+    std::string mToken, mSession;
+};
+
+std::string readFile(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) die(EXIT_FILE, "cannot read " + path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+void writeFile(const std::string& path, const void* data, size_t size) {
     std::ofstream out(path, std::ios::binary);
     out.write(static_cast<const char*>(data), std::streamsize(size));
     out.close();
-    if (!out) {
-        std::cerr << "dfb-client: cannot write " << path << "\n";
-        return EXIT_WRITE;
+    if (!out) die(EXIT_FILE, "cannot write " + path);
+}
+
+/// View settings given on the command line (frame, watch).
+struct ViewArgs {
+    std::string output = "beauty", format, viewTransform = "srgb";
+    int quality = 85;
+    double exposure = 0;
+    void add(CLI::App* c) {
+        c->add_option("--output", output, "beauty, light:NAME, shadow:NAME or layer:NAME");
+        c->add_option("--format", format, "jpeg, png or exr (default: from the file name, else jpeg)");
+        c->add_option("--quality", quality, "JPEG quality")->check(CLI::Range(1, 100));
+        c->add_option("--exposure", exposure, "stops added to the rig's exposure")->check(CLI::Range(-20.0, 20.0));
+        c->add_option("--view-transform", viewTransform, "srgb or linear")->check(CLI::IsMember({"srgb", "linear"}));
     }
-    return 0;
+    std::string formatFor(const std::string& path) const {
+        if (!format.empty()) return format;
+        const std::string ext = std::filesystem::path(path).extension().string();
+        if (ext == ".png") return "png";
+        if (ext == ".exr") return "exr";
+        return "jpeg";
+    }
+    json settings(const std::string& fmt) const {
+        return json{{"output", output}, {"encoding", fmt}, {"quality", quality}, {"exposure", exposure}, {"viewTransform", viewTransform}};
+    }
+};
+
+std::string urlEncode(const std::string& s) {
+    std::string out;
+    for (unsigned char c : s) {
+        if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '~') out += char(c);
+        else {
+            char buf[4];
+            std::snprintf(buf, sizeof buf, "%%%02X", c);
+            out += buf;
+        }
+    }
+    return out;
+}
+
+double percentile(std::vector<double> v, double p) {
+    if (v.empty()) return NAN;
+    std::sort(v.begin(), v.end());
+    const double idx = p / 100.0 * double(v.size() - 1);
+    const size_t lo = size_t(std::floor(idx)), hi = size_t(std::ceil(idx));
+    return v[lo] + (v[hi] - v[lo]) * (idx - double(lo));
+}
+
+// ---- bench ----------------------------------------------------------------------------------
+// One editing client sends edits one after another; each waits for the first frame showing its
+// version (edit-to-frame latency as this client sees it). The other clients only watch; for each
+// edit, the time until every client had a frame showing it is reported too.
+int bench(Client& cl, int edits, int clients, const std::string& lightName, int warmup) {
+    using Clock = std::chrono::steady_clock;
+    json welcome;
+    auto editor = cl.connect(&welcome);
+    const json rig = welcome["rig"];
+    json light;
+    for (const auto& l : rig["lights"]) {
+        if (l.value("name", "") == lightName || (lightName.empty() && light.is_null())) light = l;
+    }
+    if (light.is_null()) die(EXIT_USAGE, "no light '" + lightName + "' in the rig");
+    const std::string name = light["name"];
+    const std::vector<double> p0 = light["position"].get<std::vector<double>>();
+
+    struct Watcher {
+        std::thread thread;
+        std::mutex mutex;
+        std::vector<std::pair<uint64_t, Clock::time_point>> frames; // (rig version, arrival)
+        std::string error;
+    };
+    std::vector<std::unique_ptr<Watcher>> watchers;
+    std::atomic<uint64_t> finalVersion{~0ull};
+    std::atomic<int> ready{0};
+    for (int i = 1; i < clients; ++i) {
+        auto w = std::make_unique<Watcher>();
+        json wel;
+        auto conn = cl.connect(&wel);
+        w->thread = std::thread([w = w.get(), c = std::move(conn), &finalVersion, &ready]() mutable {
+            bool first = true;
+            for (;;) {
+                auto m = c->receive();
+                if (!m) {
+                    w->error = m.error().message;
+                    return;
+                }
+                if (auto* f = std::get_if<client::FrameMessage>(&m.value())) {
+                    const auto now = Clock::now();
+                    std::lock_guard lock(w->mutex);
+                    w->frames.emplace_back(f->header.rigVersion, now);
+                    if (first) {
+                        first = false;
+                        ++ready;
+                    }
+                    if (f->header.rigVersion >= finalVersion.load()) return;
+                }
+            }
+        });
+        watchers.push_back(std::move(w));
+    }
+    // Everyone has its first frame before the clock starts.
+    const auto readyBy = Clock::now() + cl.timeout();
+    while (ready.load() < clients - 1 && Clock::now() < readyBy) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+
+    std::vector<double> mine, all;
+    std::vector<std::pair<uint64_t, Clock::time_point>> sent;
+    uint64_t seq = 0;
+    for (int i = 0; i < warmup + edits; ++i) {
+        // A small drag of the light: its shadow map is re-rendered every time, as in real use.
+        const double dx = (i % 2 == 0 ? 0.05 : -0.05) * double(1 + i % 7);
+        protocol::EditMessage e;
+        e.seq = ++seq;
+        e.changes.push_back({name + ".position", json::array({p0[0] + dx, p0[1], p0[2]})});
+        const auto t0 = Clock::now();
+        if (auto s = editor->sendText(protocol::encode(e)); !s) cl.fail(s.error());
+        uint64_t version = ~0ull;
+        for (;;) {
+            auto m = editor->receive();
+            if (!m) cl.fail(m.error());
+            if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
+                const std::string type = t->json.value("type", "");
+                if (type == "error") die(EXIT_REFUSED, "server refused the edit: " + t->json.dump());
+                if (type == "ack" && t->json.value("seq", uint64_t(0)) == e.seq) version = t->json.value("rigVersion", uint64_t(0));
+            } else if (auto* f = std::get_if<client::FrameMessage>(&m.value()); f && f->header.rigVersion >= version) {
+                if (i >= warmup) {
+                    mine.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+                    sent.emplace_back(version, t0);
+                }
+                break;
+            }
+        }
+    }
+    finalVersion = sent.empty() ? 0 : sent.back().first;
+    int failed = 0;
+    for (auto& w : watchers) {
+        w->thread.join();
+        if (!w->error.empty()) {
+            ++failed;
+            std::cerr << "dfb-client: bench: a watching client: " << w->error << "\n";
+        }
+    }
+    if (failed) die(EXIT_BROKEN, std::to_string(failed) + " watching client(s) lost their connection");
+    for (const auto& [version, t0] : sent) {
+        Clock::time_point last = t0;
+        bool everyone = true;
+        for (auto& w : watchers) {
+            auto it = std::find_if(w->frames.begin(), w->frames.end(), [&](const auto& f) { return f.first >= version; });
+            if (it == w->frames.end()) everyone = false;
+            else last = std::max(last, it->second);
+        }
+        if (everyone) all.push_back(std::chrono::duration<double, std::milli>(last - t0).count());
+    }
+    // Mine is the editor's; "all" adds the watchers (equal to mine with one client).
+    if (clients == 1) all = mine;
+    std::printf("clients %d, edits %zu (after %d warm-up): edit-to-frame latency, ms\n", clients, mine.size(), warmup);
+    std::printf("  %-22s p50 %8.1f  p95 %8.1f  p99 %8.1f  max %8.1f\n", "editing client", percentile(mine, 50), percentile(mine, 95),
+                percentile(mine, 99), percentile(mine, 100));
+    std::printf("  %-22s p50 %8.1f  p95 %8.1f  p99 %8.1f  max %8.1f\n", "all clients have it", percentile(all, 50), percentile(all, 95),
+                percentile(all, 99), percentile(all, 100));
+    return EXIT_OK;
 }
 
 } // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"dfb-client: talk to a dfb-server (print the rig, edit lights, save frames)"};
-    app.footer("Exit codes: 0 ok, 1 bad command line, 2 server unreachable, 3 server refused (its error is "
-               "printed), 4 timed out or connection lost, 5 cannot write the output file.\n"
-               "Example: dfb-client http://127.0.0.1:8080 --set key.position=1,4,2 --frame out.jpg");
-    std::string urlText, framePath;
-    std::vector<std::string> sets;
-    bool printRig = false;
-    double timeoutS = 30.0;
-    app.add_option("url", urlText, "server URL, e.g. http://127.0.0.1:8080")->required();
-    app.add_flag("--rig", printRig, "print the rig (JSON) as the server sends it on connection");
-    app.add_option("--set", sets, "PATH=VALUE, e.g. key.intensity=500 or key.position=1,2,3 (repeatable; applied together)");
-    app.add_option("--frame", framePath, "save the next frame: .jpg from the stream, .png rendered losslessly");
-    std::string output = "beauty";
-    app.add_option("--output", output, "with --frame: beauty, light:NAME (one light alone) or shadow:NAME (its shadow mask); "
-                                       "other than beauty is rendered on request (PNG or JPEG by the file name)");
-    app.add_option("--timeout", timeoutS, "seconds to wait for each answer")->check(CLI::Range(0.1, 3600.0));
+    CLI::App app{"dfb-client: talk to a dfb-server session (protocol v1): rig, edits, frames, picks, history, benchmark"};
+    app.footer("Exit codes: 0 ok, 1 bad command line, 2 server unreachable, 3 the server refused (its error is printed "
+               "verbatim), 4 timed out or connection lost, 5 cannot read or write a local file.\n"
+               "Example: dfb-client set key.position=1,4,2 --server 'http://127.0.0.1:8080/?session=shot&token=...'");
+    app.require_subcommand(1);
+    app.fallthrough();
+    Options opt;
+    if (const char* e = std::getenv("DFB_SERVER")) opt.server = e;
+    if (const char* e = std::getenv("DFB_SESSION")) opt.session = e;
+    if (const char* e = std::getenv("DFB_TOKEN")) opt.token = e;
+    app.add_option("--server", opt.server, "server URL; the links dfb-server prints carry ?session=ID&token=T (env DFB_SERVER)");
+    app.add_option("--session", opt.session, "session id (env DFB_SESSION; default: the only one the token opens)");
+    app.add_option("--token", opt.token, "editor or viewer token (env DFB_TOKEN)");
+    app.add_option("--timeout", opt.timeoutS, "seconds to wait for each answer")->check(CLI::Range(0.1, 3600.0));
+    app.add_option("--name", opt.name, "name shown to the other clients (watch, bench)");
+
+    auto* cSessions = app.add_subcommand("sessions", "list the sessions the token opens (JSON)");
+    auto* cInfo = app.add_subcommand("info", "the session: shot, camera, objects, rig version, clients (JSON)");
+    auto* cRig = app.add_subcommand("rig", "read or replace the whole rig");
+    cRig->require_subcommand(1);
+    auto* cRigGet = cRig->add_subcommand("get", "print the rig (JSON), or save it with -o");
+    std::string rigOut;
+    cRigGet->add_option("-o,--out", rigOut, "write the rig to this file");
+    auto* cRigPut = cRig->add_subcommand("put", "replace the rig with a JSON file (editor)");
+    std::string rigIn;
+    uint64_t ifMatch = 0;
+    cRigPut->add_option("file", rigIn, "rig JSON (as rig get prints it)")->required();
+    auto* ifMatchOpt = cRigPut->add_option("--if-match", ifMatch, "refuse unless the rig is at this version");
+    auto* cSet = app.add_subcommand("set", "apply PATH=VALUE changes as one edit (editor)");
+    std::vector<std::string> assignments;
+    cSet->add_option("changes", assignments, "PATH=VALUE, e.g. key.intensity=500, key.position=1,2,3, bendy.cp[2]=[1,0,0]")->required();
+    uint64_t baseVersion = 0, ifVersion = 0;
+    auto* baseOpt = cSet->add_option("--base", baseVersion, "the rig version edited from: the answer lists what this edit overwrote");
+    auto* ifVersionOpt = cSet->add_option("--if-version", ifVersion, "refuse unless the rig is at this version");
+    auto* cApply = app.add_subcommand("apply", "apply a JSON file of changes as one edit (editor)");
+    std::string applyFile;
+    cApply->add_option("file", applyFile, "{\"changes\": [{\"path\": P, \"value\": V}, ...]} or just the array")->required();
+    auto* applyIfOpt = cApply->add_option("--if-version", ifVersion, "refuse unless the rig is at this version");
+    auto* cFrame = app.add_subcommand("frame", "save the current frame in any output and format");
+    std::string frameOut;
+    ViewArgs frameView;
+    cFrame->add_option("file", frameOut, "output file (.jpg, .png or .exr picks the format)")->required();
+    frameView.add(cFrame);
+    auto* cWatch = app.add_subcommand("watch", "receive streamed frames and changes; count or save them");
+    int watchCount = 0;
+    double watchSeconds = 0;
+    std::string watchDir;
+    ViewArgs watchView;
+    cWatch->add_option("--count", watchCount, "stop after this many frames (default: run until --duration or forever)");
+    cWatch->add_option("--duration", watchSeconds, "stop after this many seconds");
+    cWatch->add_option("--save", watchDir, "save each frame as DIR/frame_NNNNNN.EXT");
+    watchView.add(cWatch);
+    auto* cPick = app.add_subcommand("pick", "what is at a pixel: position, normal, object, lights reaching it (JSON)");
+    int pickX = 0, pickY = 0;
+    cPick->add_option("x", pickX, "pixel column (0 = left)")->required();
+    cPick->add_option("y", pickY, "pixel row (0 = top)")->required();
+    auto* cUndo = app.add_subcommand("undo", "undo the session's most recent edit (editor)");
+    auto* cRedo = app.add_subcommand("redo", "redo the most recently undone edit (editor)");
+    auto* cHistory = app.add_subcommand("history", "the session's recorded changes (JSON)");
+    uint64_t since = 0;
+    cHistory->add_option("--since", since, "only changes after this rig version");
+    auto* cBench = app.add_subcommand("bench", "edit-to-frame latency percentiles as this client sees them (editor)");
+    int benchEdits = 50, benchClients = 1, benchWarmup = 3;
+    std::string benchLight;
+    cBench->add_option("--edits", benchEdits, "edits to time")->check(CLI::Range(1, 100000));
+    cBench->add_option("--clients", benchClients, "connected clients (one edits, the others watch)")->check(CLI::Range(1, 1024));
+    cBench->add_option("--light", benchLight, "light to drag (default: the first)");
+    cBench->add_option("--warmup", benchWarmup, "untimed edits first")->check(CLI::Range(0, 1000));
     CLI11_PARSE(app, argc, argv);
 
-    auto url = client::parseUrl(urlText);
-    if (!url) {
-        std::cerr << "dfb-client: " << url.error().message << "\n";
-        return EXIT_USAGE;
-    }
-    protocol::EditMessage edit;
-    edit.seq = 1;
-    for (const std::string& s : sets) {
-        auto c = protocol::parseAssignment(s);
-        if (!c) {
-            std::cerr << "dfb-client: --set " << c.error().message << "\n";
-            return EXIT_USAGE;
-        }
-        edit.changes.push_back(c.value());
-    }
-    if (!printRig && edit.changes.empty() && framePath.empty()) {
-        std::cerr << "dfb-client: nothing to do: give --rig, --set or --frame (see --help)\n";
-        return EXIT_USAGE;
-    }
-    const auto timeout = std::chrono::milliseconds(static_cast<long>(timeoutS * 1000));
-
-    auto conn = client::Connection::open(url.value(), timeout);
-    if (!conn) {
-        std::cerr << "dfb-client: " << conn.error().message << "\n";
-        return EXIT_UNREACHABLE;
-    }
-    // The server greets every client with the session and the rig.
-    std::optional<client::FrameMessage> lastFrame;
-    nlohmann::json welcome;
-    while (welcome.is_null()) {
-        auto m = conn.value()->receive();
-        if (!m) {
-            std::cerr << "dfb-client: " << m.error().message << "\n";
-            return EXIT_BROKEN;
-        }
-        if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
-            if (t->json.value("type", "") == "welcome") welcome = t->json;
-        } else {
-            lastFrame = std::get<client::FrameMessage>(std::move(m.value()));
-        }
-    }
-    if (printRig) std::cout << welcome["rig"].dump(2) << std::endl;
-
-    uint64_t wantVersion = welcome["rig"].value("version", uint64_t(0));
-    if (!edit.changes.empty()) {
-        if (auto s = conn.value()->sendText(protocol::encodeEdit(edit)); !s) {
-            std::cerr << "dfb-client: " << s.error().message << "\n";
-            return EXIT_BROKEN;
-        }
-        for (;;) {
-            auto m = conn.value()->receive();
-            if (!m) {
-                std::cerr << "dfb-client: waiting for the server's answer: " << m.error().message << "\n";
-                return EXIT_BROKEN;
-            }
-            if (auto* f = std::get_if<client::FrameMessage>(&m.value())) {
-                lastFrame = std::move(*f);
-                continue;
-            }
-            const auto& j = std::get<client::TextMessage>(m.value()).json;
-            const std::string type = j.value("type", "");
-            if (type == "error" && j.value("seq", uint64_t(0)) == edit.seq) {
-                std::cerr << "dfb-client: server refused the edit: " << j.value("code", "") << ": "
-                          << j.value("message", "") << "\n";
-                return EXIT_REFUSED;
-            }
-            if (type == "ack" && j.value("seq", uint64_t(0)) == edit.seq) {
-                wantVersion = j.value("rigVersion", wantVersion);
-                std::cout << "applied " << edit.changes.size() << " change(s); rig version " << wantVersion << std::endl;
-                break;
-            }
-        }
-    }
-
-    if (!framePath.empty()) {
-        if (endsWith(framePath, ".png") || output != "beauty") {
-            const std::string resource = std::string(endsWith(framePath, ".png") ? "/v1/frame.png" : "/v1/frame.jpg") +
-                                         "?output=" + output;
-            auto body = client::httpGet(url.value(), resource, timeout);
-            if (!body) {
-                std::cerr << "dfb-client: " << body.error().message << "\n";
-                return body.error().code == ErrorCode::Network ? EXIT_BROKEN : EXIT_REFUSED;
-            }
-            if (int rc = writeFile(framePath, body->data(), body->size())) return rc;
-        } else {
-            // The next streamed frame that shows at least the rig version we know of.
-            while (!lastFrame || lastFrame->header.rigVersion < wantVersion) {
-                auto m = conn.value()->receive();
-                if (!m) {
-                    std::cerr << "dfb-client: waiting for a frame: " << m.error().message << "\n";
-                    return EXIT_BROKEN;
+    try {
+        Client cl(opt);
+        if (cSessions->parsed()) {
+            std::cout << cl.request("GET", "/v1/sessions").body << std::endl;
+        } else if (cInfo->parsed()) {
+            std::cout << cl.request("GET", cl.base()).body << std::endl;
+        } else if (cRigGet->parsed()) {
+            auto r = cl.request("GET", cl.base() + "/rig");
+            if (rigOut.empty()) std::cout << r.body << std::endl;
+            else writeFile(rigOut, r.body.data(), r.body.size());
+        } else if (cRigPut->parsed()) {
+            const std::string body = readFile(rigIn);
+            auto r = cl.request("PUT", cl.base() + "/rig", body, ifMatchOpt->count() ? "\"" + std::to_string(ifMatch) + "\"" : "");
+            std::cout << r.body << std::endl;
+        } else if (cSet->parsed() || cApply->parsed()) {
+            json body = json::object();
+            if (cSet->parsed()) {
+                json changes = json::array();
+                for (const std::string& a : assignments) {
+                    auto c = protocol::parseAssignment(a);
+                    if (!c) die(EXIT_USAGE, c.error().message);
+                    changes.push_back({{"path", c->path}, {"value", c->value}});
                 }
-                if (auto* f = std::get_if<client::FrameMessage>(&m.value())) lastFrame = std::move(*f);
+                body["changes"] = changes;
+                if (baseOpt->count()) body["base"] = baseVersion;
+                if (ifVersionOpt->count()) body["ifVersion"] = ifVersion;
+            } else {
+                json j = json::parse(readFile(applyFile), nullptr, false);
+                if (j.is_array()) body["changes"] = j;
+                else if (j.is_object()) body = j;
+                else die(EXIT_USAGE, applyFile + ": expected a JSON object {\"changes\": [...]} or an array of changes");
+                if (applyIfOpt->count()) body["ifVersion"] = ifVersion;
             }
-            if (int rc = writeFile(framePath, lastFrame->image.data(), lastFrame->image.size())) return rc;
+            auto r = cl.request("POST", cl.base() + "/edits", body.dump());
+            std::cout << r.body << std::endl;
+        } else if (cFrame->parsed()) {
+            const std::string fmt = frameView.formatFor(frameOut);
+            std::string q = "?output=" + urlEncode(frameView.output) + "&format=" + fmt + "&quality=" + std::to_string(frameView.quality) +
+                            "&viewTransform=" + frameView.viewTransform;
+            if (frameView.exposure != 0) q += "&exposure=" + json(frameView.exposure).dump();
+            auto r = cl.request("GET", cl.base() + "/frame" + q);
+            writeFile(frameOut, r.body.data(), r.body.size());
+            std::cout << "saved " << frameOut << " (rig version " << r.rigVersion << ")" << std::endl;
+        } else if (cWatch->parsed()) {
+            json welcome;
+            auto conn = cl.connect(&welcome);
+            std::cout << "watching session " << welcome.value("sessionId", "") << " as " << welcome.value("role", "") << ", rig version "
+                      << welcome["rig"].value("version", uint64_t(0)) << std::endl;
+            const std::string fmt = watchView.format.empty() ? "jpeg" : watchView.format;
+            const json settings = watchView.settings(fmt);
+            if (settings != protocol::toJson(protocol::ViewSettings{})) {
+                protocol::ViewMessage v{1, settings};
+                if (auto s = conn->sendText(protocol::encode(v)); !s) cl.fail(s.error());
+            }
+            if (!watchDir.empty()) std::filesystem::create_directories(watchDir);
+            const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(long(watchSeconds * 1000));
+            int frames = 0;
+            uint64_t lastVersion = 0;
+            while ((watchCount == 0 || frames < watchCount) && (watchSeconds == 0 || std::chrono::steady_clock::now() < end)) {
+                auto m = conn->receive();
+                if (!m) {
+                    // The deadline of --duration is reached as a receive timeout at the latest.
+                    if (watchSeconds > 0 && std::chrono::steady_clock::now() >= end) break;
+                    cl.fail(m.error());
+                }
+                if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
+                    if (t->json.value("type", "") == "error") std::cerr << "dfb-client: server: " << t->json.dump() << "\n";
+                    else std::cout << t->json.dump() << std::endl;
+                    continue;
+                }
+                auto& f = std::get<client::FrameMessage>(m.value());
+                ++frames;
+                lastVersion = f.header.rigVersion;
+                std::cout << "frame " << f.header.frameNumber << " rig version " << f.header.rigVersion << " " << f.header.width << "x"
+                          << f.header.height << " " << protocol::encodingName(f.header.encoding) << " " << f.image.size() << " bytes"
+                          << std::endl;
+                if (!watchDir.empty()) {
+                    char name[64];
+                    std::snprintf(name, sizeof name, "frame_%06d.%s", frames, f.header.encoding == protocol::Encoding::Png ? "png"
+                                                                              : f.header.encoding == protocol::Encoding::Exr ? "exr" : "jpg");
+                    writeFile((std::filesystem::path(watchDir) / name).string(), f.image.data(), f.image.size());
+                }
+            }
+            std::cout << "received " << frames << " frame(s); last rig version " << lastVersion << std::endl;
+            conn->close();
+        } else if (cPick->parsed()) {
+            std::cout << cl.request("GET", cl.base() + "/pick?x=" + std::to_string(pickX) + "&y=" + std::to_string(pickY)).body << std::endl;
+        } else if (cUndo->parsed() || cRedo->parsed()) {
+            std::cout << cl.request("POST", cl.base() + (cUndo->parsed() ? "/undo" : "/redo")).body << std::endl;
+        } else if (cHistory->parsed()) {
+            std::cout << cl.request("GET", cl.base() + "/history?since=" + std::to_string(since)).body << std::endl;
+        } else if (cBench->parsed()) {
+            return bench(cl, benchEdits, benchClients, benchLight, benchWarmup);
         }
-        std::cout << "saved " << framePath << std::endl;
+    } catch (const Exit& e) {
+        return e.code;
     }
-    conn.value()->close();
-    return 0;
+    return EXIT_OK;
 }

@@ -524,85 +524,6 @@ Result<Change> parseAssignment(std::string_view text) {
     return c;
 }
 
-Result<ClientMessage> parseClientMessage(std::string_view text) {
-    json j = json::parse(text, nullptr, false);
-    if (j.is_discarded()) return makeError(ErrorCode::Protocol, "message is not valid JSON");
-    if (!j.is_object()) return makeError(ErrorCode::Protocol, "message must be a JSON object");
-    if (!j.contains("type") || !j["type"].is_string()) {
-        return makeError(ErrorCode::Protocol, "message needs a string field 'type'");
-    }
-    const std::string type = j["type"];
-    if (type == "edit") {
-        EditMessage m;
-        if (!j.contains("seq") || !j["seq"].is_number_unsigned()) {
-            return makeError(ErrorCode::Protocol, "edit.seq: expected a non-negative integer");
-        }
-        m.seq = j["seq"].get<uint64_t>();
-        if (!j.contains("changes") || !j["changes"].is_array() || j["changes"].empty()) {
-            return makeError(ErrorCode::Protocol, "edit.changes: expected a non-empty array");
-        }
-        for (size_t i = 0; i < j["changes"].size(); ++i) {
-            const json& c = j["changes"][i];
-            const std::string where = "edit.changes[" + std::to_string(i) + "]";
-            if (!c.is_object() || !c.contains("path") || !c["path"].is_string() || !c.contains("value")) {
-                return makeError(ErrorCode::Protocol, where + ": expected {\"path\": string, \"value\": ...}");
-            }
-            m.changes.push_back({c["path"].get<std::string>(), c["value"]});
-        }
-        return ClientMessage{m};
-    }
-    if (type == "hello") {
-        HelloMessage m;
-        if (j.contains("protocol")) {
-            if (!j["protocol"].is_number_integer()) return makeError(ErrorCode::Protocol, "hello.protocol: expected an integer");
-            m.protocol = j["protocol"].get<int>();
-            if (m.protocol != PROTOCOL_VERSION) {
-                return makeError(ErrorCode::Protocol, "hello.protocol: version " + std::to_string(m.protocol) +
-                                                          " is not supported (server speaks " +
-                                                          std::to_string(PROTOCOL_VERSION) + ")");
-            }
-        }
-        if (j.contains("name")) {
-            if (!j["name"].is_string()) return makeError(ErrorCode::Protocol, "hello.name: expected a string");
-            m.name = j["name"].get<std::string>().substr(0, 64);
-        }
-        return ClientMessage{m};
-    }
-    return makeError(ErrorCode::Protocol, "unknown message type '" + type + "'");
-}
-
-std::string encodeEdit(const EditMessage& m) {
-    json changes = json::array();
-    for (const Change& c : m.changes) changes.push_back({{"path", c.path}, {"value", c.value}});
-    return json{{"type", "edit"}, {"seq", m.seq}, {"changes", changes}}.dump();
-}
-
-std::string encodeHello(const HelloMessage& m) {
-    return json{{"type", "hello"}, {"protocol", m.protocol}, {"name", m.name}}.dump();
-}
-
-std::string encodeWelcome(const json& session, const Rig& rig, uint64_t clientId) {
-    return json{{"type", "welcome"}, {"protocol", PROTOCOL_VERSION}, {"client", clientId},
-                {"session", session}, {"rig", toJson(rig)}}
-        .dump();
-}
-
-std::string encodeAck(uint64_t seq, uint64_t rigVersion) {
-    return json{{"type", "ack"}, {"seq", seq}, {"rigVersion", rigVersion}}.dump();
-}
-
-std::string encodeChange(uint64_t rigVersion, uint64_t byClient, const std::vector<Change>& changes) {
-    json arr = json::array();
-    for (const Change& c : changes) arr.push_back({{"path", c.path}, {"value", c.value}});
-    return json{{"type", "change"}, {"rigVersion", rigVersion}, {"by", byClient}, {"changes", arr}}.dump();
-}
-
-std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq) {
-    json j{{"type", "error"}, {"code", toString(code)}, {"message", message}};
-    if (seq) j["seq"] = *seq;
-    return j.dump();
-}
-
 namespace {
 void put16(uint8_t* p, uint16_t v) { p[0] = uint8_t(v); p[1] = uint8_t(v >> 8); }
 void put32(uint8_t* p, uint32_t v) { for (int i = 0; i < 4; ++i) p[i] = uint8_t(v >> (8 * i)); }
@@ -631,7 +552,7 @@ Result<FrameHeader> readFrameHeader(const uint8_t* data, size_t size) {
     }
     FrameHeader h;
     const uint16_t enc = get16(data + 6);
-    if (enc != 1 && enc != 2) return makeError(ErrorCode::Protocol, "frame has unknown encoding " + std::to_string(enc));
+    if (enc < 1 || enc > 3) return makeError(ErrorCode::Protocol, "frame has unknown encoding " + std::to_string(enc));
     h.encoding = static_cast<Encoding>(enc);
     h.frameNumber = get64(data + 8);
     h.rigVersion = get64(data + 16);

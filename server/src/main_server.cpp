@@ -1,9 +1,11 @@
-// dfb-server: relights a baked deep framebuffer and serves it over HTTP/WebSocket.
+// dfb-server: relights baked deep framebuffers (one session per shot) and serves them over
+// HTTP/WebSocket (protocol v1, docs/protocol.md; operations in docs/operations.md).
 //
-// Exit codes: 0 clean shutdown (SIGINT/SIGTERM); 1 bad command line; 2 bad input (shot or
-// scene); 3 GPU/EGL failure; 5 network (cannot bind).
+// Exit codes: 0 clean shutdown (SIGINT/SIGTERM); 1 bad command line or token file; 2 bad input
+// (shot, scene, or a damaged session journal); 3 GPU/EGL failure; 5 network (cannot bind).
 
 #include "net/Listener.h"
+#include "net/SessionHub.h"
 #include "net/SharedState.h"
 #include "session/RenderService.h"
 #include "session/Session.h"
@@ -16,48 +18,68 @@
 
 #include <algorithm>
 #include <cctype>
-
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <random>
 
-int main(int argc, char** argv) {
-    CLI::App app{"dfb-server: relight a deep framebuffer interactively over HTTP and WebSocket"};
-    std::string shotPath, scenePath, bind = "127.0.0.1";
-    int port = 8080, quality = 85;
-    app.add_option("shot", shotPath, "deep framebuffer EXR written by dfb-bake")->required();
-    app.add_option("--scene", scenePath, "glTF scene for shadow casting (default: the shot's source scene)");
-    app.add_option("--port", port, "TCP port; 0 picks a free one")->check(CLI::Range(0, 65535));
-    app.add_option("--bind", bind, "address to listen on (default loopback only)");
-    app.add_option("--jpeg-quality", quality, "JPEG quality of streamed frames")->check(CLI::Range(1, 100));
-    CLI11_PARSE(app, argc, argv);
+#include <sys/stat.h>
 
-    auto shot = dfb::readDeepBuffer(shotPath);
-    if (!shot) {
-        std::cerr << "dfb-server: " << shot.error().toString() << "\n";
-        return 2;
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+constexpr int EXIT_USAGE = 1, EXIT_INPUT = 2, EXIT_GPU = 3, EXIT_NETWORK = 5;
+
+bool validSessionName(const std::string& n) {
+    if (n.empty() || n.size() > 64) return false;
+    return std::all_of(n.begin(), n.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'; });
+}
+
+// Tokens are URL-safe so that they can travel in a query string.
+bool validToken(const std::string& t) {
+    if (t.size() < 16 || t.size() > 256) return false;
+    return std::all_of(t.begin(), t.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == '~';
+    });
+}
+
+// 128 random bits from the kernel (std::random_device reads /dev/urandom on Linux), as hex.
+std::string randomToken() {
+    std::random_device rd;
+    std::string t;
+    for (int i = 0; i < 4; ++i) {
+        char buf[9];
+        std::snprintf(buf, sizeof buf, "%08x", unsigned(rd()));
+        t += buf;
     }
-    if (scenePath.empty()) {
-        scenePath = shot->sourcePath;
-        // A relative source path is relative to where the bake ran; also try beside the shot.
-        if (!std::filesystem::exists(scenePath)) {
-            auto beside = std::filesystem::path(shotPath).parent_path() / std::filesystem::path(scenePath).filename();
-            if (std::filesystem::exists(beside)) scenePath = beside.string();
-        }
+    return t;
+}
+
+struct SessionSpec {
+    std::string name;
+    std::string shotPath;
+};
+
+// A session name from a file name: its stem with anything outside [A-Za-z0-9_-] replaced.
+std::string nameFromPath(const std::string& path) {
+    std::string n = fs::path(path).stem().string();
+    for (char& c : n) {
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) c = '_';
     }
-    auto scene = dfb::loadScene(scenePath);
-    if (!scene) {
-        std::cerr << "dfb-server: shadow casters: " << scene.error().toString()
-                  << (scenePath == shot->sourcePath ? " (the shot's source scene; pass --scene)" : "") << "\n";
-        return 2;
-    }
-    dfb::ShadowGeometry casters = dfb::shadowCasters(scene.value());
-    const dfb::Bounds& b = scene->bounds;
+    return n.substr(0, 64);
+}
+
+// The rig a new session starts from: the scene's KHR_lights_punctual lights when it has any,
+// else a key and a fill framed on the scene's bounds.
+dfb::Rig initialRig(const dfb::Scene& scene) {
+    const dfb::Bounds& b = scene.bounds;
     dfb::Rig rig = dfb::defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
-    // Lights of the scene's KHR_lights_punctual extension become the initial rig when present.
     dfb::Rig imported;
     imported.version = 1;
-    for (const dfb::SceneLight& sl : scene->lights) {
+    for (const dfb::SceneLight& sl : scene.lights) {
         if (sl.type == "point") {
             std::fprintf(stderr, "dfb-server: scene light '%s' is a point light, not supported yet: skipped\n", sl.name.c_str());
             continue;
@@ -76,44 +98,213 @@ int main(int argc, char** argv) {
         l.penumbraDeg = std::clamp(glm::degrees(sl.outerConeRadians - sl.innerConeRadians), 0.f, l.coneAngleDeg);
         imported.lights.push_back(l);
     }
-    if (!imported.lights.empty()) {
-        std::printf("dfb-server: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", imported.lights.size());
-        rig = imported;
+    if (!imported.lights.empty()) return imported;
+    return rig;
+}
+
+// Reads {"sessions": {"NAME": {"editor": "...", "viewer": "..."}}}.
+dfb::Result<std::map<std::string, dfb::net::SessionTokens>> readTokenFile(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) return dfb::makeError(dfb::ErrorCode::FileNotFound, path + ": cannot open the token file");
+    json j = json::parse(in, nullptr, false);
+    if (j.is_discarded() || !j.is_object() || !j.contains("sessions") || !j["sessions"].is_object()) {
+        return dfb::makeError(dfb::ErrorCode::InvalidFile, path + ": expected {\"sessions\": {\"NAME\": {\"editor\": TOKEN, \"viewer\": TOKEN}}}");
     }
-    dfb::Session session(shot.value(), shotPath, rig);
+    std::map<std::string, dfb::net::SessionTokens> out;
+    for (auto it = j["sessions"].begin(); it != j["sessions"].end(); ++it) {
+        const json& t = it.value();
+        const std::string where = path + ": sessions." + it.key();
+        if (!t.is_object() || !t.contains("editor") || !t.contains("viewer") || !t["editor"].is_string() || !t["viewer"].is_string()) {
+            return dfb::makeError(dfb::ErrorCode::InvalidFile, where + ": expected {\"editor\": TOKEN, \"viewer\": TOKEN}");
+        }
+        dfb::net::SessionTokens tk{t["editor"], t["viewer"]};
+        if (!validToken(tk.editor) || !validToken(tk.viewer)) {
+            return dfb::makeError(dfb::ErrorCode::InvalidValue, where + ": a token is 16-256 characters of A-Z a-z 0-9 - _ . ~");
+        }
+        if (tk.editor == tk.viewer) return dfb::makeError(dfb::ErrorCode::InvalidValue, where + ": the editor and viewer tokens must differ");
+        out[it.key()] = tk;
+    }
+    return out;
+}
+
+// Persistent sessions keep their tokens beside the journal (readable by the owner only), so a
+// restarted server keeps every link that was handed out.
+dfb::net::SessionTokens persistentTokens(const fs::path& dir) {
+    const fs::path p = dir / "tokens.json";
+    if (std::ifstream in(p); in) {
+        json j = json::parse(in, nullptr, false);
+        if (j.is_object() && j.value("editor", "") != "" && j.value("viewer", "") != "" && validToken(j["editor"]) && validToken(j["viewer"])) {
+            return {j["editor"], j["viewer"]};
+        }
+    }
+    dfb::net::SessionTokens t{randomToken(), randomToken()};
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (std::ofstream out(p); out) {
+        out << json{{"editor", t.editor}, {"viewer", t.viewer}}.dump(2) << "\n";
+        out.close();
+        ::chmod(p.c_str(), 0600);
+    }
+    return t;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"dfb-server: relight deep framebuffers interactively over HTTP and WebSocket (protocol v1)"};
+    app.footer("Each session is one shot with its own rig, history, tokens and clients. The server prints, per session, "
+               "an editor and a viewer URL carrying the token.\n"
+               "Exit codes: 0 clean stop, 1 bad command line or token file, 2 bad shot/scene/journal, 3 GPU/EGL, 5 cannot bind.");
+    std::string shotPath, scenePath, sessionsDir, stateDir, tokenFile, bind = "127.0.0.1";
+    std::vector<std::string> sessionArgs;
+    int port = 8080;
+    app.add_option("shot", shotPath, "deep framebuffer EXR written by dfb-bake (a session named after the file)");
+    app.add_option("--session", sessionArgs, "NAME=SHOT.exr: one session (repeatable)");
+    app.add_option("--sessions", sessionsDir, "a directory: every *.exr in it becomes a session named after the file");
+    app.add_option("--state", stateDir, "directory of the sessions' journals, saved rigs and tokens (DIR/NAME/); "
+                                        "without it nothing is saved");
+    app.add_option("--tokens", tokenFile, "JSON file {\"sessions\": {NAME: {\"editor\": T, \"viewer\": T}}}; other sessions get "
+                                          "random tokens");
+    app.add_option("--scene", scenePath, "glTF scene for shadow casting (default: each shot's source scene)");
+    app.add_option("--port", port, "TCP port; 0 picks a free one")->check(CLI::Range(0, 65535));
+    app.add_option("--bind", bind, "address to listen on (default loopback only)");
+    CLI11_PARSE(app, argc, argv);
+
+    std::vector<SessionSpec> specs;
+    if (!shotPath.empty()) specs.push_back({nameFromPath(shotPath), shotPath});
+    for (const std::string& s : sessionArgs) {
+        const size_t eq = s.find('=');
+        if (eq == std::string::npos || !validSessionName(s.substr(0, eq)) || eq + 1 == s.size()) {
+            std::cerr << "dfb-server: --session " << s << ": expected NAME=SHOT.exr with NAME 1-64 of [A-Za-z0-9_-]\n";
+            return EXIT_USAGE;
+        }
+        specs.push_back({s.substr(0, eq), s.substr(eq + 1)});
+    }
+    if (!sessionsDir.empty()) {
+        std::error_code ec;
+        std::vector<std::string> found;
+        for (const auto& e : fs::directory_iterator(sessionsDir, ec)) {
+            if (e.is_regular_file() && e.path().extension() == ".exr") found.push_back(e.path().string());
+        }
+        if (ec) {
+            std::cerr << "dfb-server: --sessions " << sessionsDir << ": " << ec.message() << "\n";
+            return EXIT_INPUT;
+        }
+        std::sort(found.begin(), found.end());
+        for (const auto& f : found) specs.push_back({nameFromPath(f), f});
+    }
+    if (specs.empty()) {
+        std::cerr << "dfb-server: no shot: give SHOT.exr, --session NAME=SHOT.exr or --sessions DIR (see --help)\n";
+        return EXIT_USAGE;
+    }
+    for (size_t i = 0; i < specs.size(); ++i) {
+        for (size_t k = 0; k < i; ++k) {
+            if (specs[k].name == specs[i].name) {
+                std::cerr << "dfb-server: two sessions are named '" << specs[i].name << "' (" << specs[k].shotPath << ", "
+                          << specs[i].shotPath << "): name them with --session NAME=SHOT.exr\n";
+                return EXIT_USAGE;
+            }
+        }
+    }
+    std::map<std::string, dfb::net::SessionTokens> configured;
+    if (!tokenFile.empty()) {
+        auto t = readTokenFile(tokenFile);
+        if (!t) {
+            std::cerr << "dfb-server: " << t.error().toString() << "\n";
+            return EXIT_USAGE;
+        }
+        configured = t.value();
+        for (const auto& [name, tk] : configured) {
+            if (std::none_of(specs.begin(), specs.end(), [&](const SessionSpec& s) { return s.name == name; })) {
+                std::cerr << "dfb-server: " << tokenFile << ": tokens for '" << name << "', which is not a session\n";
+                return EXIT_USAGE;
+            }
+        }
+    }
 
     boost::asio::io_context ioc(1);
-    auto state = std::make_shared<dfb::net::SharedState>(ioc, session);
-    auto render = dfb::RenderService::start(
-        shot.value(), std::move(casters), session,
-        [state](std::shared_ptr<const dfb::EncodedFrame> f) { state->publishFrame(std::move(f)); }, quality);
-    if (!render) {
-        std::cerr << "dfb-server: " << render.error().toString() << "\n";
-        return 3;
+    auto state = std::make_shared<dfb::net::SharedState>(ioc);
+    std::vector<std::string> banner;
+    for (const SessionSpec& spec : specs) {
+        auto shot = dfb::readDeepBuffer(spec.shotPath);
+        if (!shot) {
+            std::cerr << "dfb-server: " << shot.error().toString() << "\n";
+            return EXIT_INPUT;
+        }
+        std::string scene = scenePath;
+        if (scene.empty()) {
+            scene = shot->sourcePath;
+            // A relative source path is relative to where the bake ran; also try beside the shot.
+            if (!fs::exists(scene)) {
+                auto beside = fs::path(spec.shotPath).parent_path() / fs::path(scene).filename();
+                if (fs::exists(beside)) scene = beside.string();
+            }
+        }
+        auto loaded = dfb::loadScene(scene);
+        if (!loaded) {
+            std::cerr << "dfb-server: shadow casters: " << loaded.error().toString()
+                      << (scene == shot->sourcePath ? " (the shot's source scene; pass --scene)" : "") << "\n";
+            return EXIT_INPUT;
+        }
+        const fs::path dir = stateDir.empty() ? fs::path() : fs::path(stateDir) / spec.name;
+        auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, initialRig(loaded.value()), dir);
+        if (!session) {
+            std::cerr << "dfb-server: session " << spec.name << ": " << session.error().toString() << "\n";
+            return EXIT_INPUT;
+        }
+        dfb::net::SessionTokens tokens;
+        if (auto it = configured.find(spec.name); it != configured.end()) tokens = it->second;
+        else if (!dir.empty()) tokens = persistentTokens(dir);
+        else tokens = {randomToken(), randomToken()};
+        const size_t triangles = loaded->triangleCount();
+        auto hub = std::make_shared<dfb::net::SessionHub>(ioc, state->metrics(), std::make_unique<dfb::DeepBuffer>(std::move(shot.value())),
+                                                          std::move(session.value()), tokens);
+        std::weak_ptr<dfb::net::SessionHub> weak = hub;
+        auto render = dfb::RenderService::start(hub->shot(), dfb::shadowCasters(loaded.value()), hub->session(),
+                                                [weak](uint64_t v) {
+                                                    if (auto h = weak.lock()) h->onNewVersion(v);
+                                                },
+                                                &state->metrics());
+        if (!render) {
+            std::cerr << "dfb-server: " << render.error().toString() << "\n";
+            return EXIT_GPU;
+        }
+        char line[512];
+        std::snprintf(line, sizeof line, "dfb-server: session %s: %s (%dx%d), %zu shadow-casting triangles, rig version %llu%s, %s",
+                      spec.name.c_str(), spec.shotPath.c_str(), hub->shot().width, hub->shot().height, triangles,
+                      static_cast<unsigned long long>(hub->session().rigVersion()),
+                      hub->session().persistent() ? (", saved in " + dir.string()).c_str() : ", not saved (no --state)",
+                      render.value()->deviceDescription().c_str());
+        banner.push_back(line);
+        hub->setRender(std::move(render.value()));
+        hub->render().requestFrame();
+        state->addSession(hub);
     }
-    state->setRenderService(render->get());
-    render.value()->requestFrame();
 
     boost::system::error_code ec;
     const auto address = boost::asio::ip::make_address(bind, ec);
     if (ec) {
         std::cerr << "dfb-server: --bind " << bind << " is not an IP address\n";
-        return 1;
+        return EXIT_USAGE;
     }
     auto listener = std::make_shared<dfb::net::Listener>(ioc, state);
     if (auto s = listener->open({address, static_cast<unsigned short>(port)}); !s) {
         std::cerr << "dfb-server: " << s.error().toString() << "\n";
-        return 5;
+        return EXIT_NETWORK;
     }
     listener->run();
 
     boost::asio::signal_set signals(ioc, SIGINT, SIGTERM);
     signals.async_wait([&](const boost::system::error_code&, int) { ioc.stop(); });
 
-    std::printf("dfb-server: %s (%dx%d), %zu shadow-casting triangles, %s\n", shotPath.c_str(), shot->width,
-                shot->height, scene->triangleCount(), render.value()->deviceDescription().c_str());
     const std::string host = address.is_v6() ? "[" + bind + "]" : bind;
-    std::printf("dfb-server: listening on http://%s:%u/\n", host.c_str(), unsigned(listener->port()));
+    const std::string base = "http://" + host + ":" + std::to_string(listener->port()) + "/";
+    for (const auto& l : banner) std::printf("%s\n", l.c_str());
+    for (const auto& [id, hub] : state->sessions()) {
+        std::printf("dfb-server: session %s editor: %s?session=%s&token=%s\n", id.c_str(), base.c_str(), id.c_str(), hub->tokens().editor.c_str());
+        std::printf("dfb-server: session %s viewer: %s?session=%s&token=%s\n", id.c_str(), base.c_str(), id.c_str(), hub->tokens().viewer.c_str());
+    }
+    std::printf("dfb-server: listening on %s\n", base.c_str());
     std::fflush(stdout);
     ioc.run();
     std::printf("dfb-server: shutting down\n");

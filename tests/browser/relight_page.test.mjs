@@ -35,7 +35,9 @@ function startServer() {
     const onData = (d) => {
       out += d;
       const m = out.match(/listening on (http:\/\/127\.0\.0\.1:\d+\/)/);
-      if (m) { clearTimeout(timer); resolve({ proc, url: m[1] }); }
+      // The page is opened with the editor link the server prints for the session.
+      const editor = out.match(/session (\S+) editor: (http:\/\/\S+token=(\w+))/);
+      if (m && editor) { clearTimeout(timer); resolve({ proc, url: editor[2], base: m[1], session: editor[1], token: editor[3] }); }
     };
     proc.stdout.on("data", onData);
     proc.stderr.on("data", onData);
@@ -126,7 +128,8 @@ try {
     const diff = meanAbsDiff(before, after);
     assert(diff > 2, `image barely changed (mean abs difference ${diff.toFixed(2)})`);
     await page.screenshot({ path: join(opts.artifacts, "02-key-moved.png") });
-    const rig = await (await fetch(new URL("/v1/rig", server.url))).json();
+    const rig = await (await fetch(new URL(`/v1/sessions/${server.session}/rig`, server.base),
+                                   { headers: { Authorization: `Bearer ${server.token}` } })).json();
     const key = rig.lights.find((l) => l.name === "key");
     assert(rig.version > versionBefore - 1, "the server's rig version did not advance");
     console.log(`     mean abs pixel difference ${diff.toFixed(2)}; key.position now ${key.position.map((v) => v.toFixed(2))}`);

@@ -69,8 +69,14 @@ protected:
         mServer = std::make_unique<test::Process>(std::vector<std::string>{DFB_SERVER_EXE, SHOT, "--port", "0"});
         auto m = mServer->waitForLine(std::regex(R"(listening on (http://127\.0\.0\.1:(\d+)/))"), 60s);
         ASSERT_TRUE(m.has_value()) << "server did not start:\n" << mServer->output();
-        mUrl = (*m)[1];
         mPort = (*m)[2];
+        // The editor link the server printed carries the session and its token.
+        std::smatch e;
+        const std::string out = mServer->output();
+        ASSERT_TRUE(std::regex_search(out, e, std::regex(R"(session (\S+) editor: (http://\S+token=(\w+)))"))) << out;
+        mSession = e[1];
+        mUrl = e[2];
+        mToken = e[3];
         mDir = std::filesystem::temp_directory_path() / ("dfb_it_" + std::to_string(::getpid()));
         std::filesystem::create_directories(mDir);
     }
@@ -79,18 +85,20 @@ protected:
         std::filesystem::remove_all(mDir);
     }
 
-    // Runs dfb-client; returns its exit code and output.
+    // Runs dfb-client SUBCOMMAND ARGS... on the session; returns its exit code and output.
     std::pair<int, std::string> client(std::vector<std::string> args) {
-        args.insert(args.begin(), {DFB_CLIENT_EXE, mUrl});
+        args.insert(args.begin(), DFB_CLIENT_EXE);
+        args.insert(args.end(), {"--server", mUrl});
         return test::run(args, 60s);
     }
 
     Gray frameAfter(const std::vector<std::string>& sets, const std::string& name) {
-        std::vector<std::string> args;
-        for (const auto& s : sets) args.insert(args.end(), {"--set", s});
-        const std::string path = (mDir / name).string();
-        args.insert(args.end(), {"--frame", path});
+        std::vector<std::string> args = {"set"};
+        args.insert(args.end(), sets.begin(), sets.end());
         auto [rc, out] = client(args);
+        EXPECT_EQ(rc, 0) << out;
+        const std::string path = (mDir / name).string();
+        std::tie(rc, out) = client({"frame", path});
         EXPECT_EQ(rc, 0) << out;
         return readGray(path);
     }
@@ -103,14 +111,14 @@ protected:
 
     DeepBuffer mShot;
     std::unique_ptr<test::Process> mServer;
-    std::string mUrl, mPort;
+    std::string mUrl, mPort, mSession, mToken;
     std::filesystem::path mDir;
 };
 
 } // namespace
 
 TEST_F(ServerClient, ClientPrintsTheRig) {
-    auto [rc, out] = client({"--rig"});
+    auto [rc, out] = client({"rig", "get"});
     ASSERT_EQ(rc, 0) << out;
     auto j = nlohmann::json::parse(out.substr(0, out.rfind('}') + 1), nullptr, false);
     ASSERT_FALSE(j.is_discarded()) << out;
@@ -257,12 +265,14 @@ TEST_F(ServerClient, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
     beast::websocket::stream<boost::asio::ip::tcp::socket> ws(ioc);
     boost::asio::ip::tcp::resolver resolver(ioc);
     boost::asio::connect(ws.next_layer(), resolver.resolve("127.0.0.1", mPort));
-    ws.handshake("127.0.0.1", "/v1/ws");
+    ws.handshake("127.0.0.1", "/v1/sessions/" + mSession + "/ws?token=" + mToken);
     auto nextText = [&]() {
         for (;;) {
             beast::flat_buffer buf;
             ws.read(buf);
-            if (ws.got_text()) return nlohmann::json::parse(beast::buffers_to_string(buf.data()));
+            if (!ws.got_text()) continue;
+            auto j = nlohmann::json::parse(beast::buffers_to_string(buf.data()));
+            if (j["type"] != "presence") return j; // who is connected: not an answer
         }
     };
     EXPECT_EQ(nextText()["type"], "welcome");
@@ -285,17 +295,17 @@ TEST_F(ServerClient, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
     EXPECT_EQ(reply["seq"], 7);
     ws.close(beast::websocket::close_code::normal);
     // Still serving plain HTTP too.
-    auto [rc, out] = client({"--rig"});
+    auto [rc, out] = client({"rig", "get"});
     EXPECT_EQ(rc, 0) << out;
 }
 
 TEST_F(ServerClient, BendyLightOutputsAndSelfIntersectionWarning) {
     // Bend the key light; its shadow mask and its contribution alone are served as images.
-    auto [rc, out] = client({"--set", "key.type=\"bendy\"", "--set", "key.controlPoints=[[1.5,0,0],[3,0,0],[4.2,0,0.6],[4.8,0,1.9]]",
-                             "--set", "key.radii=[0,0.8,1.6,1.9,2.2]"});
+    auto [rc, out] = client({"set", "key.type=\"bendy\"", "key.controlPoints=[[1.5,0,0],[3,0,0],[4.2,0,0.6],[4.8,0,1.9]]",
+                             "key.radii=[0,0.8,1.6,1.9,2.2]"});
     ASSERT_EQ(rc, 0) << out;
     const std::string mask = (mDir / "mask.png").string(), alone = (mDir / "fill.png").string();
-    std::tie(rc, out) = client({"--frame", mask, "--output", "shadow:key"});
+    std::tie(rc, out) = client({"frame", mask, "--output", "shadow:key"});
     ASSERT_EQ(rc, 0) << out;
     const Gray m = readGray(mask);
     ASSERT_EQ(m.width, mShot.width);
@@ -306,20 +316,20 @@ TEST_F(ServerClient, BendyLightOutputsAndSelfIntersectionWarning) {
     }
     EXPECT_GT(lit, 500u);
     EXPECT_GT(shadowed, 500u);
-    std::tie(rc, out) = client({"--frame", alone, "--output", "light:fill"});
+    std::tie(rc, out) = client({"frame", alone, "--output", "light:fill"});
     ASSERT_EQ(rc, 0) << out;
     EXPECT_EQ(readGray(alone).width, mShot.width);
-    std::tie(rc, out) = client({"--frame", alone, "--output", "light:nobody"});
+    std::tie(rc, out) = client({"frame", alone, "--output", "light:nobody"});
     EXPECT_EQ(rc, 3) << out;
     EXPECT_NE(out.find("nobody"), std::string::npos) << out;
     // A chain that loops back through itself: accepted, rendered, and flagged on the light.
-    std::tie(rc, out) = client({"--set", "key.controlPoints=[[2,0,0],[2,2,0],[0,2,0],[0.5,0,0]]", "--set", "key.radii=[0,1,1,1,1]"});
+    std::tie(rc, out) = client({"set", "key.controlPoints=[[2,0,0],[2,2,0],[0,2,0],[0.5,0,0]]", "key.radii=[0,1,1,1,1]"});
     ASSERT_EQ(rc, 0) << out;
-    std::tie(rc, out) = client({"--rig"});
+    std::tie(rc, out) = client({"rig", "get"});
     ASSERT_EQ(rc, 0) << out;
     EXPECT_NE(out.find("\"warning\""), std::string::npos) << out;
     EXPECT_NE(out.find("intersect"), std::string::npos) << out;
-    std::tie(rc, out) = client({"--frame", mask});
+    std::tie(rc, out) = client({"frame", mask});
     EXPECT_EQ(rc, 0) << out;
 }
 
@@ -354,11 +364,11 @@ TEST(BadInput, ProgramsExitWithClearMessages) {
         EXPECT_NE(out.find("not a glTF"), std::string::npos) << out;
     }
     {
-        auto [rc, out] = test::run({DFB_CLIENT_EXE, "http://127.0.0.1:1", "--rig", "--timeout", "2"});
+        auto [rc, out] = test::run({DFB_CLIENT_EXE, "rig", "get", "--server", "http://127.0.0.1:1/?session=s&token=t", "--timeout", "2"});
         EXPECT_EQ(rc, 2) << out;
     }
     {
-        auto [rc, out] = test::run({DFB_CLIENT_EXE, "http://127.0.0.1:1", "--set", "broken"});
+        auto [rc, out] = test::run({DFB_CLIENT_EXE, "set", "broken", "--server", "http://127.0.0.1:1/?session=s&token=t"});
         EXPECT_EQ(rc, 1) << out;
     }
     std::filesystem::remove_all(dir);

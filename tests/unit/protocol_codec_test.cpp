@@ -1,7 +1,8 @@
-// Protocol v0 codec: valid messages parse, invalid ones are refused with the field named, edits
+// Protocol codec: valid messages parse, invalid ones are refused with the field named, edits
 // are all-or-nothing, frame headers round-trip.
 
 #include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Messages.h>
 
 #include <gtest/gtest.h>
 

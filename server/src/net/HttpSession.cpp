@@ -3,8 +3,10 @@
 #include "net/WebSocketSession.h"
 
 #include <dfb/protocol/Codec.h>
-#include <dfb/server/ImageCodec.h>
+#include <dfb/protocol/Messages.h>
 
+#include <cctype>
+#include <cstdlib>
 #include <string_view>
 
 namespace dfb::web {
@@ -14,30 +16,103 @@ std::string_view asset(std::string_view name);
 namespace dfb::net {
 namespace {
 
-// Requests larger than this are refused: no v0 endpoint takes a body worth more.
+using json = nlohmann::json;
+
+// Requests larger than this are refused: a rig or an edit is far smaller.
 constexpr size_t MAX_BODY_BYTES = 1 << 20;
 
-http::response<http::string_body> makeResponse(const http::request<http::string_body>& req, http::status status,
-                                               std::string_view contentType, std::string body) {
-    http::response<http::string_body> res{status, req.version()};
+http::response<http::string_body> makeResponse(unsigned version, bool keepAlive, http::status status, std::string_view contentType,
+                                               std::string body) {
+    http::response<http::string_body> res{status, version};
     res.set(http::field::server, "dfb-server");
     res.set(http::field::content_type, std::string(contentType));
     res.set(http::field::cache_control, "no-store");
-    res.keep_alive(req.keep_alive());
+    res.keep_alive(keepAlive);
     res.body() = std::move(body);
     res.prepare_payload();
     return res;
 }
 
-http::response<http::string_body> errorResponse(const http::request<http::string_body>& req, http::status status,
-                                                ErrorCode code, const std::string& message) {
-    return makeResponse(req, status, "application/json", protocol::encodeError(code, message, std::nullopt));
+http::response<http::string_body> makeResponse(const http::request<http::string_body>& req, http::status status,
+                                               std::string_view contentType, std::string body) {
+    return makeResponse(req.version(), req.keep_alive(), status, contentType, std::move(body));
 }
+
+// The HTTP status of a refusal (docs/protocol.md "Errors").
+http::status statusFor(ErrorCode code) {
+    switch (code) {
+    case ErrorCode::Unauthorized: return http::status::unauthorized;
+    case ErrorCode::Forbidden: return http::status::forbidden;
+    case ErrorCode::Conflict: return http::status::precondition_failed;
+    case ErrorCode::MissingData: return http::status::not_found;
+    case ErrorCode::GpuError:
+    case ErrorCode::IoError: return http::status::internal_server_error;
+    default: return http::status::bad_request;
+    }
+}
+
+http::response<http::string_body> errorResponse(unsigned version, bool keepAlive, const Error& e,
+                                                std::optional<http::status> status = std::nullopt) {
+    auto res = makeResponse(version, keepAlive, status.value_or(statusFor(e.code)), "application/json",
+                            protocol::encodeError(e.code, e.message, std::nullopt));
+    if (e.code == ErrorCode::Unauthorized) res.set(http::field::www_authenticate, "Bearer realm=\"dfb\"");
+    return res;
+}
+
+http::response<http::string_body> errorResponse(const http::request<http::string_body>& req, ErrorCode code, const std::string& message,
+                                                std::optional<http::status> status = std::nullopt) {
+    return errorResponse(req.version(), req.keep_alive(), makeError(code, message), status);
+}
+
+std::string percentDecode(std::string_view s) {
+    std::string out;
+    for (size_t i = 0; i < s.size(); ++i) {
+        if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+            std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+            out += char(std::strtol(std::string(s.substr(i + 1, 2)).c_str(), nullptr, 16));
+            i += 2;
+        } else {
+            out += s[i];
+        }
+    }
+    return out;
+}
+
+std::optional<std::string> queryParam(std::string_view query, std::string_view name) {
+    while (!query.empty()) {
+        const size_t amp = query.find('&');
+        const std::string_view item = query.substr(0, amp);
+        query = amp == std::string_view::npos ? std::string_view() : query.substr(amp + 1);
+        const size_t eq = item.find('=');
+        if (item.substr(0, eq) == name) return percentDecode(eq == std::string_view::npos ? "" : item.substr(eq + 1));
+    }
+    return std::nullopt;
+}
+
+// The token of a request: "Authorization: Bearer T" (scripts) or "?token=T" (browsers cannot set
+// headers on a WebSocket).
+std::string tokenOf(const http::request<http::string_body>& req, std::string_view query) {
+    const auto auth = req[http::field::authorization];
+    if (auth.size() > 7 && (auth.substr(0, 7) == "Bearer " || auth.substr(0, 7) == "bearer ")) return std::string(auth.substr(7));
+    return queryParam(query, "token").value_or("");
+}
+
+// If-Match: "V" or V (the rig version), or * (any). Nothing when absent; Protocol when unreadable.
+Result<std::optional<uint64_t>> ifMatch(const http::request<http::string_body>& req) {
+    auto h = std::string(req[http::field::if_match]);
+    if (h.empty() || h == "*") return std::optional<uint64_t>{};
+    if (h.size() >= 2 && h.front() == '"' && h.back() == '"') h = h.substr(1, h.size() - 2);
+    if (h.empty() || h.size() > 19 || h.find_first_not_of("0123456789") != std::string::npos) {
+        return makeError(ErrorCode::Protocol, "If-Match: expected the rig version as an ETag, e.g. \"12\"");
+    }
+    return std::optional<uint64_t>{std::stoull(h)};
+}
+
+std::string etag(uint64_t version) { return "\"" + std::to_string(version) + "\""; }
 
 } // namespace
 
-HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<SharedState> state)
-    : mStream(std::move(socket)), mState(std::move(state)) {}
+HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<SharedState> state) : mStream(std::move(socket)), mState(std::move(state)) {}
 
 void HttpSession::run() {
     asio::dispatch(mStream.get_executor(), beast::bind_front_handler(&HttpSession::doRead, shared_from_this()));
@@ -55,82 +130,229 @@ void HttpSession::onRead(error_code ec, size_t) {
         mStream.socket().shutdown(tcp::socket::shutdown_send, ec);
         return;
     }
+    if (ec == http::error::body_limit) {
+        Request req; // the rest of the body is unread: answer, then close
+        req.keep_alive(false);
+        return send(errorResponse(req, ErrorCode::Protocol, "request body larger than 1 MiB", http::status::payload_too_large));
+    }
     if (ec) return fail(ec, "http read");
     if (websocket::is_upgrade(mParser->get())) {
-        mStream.expires_never();
         auto req = mParser->release();
-        if (req.target() != "/v1/ws") {
-            send(errorResponse(req, http::status::not_found, ErrorCode::Protocol, "WebSocket endpoint is /v1/ws"));
-            return;
+        const std::string target(req.target());
+        const size_t q = target.find('?');
+        const std::string path = target.substr(0, q), query = q == std::string::npos ? "" : target.substr(q + 1);
+        const std::string prefix = "/v1/sessions/";
+        if (path.rfind(prefix, 0) != 0 || path.size() < prefix.size() + 4 || path.substr(path.size() - 3) != "/ws") {
+            return send(errorResponse(req, ErrorCode::MissingData, "the WebSocket endpoint is /v1/sessions/ID/ws"));
         }
-        std::make_shared<WebSocketSession>(mStream.release_socket(), mState)->run(std::move(req));
+        const std::string id = path.substr(prefix.size(), path.size() - prefix.size() - 3);
+        const std::string token = tokenOf(req, query);
+        if (token.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "no token: add ?token=... or an Authorization: Bearer header"));
+        auto hub = mState->find(id);
+        if (!hub) return send(errorResponse(req, ErrorCode::MissingData, "no session '" + id + "'"));
+        auto role = hub->roleFor(token);
+        if (!role) return send(errorResponse(req, ErrorCode::Unauthorized, "the token does not open session '" + id + "'"));
+        mStream.expires_never();
+        std::make_shared<WebSocketSession>(mStream.release_socket(), mState, hub, *role)->run(std::move(req));
         return;
     }
     handle(mParser->release());
 }
 
-void HttpSession::handle(http::request<http::string_body>&& req) {
-    std::string target(req.target());
+void HttpSession::handle(Request&& req) {
+    const std::string target(req.target());
     const size_t q = target.find('?');
-    const std::string path = target.substr(0, q);
-    if (req.method() != http::verb::get && req.method() != http::verb::head) {
-        return send(errorResponse(req, http::status::method_not_allowed, ErrorCode::Protocol,
-                                  "method not allowed on " + path));
+    const std::string path = target.substr(0, q), query = q == std::string::npos ? "" : target.substr(q + 1);
+    const bool get = req.method() == http::verb::get || req.method() == http::verb::head;
+    if (path == "/" || path == "/index.html" || path == "/healthz" || path == "/metrics" || path == "/favicon.ico" || path == "/v1/sessions") {
+        if (!get) return send(errorResponse(req, ErrorCode::Protocol, "method not allowed on " + path, http::status::method_not_allowed));
     }
+    // The page holds no data of any session: it asks for a token (from its own URL) to connect.
     if (path == "/" || path == "/index.html") {
         return send(makeResponse(req, http::status::ok, "text/html; charset=utf-8", std::string(web::asset("index.html"))));
     }
     if (path == "/healthz") return send(makeResponse(req, http::status::ok, "text/plain", "ok\n"));
+    if (path == "/metrics") return send(makeResponse(req, http::status::ok, "text/plain; version=0.0.4", mState->metrics().text()));
     if (path == "/favicon.ico") return send(makeResponse(req, http::status::no_content, "image/x-icon", ""));
-    if (path == "/v1/rig") {
-        return send(makeResponse(req, http::status::ok, "application/json", protocol::toJson(mState->session().rig()).dump(2)));
-    }
-    if (path == "/v1/session") {
-        return send(makeResponse(req, http::status::ok, "application/json", mState->session().description().dump(2)));
-    }
-    if (path == "/v1/frame.png" || path == "/v1/frame.jpg" || path == "/v1/frame.jpeg") {
-        // ?output=beauty | light:NAME | shadow:NAME
-        std::string output = "beauty";
-        if (q != std::string::npos) {
-            const std::string query = target.substr(q + 1);
-            const size_t at = query.find("output=");
-            if (at != std::string::npos) output = query.substr(at + 7, query.find('&', at) - (at + 7));
+
+    const std::string token = tokenOf(req, query);
+    if (path == "/v1/sessions") {
+        if (token.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "no token: send Authorization: Bearer TOKEN"));
+        json list = json::array();
+        for (const auto& [id, hub] : mState->sessions()) {
+            auto role = hub->roleFor(token);
+            if (!role) continue;
+            const json& d = hub->session().description();
+            list.push_back({{"id", id}, {"role", protocol::toString(*role)}, {"shot", d["shot"]}, {"width", d["width"]},
+                            {"height", d["height"]}, {"rigVersion", hub->session().rigVersion()}, {"clients", hub->clientCount()}});
         }
-        return sendFrame(path == "/v1/frame.png", req.version(), req.keep_alive(), output);
+        if (list.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "the token opens no session"));
+        return send(makeResponse(req, http::status::ok, "application/json", json{{"sessions", list}}.dump(2)));
     }
-    send(errorResponse(req, http::status::not_found, ErrorCode::MissingData, "no such resource: " + path));
+    const std::string prefix = "/v1/sessions/";
+    if (path.rfind(prefix, 0) == 0) {
+        const std::string rest = path.substr(prefix.size());
+        const size_t slash = rest.find('/');
+        const std::string id = rest.substr(0, slash), resource = slash == std::string::npos ? "" : rest.substr(slash + 1);
+        if (token.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "no token: send Authorization: Bearer TOKEN"));
+        auto hub = mState->find(id);
+        if (!hub) return send(errorResponse(req, ErrorCode::MissingData, "no session '" + id + "'"));
+        auto role = hub->roleFor(token);
+        if (!role) return send(errorResponse(req, ErrorCode::Unauthorized, "the token does not open session '" + id + "'"));
+        return handleSession(req, hub, *role, resource, query);
+    }
+    send(errorResponse(req, ErrorCode::MissingData, "no such resource: " + path));
 }
 
-void HttpSession::sendFrame(bool png, unsigned version, bool keepAlive, const std::string& output) {
-    // Rendering and encoding happen on the render thread; the response is written back here.
-    mState->render().requestImage([self = shared_from_this(), png, version, keepAlive](Result<Image8> image, uint64_t rigVersion) {
-        http::request<http::string_body> req;
-        req.version(version);
-        req.keep_alive(keepAlive);
-        http::response<http::string_body> res;
-        if (!image) {
-            const bool badRequest = image.error().code == ErrorCode::InvalidValue || image.error().code == ErrorCode::MissingData;
-            res = errorResponse(req, badRequest ? http::status::bad_request : http::status::internal_server_error,
-                                image.error().code, image.error().message);
-        } else {
-            auto bytes = png ? encodePng(image.value()) : encodeJpeg(image.value(), 92);
-            if (!bytes) {
-                res = errorResponse(req, http::status::internal_server_error, bytes.error().code, bytes.error().message);
-            } else {
-                res = makeResponse(req, http::status::ok, png ? "image/png" : "image/jpeg",
-                                   std::string(bytes->begin(), bytes->end()));
-                res.set("X-Rig-Version", std::to_string(rigVersion));
+void HttpSession::handleSession(const Request& req, const std::shared_ptr<SessionHub>& hub, protocol::Role role,
+                                const std::string& resource, const std::string& query) {
+    Session& session = hub->session();
+    const bool get = req.method() == http::verb::get || req.method() == http::verb::head;
+    const bool post = req.method() == http::verb::post, put = req.method() == http::verb::put;
+    auto notAllowed = [&](const char* allowed) {
+        auto res = errorResponse(req, ErrorCode::Protocol, std::string(req.method_string()) + " is not allowed on " + std::string(req.target()) +
+                                                                " (allowed: " + allowed + ")",
+                                 http::status::method_not_allowed);
+        res.set(http::field::allow, allowed);
+        return send(std::move(res));
+    };
+    auto refuse = [&](const Error& e, std::optional<http::status> status = std::nullopt) {
+        if (e.code != ErrorCode::Unauthorized) hub->metrics().editRefused(hub->id());
+        send(errorResponse(req.version(), req.keep_alive(), e, status));
+    };
+    // Accepted changes: every WebSocket client hears of them, as of any other change.
+    auto accepted = [&](const ChangeOutcome& out, json body) {
+        hub->published(out, nullptr);
+        body["rigVersion"] = out.info.rigVersion;
+        auto res = makeResponse(req, http::status::ok, "application/json", body.dump(2));
+        res.set(http::field::etag, etag(out.info.rigVersion));
+        send(std::move(res));
+    };
+    const Author author{0, "http"};
+    auto editorOnly = [&]() {
+        if (role == protocol::Role::Editor) return true;
+        refuse(makeError(ErrorCode::Forbidden, "a viewer token cannot change session '" + hub->id() + "'"));
+        return false;
+    };
+
+    if (resource.empty()) {
+        if (!get) return notAllowed("GET, HEAD");
+        json info{{"id", hub->id()},
+                  {"role", protocol::toString(role)},
+                  {"session", session.description()},
+                  {"rigVersion", session.rigVersion()},
+                  {"persistent", session.persistent()},
+                  {"history", {{"undo", session.undoDepth()}, {"redo", session.redoDepth()}}},
+                  {"clients", json::array()}};
+        for (const auto& c : hub->clients()) info["clients"].push_back(protocol::toJson(c));
+        return send(makeResponse(req, http::status::ok, "application/json", info.dump(2)));
+    }
+    if (resource == "rig") {
+        if (get) {
+            const Rig rig = session.rig();
+            auto res = makeResponse(req, http::status::ok, "application/json", protocol::toJson(rig).dump(2));
+            res.set(http::field::etag, etag(rig.version));
+            return send(std::move(res));
+        }
+        if (!put) return notAllowed("GET, HEAD, PUT");
+        if (!editorOnly()) return;
+        auto expected = ifMatch(req);
+        if (!expected) return refuse(expected.error());
+        json body = json::parse(req.body(), nullptr, false);
+        if (body.is_discarded()) return refuse(makeError(ErrorCode::Protocol, "PUT rig: the body is not JSON"));
+        auto rig = protocol::rigFromJson(body);
+        if (!rig) return refuse(rig.error(), http::status::bad_request);
+        auto out = session.replace(rig.value(), author, expected.value());
+        if (!out) return refuse(out.error());
+        return accepted(out.value(), json::object());
+    }
+    if (resource == "edits") {
+        if (!post) return notAllowed("POST");
+        if (!editorOnly()) return;
+        auto expected = ifMatch(req);
+        if (!expected) return refuse(expected.error());
+        // The body is an edit message without "type" and "seq": parsed by the WebSocket's codec.
+        json body = json::parse(req.body(), nullptr, false);
+        if (!body.is_object()) return refuse(makeError(ErrorCode::Protocol, "POST edits: the body must be a JSON object {\"changes\": [...]}"));
+        body["type"] = "edit";
+        body["seq"] = 0;
+        auto parsed = protocol::parseClientMessage(body.dump());
+        if (!parsed) return refuse(parsed.error());
+        auto& edit = std::get<protocol::EditMessage>(parsed.value());
+        if (expected.value() && !edit.ifVersion) edit.ifVersion = expected.value();
+        auto out = session.edit(edit.changes, author, edit.base, edit.ifVersion);
+        if (!out) return refuse(out.error(), out.error().code == ErrorCode::MissingData ? std::optional(http::status::bad_request) : std::nullopt);
+        json extra = json::object();
+        if (!out->overwrote.empty()) extra["overwrote"] = out->overwrote;
+        return accepted(out.value(), extra);
+    }
+    if (resource == "undo" || resource == "redo") {
+        if (!post) return notAllowed("POST");
+        if (!editorOnly()) return;
+        auto out = resource == "undo" ? session.undo(author) : session.redo(author);
+        if (!out) return refuse(out.error(), out.error().code == ErrorCode::MissingData ? std::optional(http::status::conflict) : std::nullopt);
+        return accepted(out.value(), json{{"kind", resource}});
+    }
+    if (resource == "history") {
+        if (!get) return notAllowed("GET, HEAD");
+        uint64_t since = 0;
+        if (auto s = queryParam(query, "since")) {
+            if (s->empty() || s->size() > 19 || s->find_first_not_of("0123456789") != std::string::npos) {
+                return refuse(makeError(ErrorCode::InvalidValue, "since: expected a rig version"));
             }
+            since = std::stoull(*s);
         }
-        asio::post(self->mStream.get_executor(), [self, r = std::move(res)]() mutable { self->send(std::move(r)); });
-    }, output);
+        return send(makeResponse(req, http::status::ok, "application/json",
+                                 json{{"rigVersion", session.rigVersion()}, {"entries", session.history(since)}}.dump(2)));
+    }
+    const unsigned version = req.version();
+    const bool keepAlive = req.keep_alive();
+    if (resource == "frame") {
+        if (!get) return notAllowed("GET, HEAD");
+        auto view = protocol::viewFromQuery(query);
+        if (!view) return refuse(view.error());
+        hub->render().requestEncoded(view.value(), [self = shared_from_this(), hub, version, keepAlive](Result<std::shared_ptr<const EncodedFrame>> f) {
+            Response res;
+            if (!f) {
+                res = errorResponse(version, keepAlive, f.error(),
+                                    f.error().code == ErrorCode::MissingData ? std::optional(http::status::bad_request) : std::nullopt);
+            } else {
+                const auto& frame = *f.value();
+                res = makeResponse(version, keepAlive, http::status::ok, protocol::mimeType(frame.encoding),
+                                   std::string(reinterpret_cast<const char*>(frame.image()), frame.imageSize()));
+                res.set("X-Rig-Version", std::to_string(frame.rigVersion));
+                res.set("X-Frame-Number", std::to_string(frame.frameNumber));
+                hub->metrics().frameSent(hub->id(), frame.imageSize());
+            }
+            asio::post(self->mStream.get_executor(), [self, r = std::move(res)]() mutable { self->send(std::move(r)); });
+        });
+        return;
+    }
+    if (resource == "pick") {
+        if (!get) return notAllowed("GET, HEAD");
+        int xy[2] = {0, 0};
+        for (int i = 0; i < 2; ++i) {
+            auto v = queryParam(query, i == 0 ? "x" : "y");
+            if (!v || v->empty() || v->size() > 7 || v->find_first_not_of("0123456789") != std::string::npos) {
+                return refuse(makeError(ErrorCode::InvalidValue, std::string("pick: query parameter ") + (i == 0 ? "x" : "y") +
+                                                                     " must be a non-negative integer pixel coordinate"));
+            }
+            xy[i] = std::stoi(*v);
+        }
+        hub->render().requestPick(xy[0], xy[1], [self = shared_from_this(), version, keepAlive](Result<json> r) {
+            Response res = r ? makeResponse(version, keepAlive, http::status::ok, "application/json", r->dump(2))
+                             : errorResponse(version, keepAlive, r.error());
+            asio::post(self->mStream.get_executor(), [self, res = std::move(res)]() mutable { self->send(std::move(res)); });
+        });
+        return;
+    }
+    send(errorResponse(req, ErrorCode::MissingData, "no such resource: " + std::string(req.target().substr(0, req.target().find('?')))));
 }
 
-void HttpSession::send(http::response<http::string_body>&& res) {
-    auto sp = std::make_shared<http::response<http::string_body>>(std::move(res));
+void HttpSession::send(Response&& res) {
+    auto sp = std::make_shared<Response>(std::move(res));
     mResponse = sp;
-    http::async_write(mStream, *sp,
-                      beast::bind_front_handler(&HttpSession::onWrite, shared_from_this(), sp->need_eof()));
+    http::async_write(mStream, *sp, beast::bind_front_handler(&HttpSession::onWrite, shared_from_this(), sp->need_eof()));
 }
 
 void HttpSession::onWrite(bool close, error_code ec, size_t) {

@@ -1,6 +1,8 @@
 #pragma once
-// One HTTP connection: serves the page, the rig and frames, and hands WebSocket upgrades over to
-// a WebSocketSession. Requests on one connection are answered in order, one at a time.
+// One HTTP connection: serves the page, health and metrics, the v1 session resources for scripts
+// (docs/protocol.md "HTTP"), and hands WebSocket upgrades of /v1/sessions/ID/ws over to a
+// WebSocketSession once the token is checked. Requests on one connection are answered in order,
+// one at a time.
 
 #include "net/Beast.h"
 #include "net/SharedState.h"
@@ -16,12 +18,16 @@ public:
     void run();
 
 private:
+    using Request = http::request<http::string_body>;
+    using Response = http::response<http::string_body>;
+
     void doRead();
     void onRead(error_code ec, size_t bytes);
-    void handle(http::request<http::string_body>&& req);
-    void send(http::response<http::string_body>&& res);
+    void handle(Request&& req);
+    void handleSession(const Request& req, const std::shared_ptr<SessionHub>& hub, protocol::Role role,
+                       const std::string& resource, const std::string& query);
+    void send(Response&& res);
     void onWrite(bool close, error_code ec, size_t bytes);
-    void sendFrame(bool png, unsigned version, bool keepAlive, const std::string& output);
 
     beast::tcp_stream mStream;
     beast::flat_buffer mBuffer;

@@ -1,44 +1,35 @@
 #pragma once
-// State shared by every connection of the server (Beast chat-multi's shared_state): the session,
-// the render service and the set of connected WebSocket clients. Touched only from the I/O
-// thread, except where noted.
+// State shared by every connection of the server (Beast chat-multi's shared_state): the sessions
+// by id and the metrics. Built before the listener starts and not changed after, so lookups need
+// no lock; the hubs themselves are touched only from the I/O thread, except where noted.
 
 #include "net/Beast.h"
-#include "session/RenderService.h"
-#include "session/Session.h"
+#include "net/SessionHub.h"
+#include "session/Metrics.h"
 
+#include <map>
 #include <memory>
-#include <set>
 #include <string>
 
 namespace dfb::net {
 
-class WebSocketSession;
-
-class SharedState : public std::enable_shared_from_this<SharedState> {
+class SharedState {
 public:
-    SharedState(asio::io_context& ioc, Session& session) : mIoc(ioc), mSession(session) {}
+    explicit SharedState(asio::io_context& ioc) : mIoc(ioc) {}
 
-    void setRenderService(RenderService* render) { mRender = render; }
-    Session& session() { return mSession; }
-    RenderService& render() { return *mRender; }
     asio::io_context& ioc() { return mIoc; }
-
-    void join(WebSocketSession* ws);
-    void leave(WebSocketSession* ws);
+    Metrics& metrics() { return mMetrics; }
+    void addSession(std::shared_ptr<SessionHub> hub) { mSessions[hub->id()] = std::move(hub); }
+    /// Null when there is no such session.
+    std::shared_ptr<SessionHub> find(const std::string& id) const;
+    const std::map<std::string, std::shared_ptr<SessionHub>>& sessions() const { return mSessions; }
+    /// Client ids are unique across sessions and never reused while the server runs.
     uint64_t nextClientId() { return ++mLastClientId; }
-
-    /// Sends a text message to every client except `except` (may be null).
-    void broadcastText(const std::string& message, const WebSocketSession* except);
-    /// Called on the render thread: hands the frame over to the I/O thread for every client.
-    void publishFrame(std::shared_ptr<const EncodedFrame> frame);
-    size_t clientCount() const { return mClients.size(); }
 
 private:
     asio::io_context& mIoc;
-    Session& mSession;
-    RenderService* mRender = nullptr;
-    std::set<WebSocketSession*> mClients;
+    Metrics mMetrics;
+    std::map<std::string, std::shared_ptr<SessionHub>> mSessions;
     uint64_t mLastClientId = 0;
 };
 

@@ -1,39 +1,65 @@
 #pragma once
-// One WebSocket client. Text messages are queued in order; frames are not: only the newest
-// frame waits while another write is in flight, so a slow client never builds up a queue of
-// stale images. One async write in flight at a time (Beast's rule).
+// One WebSocket client of one session, with the role its token gave it. Text messages are queued
+// in order; frames are pulled: when nothing is being written, the client asks the render thread
+// for the newest image encoded for its own view settings, so it never holds more than one frame
+// and a slow client skips versions instead of queueing them. One async write in flight at a time
+// (Beast's rule).
 
 #include "net/Beast.h"
-#include "net/SharedState.h"
+#include "net/SessionHub.h"
+
+#include <dfb/protocol/Messages.h>
 
 #include <deque>
 #include <memory>
 
 namespace dfb::net {
 
+class SharedState;
+
 class WebSocketSession : public std::enable_shared_from_this<WebSocketSession> {
 public:
-    WebSocketSession(tcp::socket&& socket, std::shared_ptr<SharedState> state);
+    WebSocketSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
+                     protocol::Role role);
     ~WebSocketSession();
 
     /// Accepts the upgrade request and starts reading.
     void run(http::request<http::string_body> req);
     void sendText(std::shared_ptr<const std::string> message);
-    void sendFrame(std::shared_ptr<const EncodedFrame> frame);
+    /// A new rig version has been rendered: pull it when the connection is free.
+    void frameAvailable(uint64_t version);
+    protocol::ClientInfo info() const;
 
 private:
     void onAccept(error_code ec);
     void doRead();
     void onRead(error_code ec, size_t bytes);
     void handleText(const std::string& text);
+    void reply(const std::string& message) { sendText(std::make_shared<const std::string>(message)); }
+    void replyError(const Error& e, std::optional<uint64_t> seq);
+    void setEditing(const std::string& what);
+    void pumpFrames();
+    void onEncoded(Result<std::shared_ptr<const EncodedFrame>> frame);
     void writeNext();
     void onWrite(error_code ec, size_t bytes);
 
     websocket::stream<beast::tcp_stream> mWs;
     beast::flat_buffer mBuffer;
     std::shared_ptr<SharedState> mState;
+    std::shared_ptr<SessionHub> mHub;
+    protocol::Role mRole;
     uint64_t mClientId = 0;
+    std::string mName;
+    std::string mEditing;
     bool mJoined = false;
+    bool mClosing = false;
+
+    protocol::ViewSettings mView;
+    bool mViewDirty = true;          // the next frame must be encoded for new view settings
+    uint64_t mAvailableVersion = 0;  // newest rendered version we heard of
+    uint64_t mSentVersion = 0;       // version of the newest frame taken for sending
+    bool mEncodePending = false;
+
     bool mWriting = false;
     std::deque<std::shared_ptr<const std::string>> mTextQueue;
     std::shared_ptr<const EncodedFrame> mPendingFrame;

@@ -2,19 +2,54 @@
 
 #include <dfb/server/BendyChain.h>
 
+#include <cstdio>
+
 namespace dfb {
 
 namespace {
+using json = nlohmann::json;
+
 // The server, not clients, says what is doubtful about a BendyLight's chain (paper section 7).
 void updateWarnings(Rig& rig) {
     for (Light& l : rig.lights) l.warning = chainWarning(l);
 }
+
+std::vector<protocol::Change> changesFromJson(const json& arr) {
+    std::vector<protocol::Change> out;
+    if (!arr.is_array()) return out;
+    for (const json& c : arr) {
+        if (c.is_object() && c.contains("path") && c["path"].is_string() && c.contains("value")) {
+            out.push_back({c["path"].get<std::string>(), c["value"]});
+        }
+    }
+    return out;
+}
+
+// Two paths touch the same property when one is the other or a part of it ("key" and
+// "key.position", "key.controlPoints" and "key.cp[2]" are both reported as the light's).
+bool overlaps(const std::string& a, const std::string& b) {
+    auto lightOf = [](const std::string& p) { return p.substr(0, p.find('.')); };
+    if (a == b) return true;
+    const std::string la = lightOf(a), lb = lightOf(b);
+    if (la != lb) return false;
+    auto prop = [](const std::string& p) {
+        const size_t dot = p.find('.');
+        std::string s = dot == std::string::npos ? "" : p.substr(dot + 1);
+        s = s.substr(0, s.find('['));
+        if (s == "cp") s = "controlPoints";
+        if (s == "r") s = "radii";
+        if (s == "cpColor") s = "colors";
+        return s;
+    };
+    return prop(a) == prop(b) || prop(a) == "name" || prop(b) == "name";
+}
+
 } // namespace
 
-Session::Session(const DeepBuffer& shot, std::string shotPath, Rig initialRig) : mRig(std::move(initialRig)) {
+Session::Session(std::string id, const DeepBuffer& shot, std::string shotPath, Rig rig) : mId(std::move(id)), mRig(std::move(rig)) {
     updateWarnings(mRig);
     auto mat = [](const glm::mat4& m) {
-        nlohmann::json a = nlohmann::json::array();
+        json a = json::array();
         for (int c = 0; c < 4; ++c)
             for (int r = 0; r < 4; ++r) a.push_back(m[c][r]);
         return a; // column-major, as glm and WebGL store matrices
@@ -34,11 +69,178 @@ Session::Session(const DeepBuffer& shot, std::string shotPath, Rig initialRig) :
                     {"objects", shot.objectNames}};
 }
 
-Result<uint64_t> Session::applyEdit(const std::vector<protocol::Change>& changes) {
+Result<std::unique_ptr<Session>> Session::open(std::string id, const DeepBuffer& shot, std::string shotPath, Rig initialRig,
+                                               const std::filesystem::path& dir) {
+    std::unique_ptr<Session> s(new Session(std::move(id), shot, std::move(shotPath), std::move(initialRig)));
+    if (dir.empty()) return s;
+    std::vector<json> ops;
+    auto journal = Journal::open(dir, &ops);
+    if (!journal) return journal.error();
+    const std::string where = (dir / "journal.jsonl").string();
+    if (ops.empty()) {
+        if (auto st = journal->append(json{{"op", "base"}, {"rig", protocol::toJson(s->mRig)}}); !st) return st.error();
+    } else {
+        // Replay: the base rig, then every operation in order, each landing on the version it had.
+        if (ops[0].value("op", "") != "base" || !ops[0].contains("rig")) {
+            return makeError(ErrorCode::InvalidFile, where + ":1: the journal does not start with the base rig");
+        }
+        auto base = protocol::rigFromJson(ops[0]["rig"]);
+        if (!base) return makeError(ErrorCode::InvalidFile, where + ":1: base rig: " + base.error().message);
+        s->mRig = base.value();
+        updateWarnings(s->mRig);
+        for (size_t i = 1; i < ops.size(); ++i) {
+            auto r = s->apply(ops[i], false);
+            if (!r) {
+                return makeError(ErrorCode::InvalidFile, where + ":" + std::to_string(i + 1) + ": cannot replay: " + r.error().message);
+            }
+        }
+    }
+    s->mJournal = std::move(journal.value());
+    if (auto st = s->mJournal->saveRig(protocol::toJson(s->mRig)); !st) return st.error();
+    return s;
+}
+
+Result<ChangeOutcome> Session::apply(const json& op, bool record) {
+    const std::string kind = op.value("op", "");
+    Rig next = mRig;
+    next.version = mRig.version + 1;
+    ChangeOutcome out;
+    out.info.kind = kind;
+    out.info.rigVersion = next.version;
+    out.info.byClient = op.value("by", uint64_t(0));
+    out.info.byName = op.value("byName", "");
+    enum { None, PushUndo, Undo, Redo } history = None;
+    if (kind == "edit") {
+        out.info.changes = changesFromJson(op.contains("changes") ? op["changes"] : json());
+        if (out.info.changes.empty()) return makeError(ErrorCode::Protocol, "edit without changes");
+        if (auto st = protocol::applyChanges(next, out.info.changes); !st) return st.error();
+        next.version = mRig.version + 1; // applyChanges keeps the version; make sure
+        updateWarnings(next);
+        history = PushUndo;
+    } else if (kind == "time") {
+        if (!op.contains("t") || !op["t"].is_number()) return makeError(ErrorCode::Protocol, "time without t");
+        next.time = op["t"].get<double>();
+        out.info.changes = {{"time", op["t"]}};
+    } else if (kind == "undo" || kind == "redo") {
+        if (kind == "undo" && mUndo.empty()) return makeError(ErrorCode::MissingData, "nothing to undo");
+        if (kind == "redo" && mRedo.empty()) return makeError(ErrorCode::MissingData, "nothing to redo");
+        const Step& s = kind == "undo" ? mUndo.back() : mRedo.back();
+        next = kind == "undo" ? s.before : s.after;
+        next.time = mRig.time; // the clock is not part of the history
+        next.version = mRig.version + 1;
+        history = kind == "undo" ? Undo : Redo;
+    } else if (kind == "replace") {
+        auto r = protocol::rigFromJson(op.contains("rig") ? op["rig"] : json());
+        if (!r) return r.error();
+        next = r.value();
+        next.version = mRig.version + 1;
+        updateWarnings(next);
+        history = PushUndo;
+    } else {
+        return makeError(ErrorCode::Protocol, "unknown journal operation '" + kind + "'");
+    }
+    if (kind == "undo" || kind == "redo" || kind == "replace") out.info.rig = next;
+
+    if (record) {
+        json line = op;
+        line["v"] = next.version;
+        if (mJournal) {
+            // On disk before it is applied and acknowledged; on failure nothing changes.
+            if (auto st = mJournal->append(line); !st) return st.error();
+        }
+    } else if (!op.contains("v") || !op["v"].is_number_unsigned() || op["v"].get<uint64_t>() != next.version) {
+        return makeError(ErrorCode::InvalidFile, "operation records version " + op.value("v", json()).dump() + ", replay reached " +
+                                                     std::to_string(next.version));
+    }
+
+    switch (history) {
+    case PushUndo:
+        mUndo.push_back({mRig, next});
+        if (mUndo.size() > MAX_UNDO) mUndo.pop_front();
+        mRedo.clear();
+        break;
+    case Undo:
+        mRedo.push_back(mUndo.back());
+        mUndo.pop_back();
+        break;
+    case Redo:
+        mUndo.push_back(mRedo.back());
+        mRedo.pop_back();
+        break;
+    case None: break;
+    }
+    mRig = std::move(next);
+
+    json rec{{"version", mRig.version}, {"kind", kind}, {"by", out.info.byClient}, {"byName", out.info.byName}};
+    if (out.info.rig) rec["rig"] = protocol::toJson(*out.info.rig);
+    else rec["changes"] = protocol::changesToJson(out.info.changes);
+    mLog.push_back(std::move(rec));
+    if (mLog.size() > MAX_LOG) mLog.pop_front();
+    if (record && mJournal) {
+        if (auto st = mJournal->saveRig(protocol::toJson(mRig)); !st) {
+            std::fprintf(stderr, "dfb-server: session %s: %s (the journal holds the change)\n", mId.c_str(), st.error().toString().c_str());
+        }
+    }
+    return out;
+}
+
+Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes, const Author& by, std::optional<uint64_t> base,
+                                    std::optional<uint64_t> ifVersion) {
     std::lock_guard lock(mMutex);
-    if (auto s = protocol::applyChanges(mRig, changes); !s) return s.error();
-    updateWarnings(mRig);
-    return ++mRig.version;
+    if (ifVersion && *ifVersion != mRig.version) {
+        return makeError(ErrorCode::Conflict, "the rig is at version " + std::to_string(mRig.version) + ", not " +
+                                                  std::to_string(*ifVersion) + "; nothing was changed");
+    }
+    if (changes.empty()) return makeError(ErrorCode::Protocol, "an edit needs at least one change");
+    // Validate on a copy first so that a refused edit is never journaled.
+    {
+        Rig probe = mRig;
+        if (auto st = protocol::applyChanges(probe, changes); !st) return st.error();
+    }
+    json overwrote = json::array();
+    if (base && *base < mRig.version) {
+        for (const json& rec : mLog) {
+            if (rec["version"].get<uint64_t>() <= *base) continue;
+            for (const auto& c : changes) {
+                bool hit = rec.contains("rig");
+                if (!hit) {
+                    for (const json& o : rec["changes"]) hit = hit || overlaps(c.path, o["path"].get<std::string>());
+                }
+                if (hit) overwrote.push_back({{"path", c.path}, {"version", rec["version"]}, {"by", rec["by"]}, {"kind", rec["kind"]}});
+            }
+        }
+    }
+    json op{{"op", "edit"}, {"by", by.clientId}, {"byName", by.name}, {"changes", protocol::changesToJson(changes)}};
+    auto r = apply(op, true);
+    if (r) r->overwrote = std::move(overwrote);
+    return r;
+}
+
+Result<ChangeOutcome> Session::setTime(double seconds, const Author& by) {
+    std::lock_guard lock(mMutex);
+    return apply(json{{"op", "time"}, {"by", by.clientId}, {"byName", by.name}, {"t", seconds}}, true);
+}
+
+Result<ChangeOutcome> Session::undo(const Author& by) {
+    std::lock_guard lock(mMutex);
+    return apply(json{{"op", "undo"}, {"by", by.clientId}, {"byName", by.name}}, true);
+}
+
+Result<ChangeOutcome> Session::redo(const Author& by) {
+    std::lock_guard lock(mMutex);
+    return apply(json{{"op", "redo"}, {"by", by.clientId}, {"byName", by.name}}, true);
+}
+
+Result<ChangeOutcome> Session::replace(const Rig& rig, const Author& by, std::optional<uint64_t> ifVersion) {
+    std::lock_guard lock(mMutex);
+    if (ifVersion && *ifVersion != mRig.version) {
+        return makeError(ErrorCode::Conflict, "the rig is at version " + std::to_string(mRig.version) + ", not " +
+                                                  std::to_string(*ifVersion) + "; nothing was changed");
+    }
+    json r = protocol::toJson(rig);
+    r.erase("version");
+    for (json& l : r["lights"]) l.erase("warning"); // the server's, recomputed
+    return apply(json{{"op", "replace"}, {"by", by.clientId}, {"byName", by.name}, {"rig", r}}, true);
 }
 
 Rig Session::rig() const {
@@ -49,6 +251,25 @@ Rig Session::rig() const {
 uint64_t Session::rigVersion() const {
     std::lock_guard lock(mMutex);
     return mRig.version;
+}
+
+size_t Session::undoDepth() const {
+    std::lock_guard lock(mMutex);
+    return mUndo.size();
+}
+
+size_t Session::redoDepth() const {
+    std::lock_guard lock(mMutex);
+    return mRedo.size();
+}
+
+json Session::history(uint64_t since) const {
+    std::lock_guard lock(mMutex);
+    json arr = json::array();
+    for (const json& rec : mLog) {
+        if (rec["version"].get<uint64_t>() > since) arr.push_back(rec);
+    }
+    return arr;
 }
 
 } // namespace dfb

@@ -1,32 +1,100 @@
 #pragma once
-// One shot being relit: its rig (the authoritative copy), the description clients need, and the
-// edit rule. Thread-safe: the network thread edits, the render thread snapshots.
+// One shot being relit (DESIGN section 9): its rig (the authoritative copy), the description
+// clients need, the undo/redo history and, when it has a directory, its journal. Every change
+// goes through here, is journaled (and on disk) before it is applied and acknowledged, and gets a
+// new rig version; concurrent edits are serialised, so the last writer wins deterministically.
+//
+// Thread-safe: the network thread changes the rig, the render thread takes snapshots.
+
+#include "session/Journal.h"
 
 #include <dfb/core/Result.h>
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Messages.h>
 #include <dfb/protocol/Rig.h>
 
-#include <mutex>
 #include <nlohmann/json.hpp>
+
+#include <deque>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace dfb {
 
+/// Who made a change: a WebSocket client (id > 0) or a plain HTTP request (id 0).
+struct Author {
+    uint64_t clientId = 0;
+    std::string name;
+};
+
+/// What a successful change did, for the ack and the change broadcast.
+struct ChangeOutcome {
+    protocol::ChangeInfo info;  ///< version, author, kind, changes or the whole new rig
+    /// For an edit with a `base` version older than the rig: the properties of this edit that
+    /// others changed after `base` (this edit overwrote them: last writer wins), as
+    /// [{"path", "version", "by"}]. Empty otherwise.
+    nlohmann::json overwrote = nlohmann::json::array();
+};
+
 class Session {
 public:
-    Session(const DeepBuffer& shot, std::string shotPath, Rig initialRig);
+    /// Most undo steps kept per session (older ones are forgotten, oldest first).
+    static constexpr size_t MAX_UNDO = 500;
+    /// Most change records kept for conflict reports and GET .../history.
+    static constexpr size_t MAX_LOG = 10000;
 
-    /// Applies all changes of an edit or none. Returns the new rig version.
-    Result<uint64_t> applyEdit(const std::vector<protocol::Change>& changes);
+    /// A session named `id` on `shot`. With a non-empty `dir` the session is persistent: an
+    /// existing journal there is replayed (the rig and history are restored exactly; `initialRig`
+    /// is then ignored), else a new one is started from `initialRig`.
+    static Result<std::unique_ptr<Session>> open(std::string id, const DeepBuffer& shot, std::string shotPath,
+                                                 Rig initialRig, const std::filesystem::path& dir);
+
+    /// Applies all changes or none. `base`: the version the client edited from (for the
+    /// overwrote report); `ifVersion`: refuse with Conflict unless the rig is at that version.
+    Result<ChangeOutcome> edit(const std::vector<protocol::Change>& changes, const Author& by,
+                               std::optional<uint64_t> base = std::nullopt, std::optional<uint64_t> ifVersion = std::nullopt);
+    /// Sets the session clock (not an undo step).
+    Result<ChangeOutcome> setTime(double seconds, const Author& by);
+    /// Undoes / redoes the most recent edit of the session, whoever made it. MissingData when
+    /// there is nothing to undo / redo. The clock is not affected.
+    Result<ChangeOutcome> undo(const Author& by);
+    Result<ChangeOutcome> redo(const Author& by);
+    /// Replaces the lights, exposure and time (the version is the server's).
+    Result<ChangeOutcome> replace(const Rig& rig, const Author& by, std::optional<uint64_t> ifVersion = std::nullopt);
 
     Rig rig() const;
     uint64_t rigVersion() const;
-    /// Resolution, camera and source of the shot, for the welcome message and GET /v1/session.
+    size_t undoDepth() const;
+    size_t redoDepth() const;
+    /// The change records with a version > `since` (oldest first), as the history endpoint
+    /// shows them: [{"version", "kind", "by", "byName", "changes" | "rig"}].
+    nlohmann::json history(uint64_t since) const;
+
+    const std::string& id() const { return mId; }
+    bool persistent() const { return mJournal.has_value(); }
+    /// Resolution, camera and source of the shot, for the welcome message and GET /v1/sessions/ID.
     const nlohmann::json& description() const { return mDescription; }
 
 private:
+    struct Step {
+        Rig before, after;
+    };
+    Session(std::string id, const DeepBuffer& shot, std::string shotPath, Rig rig);
+    // Applies one journal operation (replay) or a new one (journal != null: written first).
+    Result<ChangeOutcome> apply(const nlohmann::json& op, bool record);
+    Result<ChangeOutcome> commit(nlohmann::json op);
+
+    const std::string mId;
     mutable std::mutex mMutex;
     Rig mRig;
+    std::deque<Step> mUndo;
+    std::vector<Step> mRedo;
+    std::deque<nlohmann::json> mLog;
+    std::optional<Journal> mJournal;
     nlohmann::json mDescription;
 };
 

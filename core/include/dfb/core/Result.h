@@ -20,6 +20,9 @@ enum class ErrorCode {
     IoError,       ///< writing or reading failed part way
     Network,       ///< a connection failed or was closed
     Protocol,      ///< a peer sent a message that does not follow the protocol
+    Unauthorized,  ///< no token, or a token that opens nothing (HTTP 401)
+    Forbidden,     ///< the token is valid but its role may not do this (a viewer editing; HTTP 403)
+    Conflict,      ///< a precondition on the rig version failed (If-Match, `ifVersion`; HTTP 412)
 };
 
 /// Short stable name of an error code (used in protocol error messages).
@@ -34,6 +37,9 @@ inline const char* toString(ErrorCode code) {
     case ErrorCode::IoError: return "io_error";
     case ErrorCode::Network: return "network";
     case ErrorCode::Protocol: return "protocol";
+    case ErrorCode::Unauthorized: return "unauthorized";
+    case ErrorCode::Forbidden: return "forbidden";
+    case ErrorCode::Conflict: return "conflict";
     }
     return "unknown";
 }

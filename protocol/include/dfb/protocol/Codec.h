@@ -1,6 +1,6 @@
 #pragma once
-// Protocol v0 codec, shared by server and clients (docs/protocol.md): JSON text messages for
-// state and edits, a fixed binary header before each encoded frame. Every decoder validates and
+// Protocol codec, shared by server and clients (docs/protocol.md): the rig as JSON, property
+// paths, and the fixed binary header before each encoded frame. The v1 messages are in Messages.h. Every decoder validates and
 // returns an Error naming the offending field instead of throwing.
 
 #include <dfb/core/Result.h>
@@ -17,8 +17,6 @@
 #include <vector>
 
 namespace dfb::protocol {
-
-constexpr int PROTOCOL_VERSION = 0;
 
 // ---- rig <-> JSON ----------------------------------------------------------------------------
 nlohmann::json toJson(const Light& light);
@@ -48,38 +46,15 @@ Rig evaluateRig(const Rig& rig);
 /// comma-separated list of numbers ("1,2,3"), else a string.
 Result<Change> parseAssignment(std::string_view text);
 
-// ---- messages ------------------------------------------------------------------------------------
-/// Client -> server: change properties. `seq` is the client's own counter, echoed in the ack.
-struct EditMessage {
-    uint64_t seq = 0;
-    std::vector<Change> changes;
-};
-/// Client -> server: introduce oneself (optional in v0).
-struct HelloMessage {
-    int protocol = PROTOCOL_VERSION;
-    std::string name;
-};
-using ClientMessage = std::variant<EditMessage, HelloMessage>;
-
-/// Parses one text message from a client. Errors name the field that was wrong.
-Result<ClientMessage> parseClientMessage(std::string_view text);
-
-std::string encodeEdit(const EditMessage& m);
-std::string encodeHello(const HelloMessage& m);
-/// Server -> client messages.
-std::string encodeWelcome(const nlohmann::json& session, const Rig& rig, uint64_t clientId);
-std::string encodeAck(uint64_t seq, uint64_t rigVersion);
-std::string encodeChange(uint64_t rigVersion, uint64_t byClient, const std::vector<Change>& changes);
-std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq);
-
 // ---- binary frames -----------------------------------------------------------------------------
-enum class Encoding : uint16_t { Jpeg = 1, Png = 2 };
+/// How a frame's image bytes are encoded: 8-bit sRGB JPEG or PNG, or a float OpenEXR.
+enum class Encoding : uint16_t { Jpeg = 1, Png = 2, Exr = 3 };
 
 /// Fixed 32-byte little-endian header before the encoded image bytes of a binary frame message.
 ///   offset size field
 ///   0      4    magic "DFBF"
 ///   4      2    header version (1)
-///   6      2    encoding (1 = JPEG, 2 = PNG)
+///   6      2    encoding (1 = JPEG, 2 = PNG, 3 = OpenEXR)
 ///   8      8    frame number (server-wide counter)
 ///   16     8    rig version the frame shows
 ///   24     4    width in pixels

@@ -1,0 +1,164 @@
+#pragma once
+// Protocol v1 messages (docs/protocol.md): the JSON text messages of the WebSocket, their
+// validation and their encoding, shared by the server and every client. Decoders never throw:
+// anything malformed gives an Error whose message names the message type and the field.
+
+#include <dfb/core/Result.h>
+#include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Rig.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace dfb::protocol {
+
+/// The protocol version this codec speaks; `hello.protocol` and `welcome.protocol` carry it.
+constexpr int PROTOCOL_VERSION = 1;
+
+/// Largest text message a peer may send (bytes): edits are small; the server closes the
+/// connection on anything larger.
+constexpr size_t MAX_TEXT_MESSAGE_BYTES = 1 << 20;
+
+/// What a token allows: an editor may change the rig; a viewer receives frames and changes only.
+enum class Role { Editor, Viewer };
+const char* toString(Role role);
+
+// ---- view settings ------------------------------------------------------------------------------
+
+/// How one client wants its frames: which image, how it is tone-mapped and encoded. Per client
+/// (not part of the rig, not journaled); the HTTP frame endpoint takes the same settings as query
+/// parameters.
+struct ViewSettings {
+    /// "beauty", "light:NAME" (one light alone), "shadow:NAME" (its visibility mask as grey) or
+    /// "layer:NAME" (a G-buffer layer, where the engine provides it).
+    std::string output = "beauty";
+    Encoding encoding = Encoding::Jpeg;
+    int quality = 85;               ///< JPEG quality, 1..100 (ignored by PNG and EXR)
+    float exposureStops = 0.f;      ///< added to the rig's exposure, stops, [-20, 20]
+    std::string viewTransform = "srgb"; ///< "srgb" (the sRGB curve) or "linear" (clamped, no curve)
+
+    /// True for the settings every client starts with: the shared beauty JPEG fast path.
+    bool isDefaultImage() const { return output == "beauty" && exposureStops == 0.f && viewTransform == "srgb"; }
+    /// A string that is equal for equal settings (frames are encoded once per key and version).
+    std::string key() const;
+    bool operator==(const ViewSettings&) const = default;
+};
+
+nlohmann::json toJson(const ViewSettings& view);
+/// Applies the fields present in `j` ({"output", "encoding", "quality", "exposure",
+/// "viewTransform"}) to `base`; absent fields keep their value. InvalidValue names the field.
+Result<ViewSettings> applyViewJson(ViewSettings base, const nlohmann::json& j);
+/// The same from an HTTP query string: output=..&format=png|jpeg|exr&quality=..&exposure=..&
+/// viewTransform=.. (percent-encoded values are decoded).
+Result<ViewSettings> viewFromQuery(std::string_view query);
+const char* encodingName(Encoding e);
+/// The MIME type of an encoding ("image/jpeg", "image/png", "image/x-exr").
+const char* mimeType(Encoding e);
+
+// ---- client -> server ---------------------------------------------------------------------------
+/// Optional first message: the client's display name and protocol version.
+struct HelloMessage {
+    int protocol = PROTOCOL_VERSION;
+    std::string name; ///< shown to other clients in presence; at most 64 bytes
+};
+/// Change rig properties, all or none.
+struct EditMessage {
+    uint64_t seq = 0;                 ///< the client's own counter, echoed in ack/error
+    std::vector<Change> changes;      ///< at least one
+    std::optional<uint64_t> base;     ///< the rig version the client edited from (conflict report)
+    std::optional<uint64_t> ifVersion; ///< apply only if the rig is still at this version
+};
+/// Undo or redo the session's most recent edit (by anyone): the history is per session.
+struct UndoMessage {
+    uint64_t seq = 0;
+};
+struct RedoMessage {
+    uint64_t seq = 0;
+};
+/// Set the session clock (where keyframes are evaluated), seconds.
+struct TimeMessage {
+    uint64_t seq = 0;
+    double seconds = 0.0;
+};
+/// Change this client's view settings; `settings` holds only the fields to change (validated).
+struct ViewMessage {
+    uint64_t seq = 0;
+    nlohmann::json settings;
+};
+/// What is at a pixel of the shot: position, normal, object, lights reaching it.
+struct PickMessage {
+    uint64_t seq = 0;
+    int x = 0; ///< pixel column, 0 = left
+    int y = 0; ///< pixel row, 0 = top
+};
+/// What this client is manipulating now (e.g. "key" or "key.position"), or nothing.
+struct PresenceMessage {
+    std::optional<std::string> editing;
+};
+using ClientMessage = std::variant<HelloMessage, EditMessage, UndoMessage, RedoMessage, TimeMessage, ViewMessage,
+                                   PickMessage, PresenceMessage>;
+
+/// Parses and validates one text message from a client (types and fields; rig values are checked
+/// when applied). Errors: Protocol, naming the message type and field.
+Result<ClientMessage> parseClientMessage(std::string_view text);
+/// The `seq` of a message if it has a readable one, for an error reply to a refused message.
+std::optional<uint64_t> peekSeq(std::string_view text);
+
+std::string encode(const HelloMessage& m);
+std::string encode(const EditMessage& m);
+std::string encode(const UndoMessage& m);
+std::string encode(const RedoMessage& m);
+std::string encode(const TimeMessage& m);
+std::string encode(const ViewMessage& m);
+std::string encode(const PickMessage& m);
+std::string encode(const PresenceMessage& m);
+
+// ---- server -> client ---------------------------------------------------------------------------
+/// One connected client as presence reports it.
+struct ClientInfo {
+    uint64_t id = 0;
+    std::string name;
+    Role role = Role::Viewer;
+    std::string editing; ///< empty: nothing
+};
+nlohmann::json toJson(const ClientInfo& c);
+
+struct WelcomeInfo {
+    uint64_t clientId = 0;
+    Role role = Role::Viewer;
+    std::string sessionId;
+    nlohmann::json session; ///< the shot's description (resolution, camera, objects)
+    Rig rig;
+    ViewSettings view;
+    std::vector<ClientInfo> clients;
+    size_t undoDepth = 0;
+    size_t redoDepth = 0;
+};
+std::string encodeWelcome(const WelcomeInfo& w);
+
+/// `extra` fields are merged into the message (e.g. "view", "overwrote").
+std::string encodeAck(uint64_t seq, uint64_t rigVersion, const nlohmann::json& extra = nlohmann::json::object());
+
+/// How the rig changed: property changes, or a whole new rig (undo, redo, replace).
+struct ChangeInfo {
+    uint64_t rigVersion = 0;
+    uint64_t byClient = 0;   ///< 0: a plain HTTP request
+    std::string byName;
+    std::string kind = "edit"; ///< "edit", "time", "undo", "redo" or "replace"
+    std::vector<Change> changes;
+    std::optional<Rig> rig;  ///< set for undo, redo and replace
+};
+std::string encodeChange(const ChangeInfo& c);
+nlohmann::json changesToJson(const std::vector<Change>& changes);
+
+std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq);
+std::string encodePresence(const std::vector<ClientInfo>& clients);
+std::string encodePickResult(uint64_t seq, const nlohmann::json& pick);
+
+} // namespace dfb::protocol

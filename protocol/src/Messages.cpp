@@ -1,0 +1,343 @@
+#include <dfb/protocol/Messages.h>
+
+#include <cmath>
+#include <cctype>
+#include <cstdlib>
+
+namespace dfb::protocol {
+namespace {
+
+using json = nlohmann::json;
+
+Error protocolError(const std::string& what) { return makeError(ErrorCode::Protocol, what); }
+Error invalid(const std::string& what) { return makeError(ErrorCode::InvalidValue, what); }
+
+// Every field a message type may carry; anything else is refused so that typos are not ignored.
+Status onlyFields(const json& j, const std::string& type, std::initializer_list<const char*> allowed) {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        bool ok = false;
+        for (const char* a : allowed) ok = ok || it.key() == a;
+        if (!ok) return protocolError(type + ": unknown field '" + it.key() + "'");
+    }
+    return okStatus();
+}
+
+Result<uint64_t> needSeq(const json& j, const std::string& type) {
+    if (!j.contains("seq") || !j["seq"].is_number_unsigned()) return protocolError(type + ".seq: expected a non-negative integer");
+    return j["seq"].get<uint64_t>();
+}
+
+Result<std::optional<uint64_t>> optVersion(const json& j, const std::string& type, const char* field) {
+    if (!j.contains(field)) return std::optional<uint64_t>{};
+    if (!j[field].is_number_unsigned()) return protocolError(type + "." + field + ": expected a non-negative integer");
+    return std::optional<uint64_t>{j[field].get<uint64_t>()};
+}
+
+bool validLightName(std::string_view n) {
+    if (n.empty() || n.size() > 64) return false;
+    for (char c : n) {
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) return false;
+    }
+    return true;
+}
+
+std::string percentDecode(std::string_view s) {
+    std::string out;
+    for (size_t i = 0; i < s.size(); ++i) {
+        if (s[i] == '%' && i + 2 < s.size() + 0 && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+            std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+            out += char(std::strtol(std::string(s.substr(i + 1, 2)).c_str(), nullptr, 16));
+            i += 2;
+        } else {
+            out += s[i] == '+' ? ' ' : s[i];
+        }
+    }
+    return out;
+}
+
+} // namespace
+
+const char* toString(Role role) { return role == Role::Editor ? "editor" : "viewer"; }
+
+const char* encodingName(Encoding e) {
+    switch (e) {
+    case Encoding::Jpeg: return "jpeg";
+    case Encoding::Png: return "png";
+    case Encoding::Exr: return "exr";
+    }
+    return "jpeg";
+}
+
+const char* mimeType(Encoding e) {
+    switch (e) {
+    case Encoding::Jpeg: return "image/jpeg";
+    case Encoding::Png: return "image/png";
+    case Encoding::Exr: return "image/x-exr";
+    }
+    return "application/octet-stream";
+}
+
+std::string ViewSettings::key() const {
+    return output + "|" + encodingName(encoding) + "|" + std::to_string(quality) + "|" + json(exposureStops).dump() +
+           "|" + viewTransform;
+}
+
+json toJson(const ViewSettings& v) {
+    return json{{"output", v.output},
+                {"encoding", encodingName(v.encoding)},
+                {"quality", v.quality},
+                {"exposure", v.exposureStops},
+                {"viewTransform", v.viewTransform}};
+}
+
+Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
+    if (!j.is_object()) return invalid("view: expected an object");
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        const std::string& k = it.key();
+        const json& x = it.value();
+        if (k == "output") {
+            if (!x.is_string()) return invalid("view.output: expected a string");
+            const std::string o = x.get<std::string>();
+            const size_t colon = o.find(':');
+            const std::string kind = o.substr(0, colon);
+            if (o == "beauty") {
+            } else if (colon == std::string::npos || (kind != "light" && kind != "shadow" && kind != "layer") ||
+                       !validLightName(std::string_view(o).substr(colon + 1))) {
+                return invalid("view.output: '" + o + "' is not beauty, light:NAME, shadow:NAME or layer:NAME");
+            }
+            v.output = o;
+        } else if (k == "encoding") {
+            if (x == "jpeg" || x == "jpg") v.encoding = Encoding::Jpeg;
+            else if (x == "png") v.encoding = Encoding::Png;
+            else if (x == "exr") v.encoding = Encoding::Exr;
+            else return invalid("view.encoding: " + x.dump() + " is not \"jpeg\", \"png\" or \"exr\"");
+        } else if (k == "quality") {
+            if (!x.is_number_integer() || x.get<int64_t>() < 1 || x.get<int64_t>() > 100) {
+                return invalid("view.quality: expected an integer in [1, 100]");
+            }
+            v.quality = int(x.get<int64_t>());
+        } else if (k == "exposure") {
+            if (!x.is_number() || !std::isfinite(x.get<double>()) || std::abs(x.get<double>()) > 20.0) {
+                return invalid("view.exposure: expected a number of stops in [-20, 20]");
+            }
+            v.exposureStops = x.get<float>();
+        } else if (k == "viewTransform") {
+            if (x != "srgb" && x != "linear") return invalid("view.viewTransform: " + x.dump() + " is not \"srgb\" or \"linear\"");
+            v.viewTransform = x.get<std::string>();
+        } else {
+            return invalid("view: unknown setting '" + k + "'");
+        }
+    }
+    return v;
+}
+
+Result<ViewSettings> viewFromQuery(std::string_view query) {
+    json j = json::object();
+    while (!query.empty()) {
+        const size_t amp = query.find('&');
+        const std::string_view item = query.substr(0, amp);
+        query = amp == std::string_view::npos ? std::string_view() : query.substr(amp + 1);
+        if (item.empty()) continue;
+        const size_t eq = item.find('=');
+        const std::string k = percentDecode(item.substr(0, eq));
+        const std::string val = eq == std::string_view::npos ? "" : percentDecode(item.substr(eq + 1));
+        if (k == "output" || k == "viewTransform") {
+            j[k] = val;
+        } else if (k == "format" || k == "encoding") {
+            j["encoding"] = val;
+        } else if (k == "quality" || k == "exposure") {
+            json n = json::parse(val, nullptr, false);
+            if (n.is_discarded() || !n.is_number()) return invalid(k + "=" + val + ": expected a number");
+            j[k] = n;
+        } else if (k == "token") {
+            // The access token travels in the query for browsers; it is not a view setting.
+        } else {
+            return invalid("unknown query parameter '" + k + "' (output, format, quality, exposure, viewTransform)");
+        }
+    }
+    return applyViewJson(ViewSettings{}, j);
+}
+
+std::optional<uint64_t> peekSeq(std::string_view text) {
+    json j = json::parse(text, nullptr, false);
+    if (j.is_object() && j.contains("seq") && j["seq"].is_number_unsigned()) return j["seq"].get<uint64_t>();
+    return std::nullopt;
+}
+
+Result<ClientMessage> parseClientMessage(std::string_view text) {
+    if (text.size() > MAX_TEXT_MESSAGE_BYTES) return protocolError("message larger than 1 MiB");
+    json j = json::parse(text, nullptr, false);
+    if (j.is_discarded()) return protocolError("message is not valid JSON");
+    if (!j.is_object()) return protocolError("message must be a JSON object");
+    if (!j.contains("type") || !j["type"].is_string()) return protocolError("message needs a string field 'type'");
+    const std::string type = j["type"];
+    if (type == "hello") {
+        if (auto s = onlyFields(j, type, {"type", "protocol", "name"}); !s) return s.error();
+        HelloMessage m;
+        if (j.contains("protocol")) {
+            if (!j["protocol"].is_number_integer()) return protocolError("hello.protocol: expected an integer");
+            m.protocol = j["protocol"].get<int>();
+            if (m.protocol != PROTOCOL_VERSION) {
+                return protocolError("hello.protocol: version " + std::to_string(m.protocol) + " is not supported (server speaks " +
+                                     std::to_string(PROTOCOL_VERSION) + ")");
+            }
+        }
+        if (j.contains("name")) {
+            if (!j["name"].is_string()) return protocolError("hello.name: expected a string");
+            m.name = j["name"].get<std::string>().substr(0, 64);
+        }
+        return ClientMessage{m};
+    }
+    if (type == "edit") {
+        if (auto s = onlyFields(j, type, {"type", "seq", "changes", "base", "ifVersion"}); !s) return s.error();
+        EditMessage m;
+        auto seq = needSeq(j, type);
+        if (!seq) return seq.error();
+        m.seq = seq.value();
+        auto base = optVersion(j, type, "base");
+        if (!base) return base.error();
+        m.base = base.value();
+        auto ifv = optVersion(j, type, "ifVersion");
+        if (!ifv) return ifv.error();
+        m.ifVersion = ifv.value();
+        if (!j.contains("changes") || !j["changes"].is_array() || j["changes"].empty()) {
+            return protocolError("edit.changes: expected a non-empty array");
+        }
+        for (size_t i = 0; i < j["changes"].size(); ++i) {
+            const json& c = j["changes"][i];
+            const std::string where = "edit.changes[" + std::to_string(i) + "]";
+            if (!c.is_object() || !c.contains("path") || !c["path"].is_string() || !c.contains("value") || c.size() != 2) {
+                return protocolError(where + ": expected {\"path\": string, \"value\": ...}");
+            }
+            m.changes.push_back({c["path"].get<std::string>(), c["value"]});
+        }
+        return ClientMessage{m};
+    }
+    if (type == "undo" || type == "redo") {
+        if (auto s = onlyFields(j, type, {"type", "seq"}); !s) return s.error();
+        auto seq = needSeq(j, type);
+        if (!seq) return seq.error();
+        if (type == "undo") return ClientMessage{UndoMessage{seq.value()}};
+        return ClientMessage{RedoMessage{seq.value()}};
+    }
+    if (type == "time") {
+        if (auto s = onlyFields(j, type, {"type", "seq", "t"}); !s) return s.error();
+        auto seq = needSeq(j, type);
+        if (!seq) return seq.error();
+        if (!j.contains("t") || !j["t"].is_number() || !std::isfinite(j["t"].get<double>())) {
+            return protocolError("time.t: expected a finite number of seconds");
+        }
+        return ClientMessage{TimeMessage{seq.value(), j["t"].get<double>()}};
+    }
+    if (type == "view") {
+        if (auto s = onlyFields(j, type, {"type", "seq", "output", "encoding", "quality", "exposure", "viewTransform"}); !s) {
+            return s.error();
+        }
+        auto seq = needSeq(j, type);
+        if (!seq) return seq.error();
+        json settings = j;
+        settings.erase("type");
+        settings.erase("seq");
+        if (auto v = applyViewJson(ViewSettings{}, settings); !v) return v.error();
+        return ClientMessage{ViewMessage{seq.value(), settings}};
+    }
+    if (type == "pick") {
+        if (auto s = onlyFields(j, type, {"type", "seq", "x", "y"}); !s) return s.error();
+        auto seq = needSeq(j, type);
+        if (!seq) return seq.error();
+        for (const char* f : {"x", "y"}) {
+            if (!j.contains(f) || !j[f].is_number_integer() || j[f].get<int64_t>() < 0 || j[f].get<int64_t>() > (1 << 20)) {
+                return protocolError(std::string("pick.") + f + ": expected a non-negative integer pixel coordinate");
+            }
+        }
+        return ClientMessage{PickMessage{seq.value(), int(j["x"].get<int64_t>()), int(j["y"].get<int64_t>())}};
+    }
+    if (type == "presence") {
+        if (auto s = onlyFields(j, type, {"type", "editing"}); !s) return s.error();
+        PresenceMessage m;
+        if (j.contains("editing") && !j["editing"].is_null()) {
+            if (!j["editing"].is_string() || j["editing"].get<std::string>().size() > 128) {
+                return protocolError("presence.editing: expected a property path (at most 128 bytes) or null");
+            }
+            m.editing = j["editing"].get<std::string>();
+        }
+        return ClientMessage{m};
+    }
+    return protocolError("unknown message type '" + type + "'");
+}
+
+nlohmann::json changesToJson(const std::vector<Change>& changes) {
+    json arr = json::array();
+    for (const Change& c : changes) arr.push_back({{"path", c.path}, {"value", c.value}});
+    return arr;
+}
+
+std::string encode(const HelloMessage& m) { return json{{"type", "hello"}, {"protocol", m.protocol}, {"name", m.name}}.dump(); }
+std::string encode(const EditMessage& m) {
+    json j{{"type", "edit"}, {"seq", m.seq}, {"changes", changesToJson(m.changes)}};
+    if (m.base) j["base"] = *m.base;
+    if (m.ifVersion) j["ifVersion"] = *m.ifVersion;
+    return j.dump();
+}
+std::string encode(const UndoMessage& m) { return json{{"type", "undo"}, {"seq", m.seq}}.dump(); }
+std::string encode(const RedoMessage& m) { return json{{"type", "redo"}, {"seq", m.seq}}.dump(); }
+std::string encode(const TimeMessage& m) { return json{{"type", "time"}, {"seq", m.seq}, {"t", m.seconds}}.dump(); }
+std::string encode(const ViewMessage& m) {
+    json j = m.settings.is_object() ? m.settings : json::object();
+    j["type"] = "view";
+    j["seq"] = m.seq;
+    return j.dump();
+}
+std::string encode(const PickMessage& m) { return json{{"type", "pick"}, {"seq", m.seq}, {"x", m.x}, {"y", m.y}}.dump(); }
+std::string encode(const PresenceMessage& m) {
+    return json{{"type", "presence"}, {"editing", m.editing ? json(*m.editing) : json(nullptr)}}.dump();
+}
+
+json toJson(const ClientInfo& c) {
+    return json{{"id", c.id}, {"name", c.name}, {"role", toString(c.role)},
+                {"editing", c.editing.empty() ? json(nullptr) : json(c.editing)}};
+}
+
+std::string encodeWelcome(const WelcomeInfo& w) {
+    json clients = json::array();
+    for (const ClientInfo& c : w.clients) clients.push_back(toJson(c));
+    return json{{"type", "welcome"},  {"protocol", PROTOCOL_VERSION}, {"client", w.clientId},
+                {"role", toString(w.role)}, {"sessionId", w.sessionId}, {"session", w.session},
+                {"rig", toJson(w.rig)}, {"view", toJson(w.view)},     {"clients", clients},
+                {"history", {{"undo", w.undoDepth}, {"redo", w.redoDepth}}}}
+        .dump();
+}
+
+std::string encodeAck(uint64_t seq, uint64_t rigVersion, const json& extra) {
+    json j{{"type", "ack"}, {"seq", seq}, {"rigVersion", rigVersion}};
+    if (extra.is_object()) j.update(extra);
+    return j.dump();
+}
+
+std::string encodeChange(const ChangeInfo& c) {
+    json j{{"type", "change"}, {"rigVersion", c.rigVersion}, {"by", c.byClient}, {"byName", c.byName}, {"kind", c.kind}};
+    if (c.rig) j["rig"] = toJson(*c.rig);
+    else j["changes"] = changesToJson(c.changes);
+    return j.dump();
+}
+
+std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq) {
+    json j{{"type", "error"}, {"code", toString(code)}, {"message", message}};
+    if (seq) j["seq"] = *seq;
+    return j.dump();
+}
+
+std::string encodePresence(const std::vector<ClientInfo>& clients) {
+    json arr = json::array();
+    for (const ClientInfo& c : clients) arr.push_back(toJson(c));
+    return json{{"type", "presence"}, {"clients", arr}}.dump();
+}
+
+std::string encodePickResult(uint64_t seq, const json& pick) {
+    json j = pick;
+    j["type"] = "pick";
+    j["seq"] = seq;
+    return j.dump();
+}
+
+} // namespace dfb::protocol

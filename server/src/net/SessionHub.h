@@ -1,0 +1,71 @@
+#pragma once
+// One session on the network: its Session (rig, history, journal), its render thread, its access
+// tokens and its connected WebSocket clients. Every change of the session, from a WebSocket or
+// from plain HTTP, goes out through published(), so every client hears of every change.
+// I/O thread only, except onNewVersion (any thread).
+
+#include "net/Beast.h"
+#include "session/Metrics.h"
+#include "session/RenderService.h"
+#include "session/Session.h"
+
+#include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/protocol/Messages.h>
+
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+
+namespace dfb::net {
+
+class WebSocketSession;
+
+/// The two tokens of a session: whoever presents one gets its role.
+struct SessionTokens {
+    std::string editor;
+    std::string viewer;
+};
+
+class SessionHub : public std::enable_shared_from_this<SessionHub> {
+public:
+    SessionHub(asio::io_context& ioc, Metrics& metrics, std::unique_ptr<DeepBuffer> shot, std::unique_ptr<Session> session,
+               SessionTokens tokens)
+        : mIoc(ioc), mMetrics(metrics), mShot(std::move(shot)), mSession(std::move(session)), mTokens(std::move(tokens)) {}
+
+    const std::string& id() const { return mSession->id(); }
+    Session& session() { return *mSession; }
+    const DeepBuffer& shot() const { return *mShot; }
+    RenderService& render() { return *mRender; }
+    void setRender(std::unique_ptr<RenderService> render) { mRender = std::move(render); }
+    Metrics& metrics() { return mMetrics; }
+    const SessionTokens& tokens() const { return mTokens; }
+    /// The role `token` opens in this session, or nothing (compared in constant time).
+    std::optional<protocol::Role> roleFor(std::string_view token) const;
+
+    void join(WebSocketSession* ws);
+    void leave(WebSocketSession* ws);
+    std::vector<protocol::ClientInfo> clients() const;
+    size_t clientCount() const { return mClients.size(); }
+
+    /// Tells every client (but `except`, which gets an ack instead) about an accepted change and
+    /// asks for a frame of it.
+    void published(const ChangeOutcome& outcome, const WebSocketSession* except);
+    /// Sends the current presence list to every client.
+    void broadcastPresence();
+    /// Called on the render thread: a new version is rendered; clients pull it when they can.
+    void onNewVersion(uint64_t version);
+
+private:
+    void broadcastText(const std::string& message, const WebSocketSession* except);
+
+    asio::io_context& mIoc;
+    Metrics& mMetrics;
+    std::unique_ptr<DeepBuffer> mShot;
+    std::unique_ptr<Session> mSession;
+    std::unique_ptr<RenderService> mRender;
+    SessionTokens mTokens;
+    std::set<WebSocketSession*> mClients;
+};
+
+} // namespace dfb::net
