@@ -1,0 +1,435 @@
+// Browser tests of the web client (issue 7) in real headless Chromium (Debian's /usr/bin/chromium,
+// driven by playwright-core) against a real dfb-server over loopback:
+//   the page loads the stream; typed input is checked and server errors are shown verbatim;
+//   dragging a BendyLight control point moves it in the image plane (and Shift in depth), changing
+//   the image and the rig; an edit from a second browser appears in the first, with presence;
+//   a viewer cannot edit; picking; undo/redo; keyframes and scrubbing; after the server restarts
+//   (same port, same --state) the page reconnects by itself and shows the same rig.
+//
+//   node web_client.test.mjs --server PATH/dfb-server --shot SHOT.exr --artifacts DIR
+//
+// Nothing here waits for a fixed time: every wait is for a condition, and its timeout only bounds
+// a failure. Screenshots of the main states are saved in the artifacts folder.
+
+import { spawn } from "node:child_process";
+import { mkdirSync, mkdtempSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+import { parseArgs } from "node:util";
+import { chromium } from "playwright-core";
+
+const { values: opts } = parseArgs({
+  options: {
+    server: { type: "string" },
+    shot: { type: "string" },
+    artifacts: { type: "string", default: "browser-artifacts" },
+    chromium: { type: "string", default: "/usr/bin/chromium" },
+  },
+});
+if (!opts.server || !opts.shot) {
+  console.error("usage: node web_client.test.mjs --server DFB_SERVER --shot SHOT.exr [--artifacts DIR]");
+  process.exit(2);
+}
+mkdirSync(opts.artifacts, { recursive: true });
+const stateDir = mkdtempSync(join(tmpdir(), "dfb-web-state-"));
+const WAIT = { timeout: 30000 };
+
+// Starts dfb-server on `port` (0: a free one) with the session state in stateDir; resolves with
+// its URLs once it listens.
+function startServer(port) {
+  return new Promise((resolve, reject) => {
+    const proc = spawn(opts.server, [opts.shot, "--port", String(port), "--state", stateDir], { stdio: ["ignore", "pipe", "pipe"] });
+    let out = "";
+    const timer = setTimeout(() => { proc.kill("SIGKILL"); reject(new Error(`server did not start:\n${out}`)); }, 60000);
+    const onData = (d) => {
+      out += d;
+      const m = out.match(/listening on (http:\/\/127\.0\.0\.1:(\d+)\/)/);
+      const editor = out.match(/session (\S+) editor: (http:\/\/\S+token=(\w+))/);
+      const viewer = out.match(/session \S+ viewer: (http:\/\/\S+token=(\w+))/);
+      if (m && editor && viewer) {
+        clearTimeout(timer);
+        resolve({ proc, base: m[1], port: Number(m[2]), session: editor[1], editorUrl: editor[2], token: editor[3],
+                  viewerUrl: viewer[1], exited: new Promise((r) => proc.on("exit", r)) });
+      }
+    };
+    proc.stdout.on("data", onData);
+    proc.stderr.on("data", onData);
+    proc.on("exit", (code) => { clearTimeout(timer); reject(new Error(`server exited with ${code}:\n${out}`)); });
+  });
+}
+
+let server;
+async function http(resource) {
+  const res = await fetch(new URL(`/v1/sessions/${server.session}${resource ? `/${resource}` : ""}`, server.base),
+                          { headers: { Authorization: `Bearer ${server.token}` } });
+  if (!res.ok) throw new Error(`GET ${resource}: HTTP ${res.status}`);
+  return res.json();
+}
+const getRig = () => http("rig");
+
+// The camera, independently of the page's own code: worldToNDC is column-major.
+function project(m, p) {
+  const c = [0, 1, 2, 3].map((r) => m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
+  return { ndc: [c[0] / c[3], c[1] / c[3], c[2] / c[3]], w: c[3] };
+}
+function lightFrame(dir) {
+  const n = (v) => { const l = Math.hypot(...v); return v.map((x) => x / l); };
+  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+  const u = n(dir), up = Math.abs(u[1]) < 0.99 ? [0, 1, 0] : [1, 0, 0];
+  const w = n(cross(u, up));
+  return [u, cross(w, u), w];
+}
+function cpWorld(light, i) {
+  const [u, v, w] = lightFrame(light.direction);
+  const a = light.controlPoints[i - 1];
+  return [0, 1, 2].map((k) => light.position[k] + a[0] * u[k] + a[1] * v[k] + a[2] * w[k]);
+}
+
+// Pixels of the displayed frame, read back through a canvas.
+async function framePixels(page) {
+  return page.evaluate(() => {
+    const img = document.getElementById("frame");
+    const c = document.createElement("canvas");
+    c.width = img.naturalWidth;
+    c.height = img.naturalHeight;
+    const ctx = c.getContext("2d");
+    ctx.drawImage(img, 0, 0);
+    return Array.from(ctx.getImageData(0, 0, c.width, c.height).data);
+  });
+}
+function meanAbsDiff(a, b) {
+  let s = 0;
+  for (let i = 0; i < a.length; i += 4) s += Math.abs(a[i] - b[i]) + Math.abs(a[i + 1] - b[i + 1]) + Math.abs(a[i + 2] - b[i + 2]);
+  return s / (a.length / 4) / 3;
+}
+// Waits until the page shows a loaded frame of at least rig version v.
+async function frameAtLeast(page, v) {
+  await page.waitForFunction((v) => {
+    const img = document.getElementById("frame");
+    return img.complete && img.naturalWidth > 0 && Number(img.dataset.rigVersion) >= v;
+  }, v, WAIT);
+}
+// Screen point of an image pixel coordinate (continuous), from the displayed image's box.
+async function imageToScreen(page, x, y) {
+  const b = await page.locator("#frame").boundingBox();
+  return { x: b.x + x * b.width / 320, y: b.y + y * b.height / 180 };
+}
+async function screenToImage(page, x, y) {
+  const b = await page.locator("#frame").boundingBox();
+  return { x: (x - b.x) * 320 / b.width, y: (y - b.y) * 180 / b.height };
+}
+async function center(page, selector) {
+  const b = await page.locator(selector).boundingBox();
+  if (!b) throw new Error(`${selector} is not visible`);
+  return { x: b.x + b.width / 2, y: b.y + b.height / 2 };
+}
+async function typeInto(page, selector, text) {
+  await page.fill(selector, text);
+  await page.press(selector, "Enter");
+}
+const lastMessage = (page) => page.evaluate(() => document.querySelector("#messages .msg span")?.textContent ?? "");
+async function waitMessage(page, re) {
+  await page.waitForFunction((src) => [...document.querySelectorAll("#messages .msg span")].some((s) => new RegExp(src).test(s.textContent)),
+                             re.source, WAIT);
+}
+async function waitRig(pred, what) {
+  // Polls the server's rig (HTTP) until pred holds; bounded by WAIT.
+  const end = Date.now() + WAIT.timeout;
+  for (;;) {
+    const rig = await getRig();
+    if (pred(rig)) return rig;
+    if (Date.now() > end) throw new Error(`timed out waiting for the rig: ${what}`);
+    await new Promise((r) => setTimeout(r, 50));
+  }
+}
+
+const results = [];
+async function check(name, fn) {
+  const t0 = Date.now();
+  try {
+    await fn();
+    results.push([name, true]);
+    console.log(`ok   ${name} (${((Date.now() - t0) / 1000).toFixed(1)} s)`);
+  } catch (e) {
+    results.push([name, false]);
+    console.log(`FAIL ${name}: ${e.stack || e.message}`);
+  }
+}
+function assert(cond, message) { if (!cond) throw new Error(message); }
+const shot = (page, name) => page.screenshot({ path: join(opts.artifacts, name) });
+
+let browser;
+const deadline = setTimeout(() => { console.error("browser test timed out"); server?.proc.kill("SIGKILL"); process.exit(1); }, 240000);
+try {
+  server = await startServer(0);
+  const welcome = await http("");
+  const toNDC = welcome.session.camera.worldToNDC;
+  browser = await chromium.launch({
+    executablePath: opts.chromium,
+    headless: true,
+    args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+           "--disable-component-update", "--disable-sync"],
+  });
+  const viewport = { width: 1280, height: 800 };
+  const ctxA = await browser.newContext({ viewport });
+  const a = await ctxA.newPage();
+  const consoleErrors = [];
+  let restarting = false;
+  a.on("console", (m) => {
+    // While the server is down the browser itself logs the refused connections: expected.
+    if (m.type() === "error" && !(restarting && /WebSocket|Failed to load resource|ERR_CONNECTION_REFUSED/.test(m.text()))) consoleErrors.push(m.text());
+  });
+  a.on("pageerror", (e) => consoleErrors.push(e.stack || String(e)));
+  await a.goto(`${server.editorUrl}&name=alice`);
+
+  let before;
+  await check("the page loads the stream and the rig", async () => {
+    await frameAtLeast(a, 1);
+    const size = await a.evaluate(() => [document.getElementById("frame").naturalWidth, document.getElementById("frame").naturalHeight]);
+    assert(size[0] === 320 && size[1] === 180, `unexpected frame size ${size}`);
+    before = await framePixels(a);
+    const lit = before.filter((v, i) => i % 4 === 0 && v > 40).length;
+    assert(lit > 1000, `the image is nearly black (${lit} bright pixels)`);
+    const lights = await a.$$eval("#lights li", (lis) => lis.map((li) => li.dataset.light));
+    assert(lights.includes("key") && lights.includes("fill"), `lights listed: ${lights}`);
+    await a.waitForFunction(() => /connected · editor/.test(document.getElementById("status").textContent), null, WAIT);
+    await a.waitForFunction(() => /fps/.test(document.getElementById("stats").textContent), null, WAIT);
+    await shot(a, "01-loaded.png");
+  });
+
+  await check("typed input is checked; server errors are shown verbatim", async () => {
+    await a.click('#lights li[data-light="key"] .lname');
+    const v0 = (await getRig()).version;
+    await typeInto(a, "#prop-intensity", "abc");
+    await waitMessage(a, /intensity: 'abc' is not a number/);
+    assert(await a.$eval("#prop-intensity", (e) => e.classList.contains("bad")), "the bad field is not marked");
+    await typeInto(a, "#prop-intensity", "1e13");
+    await waitMessage(a, /intensity: 10000000000000 is out of range/);
+    await typeInto(a, "#prop-position-0", "NaN");
+    await waitMessage(a, /position x: 'NaN' is not a number/);
+    await a.press("#prop-position-0", "Escape");
+    await typeInto(a, "#lightName", "bad name!");
+    await waitMessage(a, /name: 'bad name!' is not 1-64 letters/);
+    await a.press("#lightName", "Escape");
+    // Refused by the server (valid characters, but the name is taken): its message verbatim.
+    await typeInto(a, "#lightName", "fill");
+    await waitMessage(a, /^invalid_value: key\.name: a light named 'fill' already exists$/);
+    const rig = await getRig();
+    assert(rig.version === v0, `a refused edit changed the rig (${v0} -> ${rig.version})`);
+    assert(rig.lights.some((l) => l.name === "key"), "key was renamed");
+    await a.waitForFunction(() => document.getElementById("lightName").value === "key", null, WAIT);
+    await shot(a, "02-input-errors.png");
+  });
+
+  await check("dragging a BendyLight control point moves it in the image plane and changes the image", async () => {
+    await a.selectOption("#lightType", "bendy");
+    await waitRig((r) => r.lights.find((l) => l.name === "key").type === "bendy", "key becomes a BendyLight");
+    await a.waitForSelector('[data-handle="cp"][data-index="2"]', WAIT);
+    const rig0 = await getRig();
+    await frameAtLeast(a, rig0.version);
+    const img0 = await framePixels(a);
+    const key0 = rig0.lights.find((l) => l.name === "key");
+    const p = await center(a, '[data-handle="cp"][data-index="2"]');
+    // The handle is where the camera projects the control point.
+    const proj0 = project(toNDC, cpWorld(key0, 2));
+    const shown = await screenToImage(a, p.x, p.y);
+    const expect0 = { x: (proj0.ndc[0] + 1) * 160, y: (1 - proj0.ndc[1]) * 90 };
+    assert(Math.hypot(shown.x - expect0.x, shown.y - expect0.y) < 1, `handle at ${JSON.stringify(shown)}, projection at ${JSON.stringify(expect0)}`);
+    const target = { x: p.x + 70, y: p.y + 25 };
+    await a.mouse.move(p.x, p.y);
+    await a.mouse.down();
+    for (let i = 1; i <= 10; i++) await a.mouse.move(p.x + (target.x - p.x) * i / 10, p.y + (target.y - p.y) * i / 10);
+    // Live: the rig changes while the button is still held.
+    await waitRig((r) => JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints[1]) !== JSON.stringify(key0.controlPoints[1]),
+                  "cp[2] changes during the drag");
+    await a.mouse.up();
+    const dropped = await screenToImage(a, target.x, target.y);
+    const rig1 = await waitRig((r) => {
+      const q = project(toNDC, cpWorld(r.lights.find((l) => l.name === "key"), 2));
+      return Math.hypot((q.ndc[0] + 1) * 160 - dropped.x, (1 - q.ndc[1]) * 90 - dropped.y) < 1;
+    }, "cp[2] projects to where it was dropped");
+    const key1 = rig1.lights.find((l) => l.name === "key");
+    const proj1 = project(toNDC, cpWorld(key1, 2));
+    assert(Math.abs(proj1.ndc[2] - proj0.ndc[2]) < 1e-4, `the point left the plane parallel to the image (ndc z ${proj0.ndc[2]} -> ${proj1.ndc[2]})`);
+    assert(JSON.stringify(key1.controlPoints[0]) === JSON.stringify(key0.controlPoints[0]), "another control point moved");
+    await frameAtLeast(a, rig1.version);
+    const img1 = await framePixels(a);
+    const diff = meanAbsDiff(img0, img1);
+    assert(diff > 0.5, `the image barely changed (mean abs difference ${diff.toFixed(3)})`);
+    console.log(`     cp[2] ${key0.controlPoints[1].map((v) => v.toFixed(2))} -> ${key1.controlPoints[1].map((v) => v.toFixed(2))}; image difference ${diff.toFixed(2)}`);
+    await a.mouse.move(10, 10);
+    await shot(a, "03-bendy-dragged.png");
+
+    // Shift: in depth. The point stays under the pointer's start in the image, and goes farther.
+    const q = await center(a, '[data-handle="cp"][data-index="2"]');
+    await a.keyboard.down("Shift");
+    await a.mouse.move(q.x, q.y);
+    await a.mouse.down();
+    for (let i = 1; i <= 5; i++) await a.mouse.move(q.x, q.y - 8 * i);
+    await a.mouse.up();
+    await a.keyboard.up("Shift");
+    const rig2 = await waitRig((r) => r.version > rig1.version && JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints[1]) !==
+                                      JSON.stringify(key1.controlPoints[1]), "a Shift-drag moves cp[2]");
+    const proj2 = project(toNDC, cpWorld(rig2.lights.find((l) => l.name === "key"), 2));
+    assert(Math.hypot((proj2.ndc[0] - proj1.ndc[0]) * 160, (proj2.ndc[1] - proj1.ndc[1]) * 90) < 0.5, "a depth move moved the point in the image");
+    assert(proj2.w > proj1.w + 1e-3, `dragging up in depth did not move the point away (w ${proj1.w} -> ${proj2.w})`);
+  });
+
+  const ctxB = await browser.newContext({ viewport });
+  const b = await ctxB.newPage();
+  await check("an edit from a second browser appears in the first, with presence", async () => {
+    await b.goto(`${server.editorUrl}&name=bob`);
+    await frameAtLeast(b, 1);
+    await a.waitForFunction(() => [...document.querySelectorAll("#clients .cname")].some((e) => e.textContent === "bob"), null, WAIT);
+    await b.click('#lights li[data-light="key"] .lname');
+    await typeInto(b, "#prop-intensity", "7.25");
+    await a.waitForFunction(() => document.getElementById("prop-intensity").value === "7.25", null, WAIT);
+    // Presence: A sees that bob edits key, on the light and on its handles.
+    await a.waitForFunction(() => /bob/.test(document.querySelector('#lights li[data-light="key"]').textContent), null, WAIT);
+    await a.waitForFunction(() => /bob/.test(document.querySelector('#overlay [data-light="key"]')?.textContent ?? ""), null, WAIT);
+    const rig = await getRig();
+    await frameAtLeast(a, rig.version);
+    assert(rig.lights.find((l) => l.name === "key").intensity === 7.25, "the server's rig lacks bob's edit");
+    await shot(a, "04-edit-from-second-browser.png");
+  });
+
+  await check("a viewer cannot edit", async () => {
+    const ctxV = await browser.newContext({ viewport });
+    const v = await ctxV.newPage();
+    await v.goto(`${server.viewerUrl}&name=carol`);
+    await frameAtLeast(v, 1);
+    await v.waitForFunction(() => document.body.classList.contains("viewer"), null, WAIT);
+    assert(await v.isVisible("#note"), "the viewer note is not shown");
+    for (const sel of ["#prop-intensity", "#undo", "#addLight", "#lightType", "#setKey", '#lights li[data-light="key"] .enable']) {
+      assert(await v.isDisabled(sel), `${sel} is enabled for a viewer`);
+    }
+    // The view is still the viewer's own: output can change.
+    assert(await v.isEnabled("#output"), "a viewer cannot choose an output");
+    const v0 = (await getRig()).version;
+    await v.click('#lights li[data-light="key"] .lname');
+    const p = await center(v, '[data-handle="cp"][data-index="2"]');
+    await v.mouse.move(p.x, p.y);
+    await v.mouse.down();
+    await v.mouse.move(p.x + 40, p.y + 40);
+    await v.mouse.up();
+    await waitMessage(v, /viewers cannot move lights/);
+    // And the server refuses a viewer's edit even when sent by hand.
+    await v.evaluate(() => send({ type: "edit", seq: 999, changes: [{ path: "key.intensity", value: 1 }] }));
+    await waitMessage(v, /^forbidden: .*viewer/);
+    assert((await getRig()).version === v0, "the viewer changed the rig");
+    await a.waitForFunction(() => [...document.querySelectorAll("#clients li")].some((li) => /carol/.test(li.textContent) && /viewer/.test(li.textContent)), null, WAIT);
+    await shot(v, "05-viewer.png");
+    await ctxV.close();
+  });
+
+  await check("undo and redo (buttons and keyboard)", async () => {
+    await a.click('#lights li[data-light="fill"] .lname');
+    const before = (await getRig()).lights.find((l) => l.name === "fill").intensity;
+    await typeInto(a, "#prop-intensity", "1.5");
+    await waitRig((r) => r.lights.find((l) => l.name === "fill").intensity === 1.5, "fill intensity 1.5");
+    await a.waitForFunction(() => !document.getElementById("undo").disabled, null, WAIT);
+    await a.click("#undo");
+    await waitRig((r) => Math.abs(r.lights.find((l) => l.name === "fill").intensity - before) < 1e-4, "undo restores fill");
+    await a.waitForFunction((v) => Math.abs(Number(document.getElementById("prop-intensity").value) - v) < 1e-3, before, WAIT);
+    await a.click("#viewport", { position: { x: 5, y: 5 } }); // focus out of the fields
+    await a.keyboard.press("Control+Shift+Z");
+    await waitRig((r) => r.lights.find((l) => l.name === "fill").intensity === 1.5, "redo by keyboard");
+    await a.keyboard.press("Control+Z");
+    await waitRig((r) => Math.abs(r.lights.find((l) => l.name === "fill").intensity - before) < 1e-4, "undo by keyboard");
+  });
+
+  await check("picking shows the object and selects a light that reaches it", async () => {
+    await a.keyboard.press("h"); // hide handles so that the click lands on the image
+    const pt = await imageToScreen(a, 200.5, 150.5);
+    await a.mouse.click(pt.x, pt.y);
+    await a.waitForFunction(() => document.getElementById("pickObject")?.textContent, null, WAIT);
+    const pick = await a.evaluate(() => ({ pixel: document.getElementById("pickPixel").textContent, object: document.getElementById("pickObject").textContent,
+                                           position: document.getElementById("pickPosition").textContent,
+                                           lights: [...document.querySelectorAll(".pickLight")].map((b) => b.textContent) }));
+    assert(pick.pixel === "(200, 150)", `picked ${pick.pixel}`);
+    assert(welcome.session.objects.includes(pick.object), `object '${pick.object}' is not in the shot`);
+    assert(pick.position.split(",").length === 3, `position ${pick.position}`);
+    assert(pick.lights.length > 0, "no light reaches the picked pixel");
+    const other = pick.lights.find((n) => n !== "fill") ?? pick.lights[0];
+    await a.click(`.pickLight:text-is("${other}")`);
+    await a.waitForFunction((n) => document.querySelector("#lights li.selected")?.dataset.light === n, other, WAIT);
+    await a.keyboard.press("h");
+    await shot(a, "06-pick.png");
+  });
+
+  await check("keys at two times, scrubbing shows the animated value", async () => {
+    await a.click('#lights li[data-light="fill"] .lname');
+    await a.selectOption("#keyWhat", "intensity");
+    const i0 = (await getRig()).lights.find((l) => l.name === "fill").intensity;
+    await a.click("#setKey");
+    await waitRig((r) => r.lights.find((l) => l.name === "fill").keys?.intensity?.length === 1, "a key at t = 0");
+    await typeInto(a, "#timeN", "2");
+    await waitRig((r) => r.time === 2, "time 2");
+    // The property is keyed: typing a value sets a key at the current time.
+    const i2 = i0 * 4;
+    await typeInto(a, "#prop-intensity", String(i2));
+    const rig = await waitRig((r) => r.lights.find((l) => l.name === "fill").keys?.intensity?.length === 2, "a key at t = 2");
+    const ks = rig.lights.find((l) => l.name === "fill").keys.intensity;
+    assert(ks[0].t === 0 && ks[1].t === 2 && Math.abs(ks[1].value - i2) < 1e-6, `keys ${JSON.stringify(ks)}`);
+    await a.waitForFunction(() => document.querySelectorAll("#track .key").length === 2, null, WAIT);
+    await frameAtLeast(a, rig.version);
+    const at2 = await framePixels(a);
+    // Scrub to the middle of the two keys by dragging on the timeline.
+    const k0 = await center(a, '#track .key[data-t="0"]'), k2 = await center(a, '#track .key[data-t="2"]');
+    await a.mouse.move(k2.x, k0.y + 5);
+    await a.mouse.down();
+    await a.mouse.move((k0.x + k2.x) / 2, k0.y + 5, { steps: 5 });
+    await a.mouse.up();
+    const mid = await waitRig((r) => r.time > 0.8 && r.time < 1.2, "scrubbed to about t = 1");
+    await a.waitForFunction(([lo, hi]) => { const v = Number(document.getElementById("prop-intensity").value); return v > lo && v < hi; },
+                            [i0 * 1.5, i0 * 3.5], WAIT);
+    await frameAtLeast(a, mid.version);
+    const at1 = await framePixels(a);
+    assert(meanAbsDiff(at1, at2) > 0.2, "the image at t = 1 equals the one at t = 2");
+    await shot(a, "07-timeline.png");
+    // Delete the key at t = 2 (keyboard), then go back to t = 0.
+    await a.click('#track .key[data-t="2"]');
+    await waitRig((r) => r.time === 2, "clicking a key jumps to it");
+    await a.click("#viewport", { position: { x: 5, y: 5 } });
+    await a.keyboard.press("Shift+K");
+    await waitRig((r) => r.lights.find((l) => l.name === "fill").keys?.intensity?.length === 1, "the key at t = 2 is deleted");
+  });
+
+  await check("after the server restarts the page reconnects and shows the same rig", async () => {
+    const rigBefore = await getRig();
+    restarting = true;
+    server.proc.kill("SIGTERM");
+    await server.exited;
+    await a.waitForFunction(() => document.body.classList.contains("offline") && /disconnected/.test(document.getElementById("status").textContent), null, WAIT);
+    await shot(a, "08-disconnected.png");
+    server = await startServer(server.port);
+    await a.waitForFunction(() => !document.body.classList.contains("offline") && /connected · editor/.test(document.getElementById("status").textContent), null, WAIT);
+    restarting = false;
+    const rigAfter = await getRig();
+    assert(JSON.stringify(rigAfter) === JSON.stringify(rigBefore), "the restarted server's rig differs");
+    await frameAtLeast(a, rigAfter.version);
+    // The page shows that rig: the BendyLight and its moved control point.
+    await a.click('#lights li[data-light="key"] .lname');
+    const key = rigAfter.lights.find((l) => l.name === "key");
+    const shown = await a.evaluate(() => [document.querySelector('#lights li[data-light="key"] .ltype').textContent,
+                                          Number(document.getElementById("cp-2-0").value)]);
+    assert(shown[0] === "BendyLight" && Math.abs(shown[1] - key.controlPoints[1][0]) < 1e-3, `page shows ${shown}`);
+    await shot(a, "09-reconnected.png");
+  });
+
+  await check("no errors in the page console", async () => {
+    assert(consoleErrors.length === 0, consoleErrors.join("; "));
+  });
+} catch (e) {
+  results.push(["setup", false]);
+  console.log(`FAIL setup: ${e.stack || e.message}`);
+} finally {
+  clearTimeout(deadline);
+  if (browser) await browser.close();
+  if (server) server.proc.kill("SIGTERM");
+  rmSync(stateDir, { recursive: true, force: true });
+}
+const passed = results.filter(([, ok]) => ok).length;
+const failed = results.length - passed;
+console.log(`${passed} passed, ${failed} failed`);
+process.exit(failed === 0 ? 0 : 1);
