@@ -81,8 +81,28 @@ Error netError(const std::string& what, const beast::error_code& ec) {
 }
 } // namespace
 
+// Runs one async operation started by `start` for at most `timeout`: a blocking read with
+// SO_RCVTIMEO would not do, since Asio's synchronous reads poll again without a limit. On timeout
+// the socket's operations are cancelled and the error is timed_out.
+template <typename Start>
+beast::error_code runFor(asio::io_context& ioc, tcp::socket& socket, std::chrono::milliseconds timeout, Start start) {
+    beast::error_code result = asio::error::would_block;
+    start([&](beast::error_code e, size_t) { result = e; });
+    ioc.restart();
+    ioc.run_for(timeout);
+    if (result == asio::error::would_block) {
+        beast::error_code ignored;
+        socket.cancel(ignored);
+        ioc.restart();
+        ioc.run();
+        return asio::error::timed_out;
+    }
+    return result;
+}
+
 struct Connection::Impl {
     asio::io_context ioc;
+    std::chrono::milliseconds timeout{30000};
     websocket::stream<tcp::socket> ws{ioc};
     beast::flat_buffer buffer;
 };
@@ -99,6 +119,7 @@ Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::
     asio::connect(impl->ws.next_layer(), results, ec);
     if (ec) return netError("connecting to " + url.host + ":" + url.port, ec);
     setDeadline(impl->ws.next_layer(), timeout);
+    impl->timeout = timeout;
     impl->ws.read_message_max(256u << 20);
     websocket::response_type res;
     impl->ws.handshake(res, url.host + ":" + url.port, target, ec);
@@ -124,7 +145,8 @@ Status Connection::sendText(const std::string& text) {
 Result<ServerMessage> Connection::receive() {
     beast::error_code ec;
     mImpl->buffer.consume(mImpl->buffer.size());
-    mImpl->ws.read(mImpl->buffer, ec);
+    ec = runFor(mImpl->ioc, mImpl->ws.next_layer(), mImpl->timeout,
+                [&](auto handler) { mImpl->ws.async_read(mImpl->buffer, handler); });
     if (ec) return netError("receiving", ec);
     if (mImpl->ws.got_text()) {
         auto j = nlohmann::json::parse(beast::buffers_to_string(mImpl->buffer.data()), nullptr, false);
@@ -137,6 +159,11 @@ Result<ServerMessage> Connection::receive() {
     if (!h) return h.error();
     FrameMessage f{h.value(), std::vector<uint8_t>(data + protocol::FRAME_HEADER_BYTES, data + size)};
     return ServerMessage{std::move(f)};
+}
+
+void Connection::shutdown() {
+    if (!mImpl) return;
+    ::shutdown(mImpl->ws.next_layer().native_handle(), SHUT_RDWR);
 }
 
 void Connection::close() {
@@ -171,7 +198,7 @@ Result<HttpResponse> httpRequest(const Url& url, const std::string& method, cons
     beast::flat_buffer buffer;
     http::response_parser<http::string_body> parser;
     parser.body_limit(512u << 20);
-    http::read(socket, buffer, parser, ec);
+    ec = runFor(ioc, socket, timeout, [&](auto handler) { http::async_read(socket, buffer, parser, handler); });
     if (ec) return netError(method + " " + target, ec);
     auto res = parser.release();
     HttpResponse out;

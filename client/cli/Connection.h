@@ -46,6 +46,8 @@ public:
     /// Waits for the next message. Fails with Network on timeout or close, Protocol on garbage.
     Result<ServerMessage> receive();
     void close();
+    /// Ends a receive() blocked in another thread (it fails with Network). Thread-safe.
+    void shutdown();
 
 private:
     struct Impl;

@@ -202,23 +202,29 @@ int bench(Client& cl, int edits, int clients, const std::string& lightName, int 
 
     struct Watcher {
         std::thread thread;
+        std::unique_ptr<client::Connection> conn;
         std::mutex mutex;
         std::vector<std::pair<uint64_t, Clock::time_point>> frames; // (rig version, arrival)
+        std::atomic<bool> stopping{false}, dead{false};
         std::string error;
+        uint64_t newest() {
+            std::lock_guard lock(mutex);
+            return frames.empty() ? 0 : frames.back().first;
+        }
     };
     std::vector<std::unique_ptr<Watcher>> watchers;
-    std::atomic<uint64_t> finalVersion{~0ull};
     std::atomic<int> ready{0};
     for (int i = 1; i < clients; ++i) {
         auto w = std::make_unique<Watcher>();
         json wel;
-        auto conn = cl.connect(&wel);
-        w->thread = std::thread([w = w.get(), c = std::move(conn), &finalVersion, &ready]() mutable {
+        w->conn = cl.connect(&wel);
+        w->thread = std::thread([w = w.get(), &ready] {
             bool first = true;
             for (;;) {
-                auto m = c->receive();
+                auto m = w->conn->receive();
                 if (!m) {
-                    w->error = m.error().message;
+                    if (!w->stopping) w->error = m.error().message; // read by main after join()
+                    w->dead = true;
                     return;
                 }
                 if (auto* f = std::get_if<client::FrameMessage>(&m.value())) {
@@ -229,7 +235,6 @@ int bench(Client& cl, int edits, int clients, const std::string& lightName, int 
                         first = false;
                         ++ready;
                     }
-                    if (f->header.rigVersion >= finalVersion.load()) return;
                 }
             }
         });
@@ -267,9 +272,16 @@ int bench(Client& cl, int edits, int clients, const std::string& lightName, int 
             }
         }
     }
-    finalVersion = sent.empty() ? 0 : sent.back().first;
+    // Wait until every watcher has the last version (or the timeout), then stop them.
+    const uint64_t finalVersion = sent.empty() ? 0 : sent.back().first;
+    const auto doneBy = Clock::now() + cl.timeout();
+    for (auto& w : watchers) {
+        while (w->newest() < finalVersion && !w->dead && Clock::now() < doneBy) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
     int failed = 0;
     for (auto& w : watchers) {
+        w->stopping = true;
+        w->conn->shutdown();
         w->thread.join();
         if (!w->error.empty()) {
             ++failed;
@@ -420,7 +432,9 @@ int main(int argc, char** argv) {
                       << welcome["rig"].value("version", uint64_t(0)) << std::endl;
             const std::string fmt = watchView.format.empty() ? "jpeg" : watchView.format;
             const json settings = watchView.settings(fmt);
-            if (settings != protocol::toJson(protocol::ViewSettings{})) {
+            // Frames before the ack of the view settings are in the old view: not counted.
+            bool viewSet = settings == protocol::toJson(protocol::ViewSettings{});
+            if (!viewSet) {
                 protocol::ViewMessage v{1, settings};
                 if (auto s = conn->sendText(protocol::encode(v)); !s) cl.fail(s.error());
             }
@@ -436,10 +450,14 @@ int main(int argc, char** argv) {
                     cl.fail(m.error());
                 }
                 if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
-                    if (t->json.value("type", "") == "error") std::cerr << "dfb-client: server: " << t->json.dump() << "\n";
+                    const std::string type = t->json.value("type", "");
+                    if (type == "error" && t->json.value("seq", uint64_t(0)) == 1) die(EXIT_REFUSED, "server refused the view settings: " + t->json.dump());
+                    if (type == "ack" && t->json.value("seq", uint64_t(0)) == 1) viewSet = true;
+                    if (type == "error") std::cerr << "dfb-client: server: " << t->json.dump() << "\n";
                     else std::cout << t->json.dump() << std::endl;
                     continue;
                 }
+                if (!viewSet) continue;
                 auto& f = std::get<client::FrameMessage>(m.value());
                 ++frames;
                 lastVersion = f.header.rigVersion;

@@ -97,6 +97,14 @@ public:
 
     const std::string& output() const { return mOutput; }
 
+    /// Sends `sig` (e.g. SIGKILL) and reaps the process without reading more output.
+    void kill(int sig) {
+        if (mPid <= 0) return;
+        ::kill(mPid, sig);
+        ::waitpid(mPid, nullptr, 0);
+        mPid = -1;
+    }
+
 private:
     bool readSome(int timeoutMs) {
         if (mOut < 0) return false;

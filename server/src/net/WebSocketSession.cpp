@@ -132,6 +132,9 @@ void WebSocketSession::handleText(const std::string& text) {
                 if (!v) return replyError(v.error(), m.seq);
                 mView = v.value();
                 mViewDirty = true;
+                // Every frame after the ack is in the new view: one not yet written is dropped.
+                ++mViewGeneration;
+                mPendingFrame.reset();
                 reply(protocol::encodeAck(m.seq, session.rigVersion(), {{"view", protocol::toJson(mView)}}));
                 pumpFrames();
             } else if constexpr (std::is_same_v<T, protocol::PickMessage>) {
@@ -174,15 +177,20 @@ void WebSocketSession::pumpFrames() {
     if (!mViewDirty && mAvailableVersion <= mSentVersion) return;
     mEncodePending = true;
     mViewDirty = false;
-    mHub->render().requestEncoded(mView, [self = weak_from_this(), ioc = &mState->ioc()](Result<std::shared_ptr<const EncodedFrame>> f) {
-        asio::post(*ioc, [self, f = std::move(f)]() mutable {
-            if (auto s = self.lock()) s->onEncoded(std::move(f));
+    mHub->render().requestEncoded(mView, [self = weak_from_this(), ioc = &mState->ioc(), gen = mViewGeneration](
+                                             Result<std::shared_ptr<const EncodedFrame>> f) {
+        asio::post(*ioc, [self, gen, f = std::move(f)]() mutable {
+            if (auto s = self.lock()) s->onEncoded(gen, std::move(f));
         });
     });
 }
 
-void WebSocketSession::onEncoded(Result<std::shared_ptr<const EncodedFrame>> frame) {
+void WebSocketSession::onEncoded(uint64_t viewGeneration, Result<std::shared_ptr<const EncodedFrame>> frame) {
     mEncodePending = false;
+    if (viewGeneration != mViewGeneration) {
+        pumpFrames(); // encoded for settings the client has replaced since
+        return;
+    }
     if (!frame) {
         // The view cannot be rendered (say its light was deleted): say so and fall back to the
         // beauty image, keeping the encoding.
@@ -193,6 +201,7 @@ void WebSocketSession::onEncoded(Result<std::shared_ptr<const EncodedFrame>> fra
             fallback.quality = mView.quality;
             mView = fallback;
             mViewDirty = true;
+            ++mViewGeneration;
             reply(protocol::encodeAck(0, mHub->session().rigVersion(), {{"view", protocol::toJson(mView)}, {"reason", "fallback"}}));
         }
         pumpFrames();

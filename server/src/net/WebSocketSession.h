@@ -39,7 +39,7 @@ private:
     void replyError(const Error& e, std::optional<uint64_t> seq);
     void setEditing(const std::string& what);
     void pumpFrames();
-    void onEncoded(Result<std::shared_ptr<const EncodedFrame>> frame);
+    void onEncoded(uint64_t viewGeneration, Result<std::shared_ptr<const EncodedFrame>> frame);
     void writeNext();
     void onWrite(error_code ec, size_t bytes);
 
@@ -56,6 +56,7 @@ private:
 
     protocol::ViewSettings mView;
     bool mViewDirty = true;          // the next frame must be encoded for new view settings
+    uint64_t mViewGeneration = 0;    // bumped on every view change: older encodings are dropped
     uint64_t mAvailableVersion = 0;  // newest rendered version we heard of
     uint64_t mSentVersion = 0;       // version of the newest frame taken for sending
     bool mEncodePending = false;

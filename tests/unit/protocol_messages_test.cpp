@@ -1,0 +1,134 @@
+// Protocol v1 messages: every client message parses and round-trips through its encoder; invalid
+// ones are refused with the code and the field named; view settings validate; server messages
+// carry the documented fields.
+
+#include <dfb/protocol/Messages.h>
+
+#include <gtest/gtest.h>
+
+using namespace dfb;
+using namespace dfb::protocol;
+using json = nlohmann::json;
+
+TEST(Messages, EveryClientMessageRoundTrips) {
+    EditMessage e{7, {{"key.intensity", 500}, {"key.position", json::array({1, 2, 3})}}, 4, 5};
+    const std::vector<std::string> texts = {
+        encode(HelloMessage{1, "alice"}), encode(e), encode(UndoMessage{8}), encode(RedoMessage{9}), encode(TimeMessage{10, 1.5}),
+        encode(ViewMessage{11, {{"output", "shadow:key"}, {"encoding", "png"}}}), encode(PickMessage{12, 3, 4}),
+        encode(PresenceMessage{std::string("key")}), encode(PresenceMessage{})};
+    for (const std::string& t : texts) {
+        auto m = parseClientMessage(t);
+        ASSERT_TRUE(m.ok()) << t << " -> " << m.error().toString();
+        EXPECT_EQ(std::visit([](auto&& x) { return encode(x); }, m.value()), t);
+    }
+    auto m = parseClientMessage(encode(e));
+    const auto& edit = std::get<EditMessage>(m.value());
+    EXPECT_EQ(edit.seq, 7u);
+    EXPECT_EQ(edit.base, 4u);
+    EXPECT_EQ(edit.ifVersion, 5u);
+    ASSERT_EQ(edit.changes.size(), 2u);
+    EXPECT_EQ(edit.changes[1].path, "key.position");
+    EXPECT_EQ(edit.changes[1].value, json::array({1, 2, 3}));
+    EXPECT_EQ(peekSeq(encode(e)), 7u);
+    EXPECT_FALSE(peekSeq("nonsense").has_value());
+}
+
+TEST(Messages, RefusesMalformedMessagesNamingTheProblem) {
+    struct Case {
+        const char* text;
+        ErrorCode code;
+        const char* mentions;
+    };
+    for (const Case& c : {Case{"not json", ErrorCode::Protocol, "JSON"}, Case{"[1,2]", ErrorCode::Protocol, "object"},
+                          Case{R"({"seq":1})", ErrorCode::Protocol, "type"}, Case{R"({"type":"dance"})", ErrorCode::Protocol, "dance"},
+                          Case{R"({"type":"edit","seq":-1,"changes":[]})", ErrorCode::Protocol, "seq"},
+                          Case{R"({"type":"edit","seq":1,"changes":[]})", ErrorCode::Protocol, "changes"},
+                          Case{R"({"type":"edit","seq":1,"changes":[{"value":1}]})", ErrorCode::Protocol, "changes[0]"},
+                          Case{R"({"type":"edit","seq":1,"changes":[{"path":"a.b","value":1,"extra":2}]})", ErrorCode::Protocol, "changes[0]"},
+                          Case{R"({"type":"edit","seq":1,"base":"x","changes":[{"path":"a.b","value":1}]})", ErrorCode::Protocol, "edit.base"},
+                          Case{R"({"type":"edit","seq":1,"ifVersion":-2,"changes":[{"path":"a.b","value":1}]})", ErrorCode::Protocol, "ifVersion"},
+                          Case{R"({"type":"edit","seq":1,"changes":[{"path":"a.b","value":1}],"x":0})", ErrorCode::Protocol, "'x'"},
+                          Case{R"({"type":"hello","protocol":0})", ErrorCode::Protocol, "protocol"},
+                          Case{R"({"type":"hello","name":5})", ErrorCode::Protocol, "hello.name"},
+                          Case{R"({"type":"undo"})", ErrorCode::Protocol, "undo.seq"},
+                          Case{R"({"type":"time","seq":1})", ErrorCode::Protocol, "time.t"},
+                          Case{R"({"type":"view","seq":1,"quality":0})", ErrorCode::InvalidValue, "view.quality"},
+                          Case{R"({"type":"view","seq":1,"exposure":30})", ErrorCode::InvalidValue, "view.exposure"},
+                          Case{R"({"type":"view","seq":1,"output":"light:"})", ErrorCode::InvalidValue, "view.output"},
+                          Case{R"({"type":"view","seq":1,"viewTransform":"filmic"})", ErrorCode::InvalidValue, "viewTransform"},
+                          Case{R"({"type":"pick","seq":1,"x":1.5,"y":2})", ErrorCode::Protocol, "pick.x"},
+                          Case{R"({"type":"pick","seq":1,"x":1})", ErrorCode::Protocol, "pick.y"},
+                          Case{R"({"type":"presence","editing":[1]})", ErrorCode::Protocol, "presence.editing"}}) {
+        auto m = parseClientMessage(c.text);
+        ASSERT_FALSE(m.ok()) << c.text;
+        EXPECT_EQ(m.error().code, c.code) << c.text << " -> " << m.error().toString();
+        EXPECT_NE(m.error().message.find(c.mentions), std::string::npos) << c.text << " -> " << m.error().message;
+    }
+}
+
+TEST(Messages, ViewSettingsFromJsonAndQuery) {
+    auto v = applyViewJson(ViewSettings{}, {{"output", "light:key"}, {"encoding", "exr"}});
+    ASSERT_TRUE(v.ok());
+    EXPECT_EQ(v->output, "light:key");
+    EXPECT_EQ(v->encoding, Encoding::Exr);
+    EXPECT_EQ(v->quality, 85); // untouched
+    EXPECT_FALSE(v->isDefaultImage());
+    EXPECT_NE(v->key(), ViewSettings{}.key());
+    auto q = viewFromQuery("output=shadow%3Akey&format=png&quality=40&exposure=-1.5&token=abc");
+    ASSERT_TRUE(q.ok()) << q.error().toString();
+    EXPECT_EQ(q->output, "shadow:key");
+    EXPECT_EQ(q->encoding, Encoding::Png);
+    EXPECT_EQ(q->quality, 40);
+    EXPECT_FLOAT_EQ(q->exposureStops, -1.5f);
+    EXPECT_TRUE(viewFromQuery("").ok());
+    EXPECT_EQ(viewFromQuery("format=gif").error().code, ErrorCode::InvalidValue);
+    EXPECT_EQ(viewFromQuery("quality=lots").error().code, ErrorCode::InvalidValue);
+    EXPECT_NE(viewFromQuery("size=4").error().message.find("size"), std::string::npos);
+    EXPECT_EQ(toJson(ViewSettings{}), json::parse(R"({"output":"beauty","encoding":"jpeg","quality":85,"exposure":0.0,"viewTransform":"srgb"})"));
+}
+
+TEST(Messages, ServerMessagesCarryTheDocumentedFields) {
+    WelcomeInfo w;
+    w.clientId = 3;
+    w.role = Role::Viewer;
+    w.sessionId = "shot";
+    w.session = {{"width", 4}};
+    w.rig = defaultRig({-1, 0, -1}, {1, 1, 1});
+    w.clients = {{3, "bob", Role::Viewer, ""}};
+    const json welcome = json::parse(encodeWelcome(w));
+    EXPECT_EQ(welcome["type"], "welcome");
+    EXPECT_EQ(welcome["protocol"], PROTOCOL_VERSION);
+    EXPECT_EQ(welcome["role"], "viewer");
+    EXPECT_EQ(welcome["sessionId"], "shot");
+    EXPECT_EQ(welcome["rig"]["lights"][0]["name"], "key");
+    EXPECT_EQ(welcome["clients"][0]["editing"], nullptr);
+    EXPECT_EQ(welcome["view"]["encoding"], "jpeg");
+
+    const json ack = json::parse(encodeAck(7, 12, {{"overwrote", json::array({{{"path", "key.intensity"}}})}}));
+    EXPECT_EQ(ack["seq"], 7);
+    EXPECT_EQ(ack["rigVersion"], 12);
+    EXPECT_EQ(ack["overwrote"][0]["path"], "key.intensity");
+
+    ChangeInfo c;
+    c.rigVersion = 12;
+    c.byClient = 3;
+    c.byName = "alice";
+    c.changes = {{"key.intensity", 80}};
+    json change = json::parse(encodeChange(c));
+    EXPECT_EQ(change["kind"], "edit");
+    EXPECT_EQ(change["changes"][0]["value"], 80);
+    EXPECT_FALSE(change.contains("rig"));
+    c.kind = "undo";
+    c.rig = w.rig;
+    change = json::parse(encodeChange(c));
+    EXPECT_EQ(change["rig"]["lights"].size(), w.rig.lights.size());
+    EXPECT_FALSE(change.contains("changes"));
+
+    const json err = json::parse(encodeError(ErrorCode::Forbidden, "viewers cannot edit", 9));
+    EXPECT_EQ(err["code"], "forbidden");
+    EXPECT_EQ(err["seq"], 9);
+    EXPECT_FALSE(json::parse(encodeError(ErrorCode::Conflict, "x", std::nullopt)).contains("seq"));
+    EXPECT_EQ(json::parse(encodeError(ErrorCode::Conflict, "x", std::nullopt))["code"], "conflict");
+    EXPECT_EQ(json::parse(encodePresence(w.clients))["clients"][0]["role"], "viewer");
+    EXPECT_EQ(json::parse(encodePickResult(4, {{"hit", false}}))["seq"], 4);
+}
