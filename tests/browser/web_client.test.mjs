@@ -197,6 +197,29 @@ try {
     await shot(a, "01-loaded.png");
   });
 
+  await check("zoom and pan keep the image's pixels; 1:1 is native size", async () => {
+    const b0 = await a.locator("#frame").boundingBox();
+    assert(Math.round(b0.width) === 320 && Math.round(b0.height) === 180, `not at native size: ${b0.width}x${b0.height}`);
+    await a.keyboard.press("+");
+    await a.waitForFunction(() => document.getElementById("zoomLabel").textContent === "125%", null, WAIT);
+    const b1 = await a.locator("#frame").boundingBox();
+    assert(Math.abs(b1.width - 400) < 0.5, `zoomed width ${b1.width}`);
+    // Drag the background (outside the image) to pan.
+    const vp = await a.locator("#viewport").boundingBox();
+    await a.mouse.move(vp.x + 20, vp.y + vp.height - 20);
+    await a.mouse.down();
+    await a.mouse.move(vp.x + 70, vp.y + vp.height - 40, { steps: 4 });
+    await a.mouse.up();
+    const b2 = await a.locator("#frame").boundingBox();
+    assert(Math.abs(b2.x - b1.x - 50) < 0.5 && Math.abs(b2.y - b1.y + 20) < 0.5, `panned by ${b2.x - b1.x}, ${b2.y - b1.y}`);
+    await a.keyboard.press("f");
+    const b3 = await a.locator("#frame").boundingBox();
+    assert(Math.abs(b3.width - (vp.width - 16)) < 1 || Math.abs(b3.height - (vp.height - 16)) < 1, `fit gives ${b3.width}x${b3.height} in ${vp.width}x${vp.height}`);
+    await a.keyboard.press("1");
+    const b4 = await a.locator("#frame").boundingBox();
+    assert(Math.round(b4.width) === 320, `1 does not return to native size (${b4.width})`);
+  });
+
   await check("typed input is checked; server errors are shown verbatim", async () => {
     await a.click('#lights li[data-light="key"] .lname');
     const v0 = (await getRig()).version;
@@ -338,6 +361,63 @@ try {
     await waitRig((r) => Math.abs(r.lights.find((l) => l.name === "fill").intensity - before) < 1e-4, "undo by keyboard");
   });
 
+  await check("light list: add, duplicate, rename, enable, solo, delete", async () => {
+    await a.selectOption("#addType", "bendy");
+    await a.click("#addLight");
+    await waitRig((r) => r.lights.some((l) => l.name === "bendy" && l.type === "bendy" && l.controlPoints.length >= 2), "an added BendyLight");
+    await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "bendy", null, WAIT);
+    await a.click("#dupLight");
+    await waitRig((r) => r.lights.some((l) => l.name === "bendy_copy"), "a duplicate");
+    await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "bendy_copy", null, WAIT);
+    await typeInto(a, "#lightName", "rim");
+    await waitRig((r) => r.lights.some((l) => l.name === "rim") && !r.lights.some((l) => l.name === "bendy_copy"), "renamed to rim");
+    await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "rim", null, WAIT);
+    await a.click('#lights li[data-light="rim"] .enable');
+    await waitRig((r) => r.lights.find((l) => l.name === "rim").enabled === false, "rim disabled");
+    await a.waitForFunction(() => document.querySelector('#lights li[data-light="rim"]').classList.contains("disabled"), null, WAIT);
+    await shot(a, "06-light-list.png");
+    // Solo is this browser's view: key alone, then beauty again; the rig is untouched.
+    const v0 = (await getRig()).version;
+    await a.click('#lights li[data-light="key"] .solo');
+    await a.waitForFunction(() => document.getElementById("frame").dataset.output === "light:key" && document.getElementById("frame").complete, null, WAIT);
+    assert(await a.$eval("#output", (e) => e.value) === "light:key", "the output selector does not show the solo");
+    await shot(a, "07-solo.png");
+    await a.click('#lights li[data-light="key"] .solo');
+    await a.waitForFunction(() => document.getElementById("frame").dataset.output === "beauty", null, WAIT);
+    assert((await getRig()).version === v0, "solo changed the rig");
+    // Delete: the key, then the button.
+    await a.click("#viewport", { position: { x: 5, y: 5 } });
+    await a.keyboard.press("Delete");
+    await waitRig((r) => !r.lights.some((l) => l.name === "rim"), "rim deleted");
+    await a.click('#lights li[data-light="bendy"] .lname');
+    await a.click("#delLight");
+    await waitRig((r) => !r.lights.some((l) => l.name === "bendy"), "bendy deleted");
+    await a.waitForFunction(() => !document.querySelector('#lights li[data-light="bendy"]'), null, WAIT);
+  });
+
+  await check("outputs: a shadow mask, and a G-buffer layer or the server's refusal verbatim", async () => {
+    await a.selectOption("#output", "shadow:key");
+    await a.waitForFunction(() => document.getElementById("frame").dataset.output === "shadow:key" && document.getElementById("frame").complete, null, WAIT);
+    const px = await framePixels(a);
+    let colored = 0, dark = 0, bright = 0;
+    for (let i = 0; i < px.length; i += 4) {
+      if (Math.max(Math.abs(px[i] - px[i + 1]), Math.abs(px[i + 1] - px[i + 2])) > 12) colored++;
+      if (px[i] < 30) dark++; else if (px[i] > 200) bright++;
+    }
+    assert(colored < px.length / 4 / 100, `the shadow mask is not grey (${colored} coloured pixels)`);
+    assert(dark > 500 && bright > 500, `the mask lacks lit or shadowed parts (${dark} dark, ${bright} bright)`);
+    await shot(a, "08-shadow-mask.png");
+    await a.selectOption("#output", "layer:albedo");
+    await a.waitForFunction(() => document.getElementById("frame").dataset.output === "layer:albedo" ||
+      [...document.querySelectorAll("#messages .msg span")].some((s) => /^missing_data: view output 'layer:albedo'/.test(s.textContent)), null, WAIT);
+    if (await a.evaluate(() => document.getElementById("frame").dataset.output !== "layer:albedo")) {
+      // Refused: the page falls back to beauty, as the server did.
+      await a.waitForFunction(() => document.getElementById("output").value === "beauty" && document.getElementById("frame").dataset.output === "beauty", null, WAIT);
+    }
+    await a.selectOption("#output", "beauty");
+    await a.waitForFunction(() => document.getElementById("frame").dataset.output === "beauty", null, WAIT);
+  });
+
   await check("picking shows the object and selects a light that reaches it", async () => {
     await a.keyboard.press("h"); // hide handles so that the click lands on the image
     const pt = await imageToScreen(a, 200.5, 150.5);
@@ -354,7 +434,7 @@ try {
     await a.click(`.pickLight:text-is("${other}")`);
     await a.waitForFunction((n) => document.querySelector("#lights li.selected")?.dataset.light === n, other, WAIT);
     await a.keyboard.press("h");
-    await shot(a, "06-pick.png");
+    await shot(a, "09-pick.png");
   });
 
   await check("keys at two times, scrubbing shows the animated value", async () => {
@@ -386,7 +466,7 @@ try {
     await frameAtLeast(a, mid.version);
     const at1 = await framePixels(a);
     assert(meanAbsDiff(at1, at2) > 0.2, "the image at t = 1 equals the one at t = 2");
-    await shot(a, "07-timeline.png");
+    await shot(a, "10-timeline.png");
     // Delete the key at t = 2 (keyboard), then go back to t = 0.
     await a.click('#track .key[data-t="2"]');
     await waitRig((r) => r.time === 2, "clicking a key jumps to it");
@@ -401,7 +481,7 @@ try {
     server.proc.kill("SIGTERM");
     await server.exited;
     await a.waitForFunction(() => document.body.classList.contains("offline") && /disconnected/.test(document.getElementById("status").textContent), null, WAIT);
-    await shot(a, "08-disconnected.png");
+    await shot(a, "11-disconnected.png");
     server = await startServer(server.port);
     await a.waitForFunction(() => !document.body.classList.contains("offline") && /connected · editor/.test(document.getElementById("status").textContent), null, WAIT);
     restarting = false;
@@ -414,7 +494,7 @@ try {
     const shown = await a.evaluate(() => [document.querySelector('#lights li[data-light="key"] .ltype').textContent,
                                           Number(document.getElementById("cp-2-0").value)]);
     assert(shown[0] === "BendyLight" && Math.abs(shown[1] - key.controlPoints[1][0]) < 1e-3, `page shows ${shown}`);
-    await shot(a, "09-reconnected.png");
+    await shot(a, "12-reconnected.png");
   });
 
   await check("no errors in the page console", async () => {
