@@ -189,7 +189,7 @@ Result<ClientMessage> parseClientMessage(std::string_view text) {
         return ClientMessage{m};
     }
     if (type == "edit") {
-        if (auto s = onlyFields(j, type, {"type", "seq", "changes", "base", "ifVersion"}); !s) return s.error();
+        if (auto s = onlyFields(j, type, {"type", "seq", "changes", "base", "ifVersion", "merge"}); !s) return s.error();
         EditMessage m;
         auto seq = needSeq(j, type);
         if (!seq) return seq.error();
@@ -200,6 +200,10 @@ Result<ClientMessage> parseClientMessage(std::string_view text) {
         auto ifv = optVersion(j, type, "ifVersion");
         if (!ifv) return ifv.error();
         m.ifVersion = ifv.value();
+        if (j.contains("merge")) {
+            if (!j["merge"].is_boolean()) return protocolError("edit.merge: expected true or false");
+            m.merge = j["merge"].get<bool>();
+        }
         if (!j.contains("changes") || !j["changes"].is_array() || j["changes"].empty()) {
             return protocolError("edit.changes: expected a non-empty array");
         }
@@ -277,6 +281,7 @@ std::string encode(const EditMessage& m) {
     json j{{"type", "edit"}, {"seq", m.seq}, {"changes", changesToJson(m.changes)}};
     if (m.base) j["base"] = *m.base;
     if (m.ifVersion) j["ifVersion"] = *m.ifVersion;
+    if (m.merge) j["merge"] = true;
     return j.dump();
 }
 std::string encode(const UndoMessage& m) { return json{{"type", "undo"}, {"seq", m.seq}}.dump(); }

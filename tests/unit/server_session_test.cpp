@@ -68,6 +68,39 @@ TEST(Session, EditsUndoRedoAndConflicts) {
     EXPECT_EQ(s->history(0).size(), 8u);
 }
 
+// A drag is many edits; with `merge` its steps after the first are one undo step, which an edit
+// by someone else (or an undo) closes. The journal keeps the flag, so a replay has the same history.
+TEST(Session, MergedEditsAreOneUndoStep) {
+    const auto dir = freshDir("merge");
+    const Author alice{1, "alice"}, bob{2, "bob"};
+    {
+        auto s = open(dir);
+        ASSERT_TRUE(s);
+        const size_t depth0 = s->undoDepth();
+        ASSERT_TRUE(s->edit({{"key.intensity", 10}}, alice).ok());
+        ASSERT_TRUE(s->edit({{"key.intensity", 11}}, alice, std::nullopt, std::nullopt, true).ok());
+        ASSERT_TRUE(s->edit({{"key.intensity", 12}}, alice, std::nullopt, std::nullopt, true).ok());
+        EXPECT_EQ(s->undoDepth(), depth0 + 1);
+        // Bob's edit closes alice's step: her next merged edit starts a new one.
+        ASSERT_TRUE(s->edit({{"fill.intensity", 3}}, bob, std::nullopt, std::nullopt, true).ok());
+        EXPECT_EQ(s->undoDepth(), depth0 + 2);
+        ASSERT_TRUE(s->edit({{"key.intensity", 13}}, alice, std::nullopt, std::nullopt, true).ok());
+        EXPECT_EQ(s->undoDepth(), depth0 + 3);
+    }
+    auto s = open(dir);
+    ASSERT_TRUE(s);
+    EXPECT_FLOAT_EQ(intensity(*s), 13.f);
+    ASSERT_TRUE(s->undo(alice).ok());
+    EXPECT_FLOAT_EQ(intensity(*s), 12.f);
+    ASSERT_TRUE(s->undo(alice).ok()); // bob's
+    ASSERT_TRUE(s->undo(alice).ok()); // the whole merged step: 10, 11, 12
+    EXPECT_NE(intensity(*s), 10.f);
+    EXPECT_NE(intensity(*s), 12.f);
+    ASSERT_TRUE(s->redo(alice).ok());
+    EXPECT_FLOAT_EQ(intensity(*s), 12.f);
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Session, JournalReplaysTheExactRigAndHistory) {
     const auto dir = freshDir("replay");
     json rigBefore, historyBefore;

@@ -116,7 +116,7 @@ void WebSocketSession::handleText(const std::string& text) {
                 if (!m.name.empty()) mName = m.name;
                 mHub->broadcastPresence();
             } else if constexpr (std::is_same_v<T, protocol::EditMessage>) {
-                change(m.seq, [&] { return session.edit(m.changes, me, m.base, m.ifVersion); });
+                change(m.seq, [&] { return session.edit(m.changes, me, m.base, m.ifVersion, m.merge); });
                 if (mRole == protocol::Role::Editor) {
                     const std::string& p = m.changes.front().path;
                     setEditing(p.substr(0, p.find('.')));

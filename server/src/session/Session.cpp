@@ -95,6 +95,7 @@ Result<std::unique_ptr<Session>> Session::open(std::string id, const DeepBuffer&
             }
         }
     }
+    s->mMergeableBy = 0; // client ids start again after a restart: no merging across it
     s->mJournal = std::move(journal.value());
     if (auto st = s->mJournal->saveRig(protocol::toJson(s->mRig)); !st) return st.error();
     return s;
@@ -153,10 +154,18 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
                                                      std::to_string(next.version));
     }
 
+    // A merged edit continues its author's newest undo step (one drag, one undo). Anything else
+    // that changes the rig (an edit by someone else, undo, redo, replace) closes that step.
+    const bool merged = history == PushUndo && kind == "edit" && op.value("merge", false) && out.info.byClient != 0 &&
+                        out.info.byClient == mMergeableBy && !mUndo.empty();
     switch (history) {
     case PushUndo:
-        mUndo.push_back({mRig, next});
-        if (mUndo.size() > MAX_UNDO) mUndo.pop_front();
+        if (merged) {
+            mUndo.back().after = next;
+        } else {
+            mUndo.push_back({mRig, next});
+            if (mUndo.size() > MAX_UNDO) mUndo.pop_front();
+        }
         mRedo.clear();
         break;
     case Undo:
@@ -169,6 +178,7 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
         break;
     case None: break;
     }
+    if (history != None) mMergeableBy = kind == "edit" ? out.info.byClient : 0;
     mRig = std::move(next);
 
     json rec{{"version", mRig.version}, {"kind", kind}, {"by", out.info.byClient}, {"byName", out.info.byName}};
@@ -185,7 +195,7 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
 }
 
 Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes, const Author& by, std::optional<uint64_t> base,
-                                    std::optional<uint64_t> ifVersion) {
+                                    std::optional<uint64_t> ifVersion, bool merge) {
     std::lock_guard lock(mMutex);
     if (ifVersion && *ifVersion != mRig.version) {
         return makeError(ErrorCode::Conflict, "the rig is at version " + std::to_string(mRig.version) + ", not " +
@@ -211,6 +221,7 @@ Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes
         }
     }
     json op{{"op", "edit"}, {"by", by.clientId}, {"byName", by.name}, {"changes", protocol::changesToJson(changes)}};
+    if (merge) op["merge"] = true; // journaled, so that a replay rebuilds the same history
     auto r = apply(op, true);
     if (r) r->overwrote = std::move(overwrote);
     return r;

@@ -55,8 +55,11 @@ public:
 
     /// Applies all changes or none. `base`: the version the client edited from (for the
     /// overwrote report); `ifVersion`: refuse with Conflict unless the rig is at that version.
+    /// `merge`: fold this edit into the newest undo step when that step is `by`'s own edit and
+    /// nothing else changed the rig since (a drag sends many edits; one undo takes it back).
     Result<ChangeOutcome> edit(const std::vector<protocol::Change>& changes, const Author& by,
-                               std::optional<uint64_t> base = std::nullopt, std::optional<uint64_t> ifVersion = std::nullopt);
+                               std::optional<uint64_t> base = std::nullopt, std::optional<uint64_t> ifVersion = std::nullopt,
+                               bool merge = false);
     /// Sets the session clock (not an undo step).
     Result<ChangeOutcome> setTime(double seconds, const Author& by);
     /// Undoes / redoes the most recent edit of the session, whoever made it. MissingData when
@@ -95,6 +98,8 @@ private:
     std::vector<Step> mRedo;
     std::deque<nlohmann::json> mLog;
     std::optional<Journal> mJournal;
+    /// The client whose edit is the newest undo step and may take merged edits; 0: none.
+    uint64_t mMergeableBy = 0;
     nlohmann::json mDescription;
 };
 

@@ -73,6 +73,10 @@ struct EditMessage {
     std::vector<Change> changes;      ///< at least one
     std::optional<uint64_t> base;     ///< the rig version the client edited from (conflict report)
     std::optional<uint64_t> ifVersion; ///< apply only if the rig is still at this version
+    /// Continues this client's previous edit (the next step of one drag): when the session's
+    /// newest undo step is that edit's and nothing else changed the rig since, the two become one
+    /// undo step. Otherwise an ordinary edit.
+    bool merge = false;
 };
 /// Undo or redo the session's most recent edit (by anyone): the history is per session.
 struct UndoMessage {
