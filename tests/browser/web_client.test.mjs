@@ -283,6 +283,14 @@ try {
     await a.mouse.move(10, 10);
     await shot(a, "03-bendy-dragged.png");
 
+    // The whole drag (many edits) is one undo step.
+    await a.click("#undo");
+    await waitRig((r) => JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints) === JSON.stringify(key0.controlPoints),
+                  "one undo takes the whole drag back");
+    await a.click("#redo");
+    await waitRig((r) => JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints) === JSON.stringify(key1.controlPoints),
+                  "redo restores the dragged point");
+
     // Shift: in depth. The point stays under the pointer's start in the image, and goes farther.
     const q = await center(a, '[data-handle="cp"][data-index="2"]');
     await a.keyboard.down("Shift");
@@ -291,7 +299,7 @@ try {
     for (let i = 1; i <= 5; i++) await a.mouse.move(q.x, q.y - 8 * i);
     await a.mouse.up();
     await a.keyboard.up("Shift");
-    const rig2 = await waitRig((r) => r.version > rig1.version && JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints[1]) !==
+    const rig2 = await waitRig((r) => JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints[1]) !==
                                       JSON.stringify(key1.controlPoints[1]), "a Shift-drag moves cp[2]");
     const proj2 = project(toNDC, cpWorld(rig2.lights.find((l) => l.name === "key"), 2));
     assert(Math.hypot((proj2.ndc[0] - proj1.ndc[0]) * 160, (proj2.ndc[1] - proj1.ndc[1]) * 90) < 0.5, "a depth move moved the point in the image");
