@@ -36,11 +36,7 @@ float bendyShadow(vec3 P, vec3 Ng, float dist) {
     vec2 uv = ndc.xy * 0.5 + 0.5;
     float ref = ndc.z * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
-    float texel = uLight.lightShadow.x;
-    float sum = 0.0;
-    for (int y = -1; y <= 1; ++y)
-        for (int x = -1; x <= 1; ++x) sum += texture(shadowMap, vec3(uv + vec2(x, y) * texel, ref));
-    return sum / 9.0;
+    return filteredShadow(shadowMap, uv, ref);
 }
 
 vec3 shadeSample(uint s) {

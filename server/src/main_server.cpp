@@ -58,16 +58,14 @@ int main(int argc, char** argv) {
     dfb::Rig imported;
     imported.version = 1;
     for (const dfb::SceneLight& sl : scene->lights) {
-        if (sl.type == "point") {
-            std::fprintf(stderr, "dfb-server: scene light '%s' is a point light, not supported yet: skipped\n", sl.name.c_str());
-            continue;
-        }
         dfb::Light l;
         std::string name;
         for (char ch : sl.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-') ? ch : '_';
         l.name = name.substr(0, 64);
         while (imported.find(l.name)) l.name += "_";
-        l.type = sl.type == "directional" ? dfb::LightType::Directional : dfb::LightType::Spot;
+        l.type = sl.type == "directional" ? dfb::LightType::Directional
+                 : sl.type == "point"     ? dfb::LightType::Point
+                                          : dfb::LightType::Spot;
         l.position = {sl.position.x, sl.position.y, sl.position.z};
         l.direction = {sl.direction.x, sl.direction.y, sl.direction.z};
         l.color = {sl.color.r, sl.color.g, sl.color.b};
