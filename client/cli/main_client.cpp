@@ -53,8 +53,8 @@ int main(int argc, char** argv) {
     app.add_option("--set", sets, "PATH=VALUE, e.g. key.intensity=500 or key.position=1,2,3 (repeatable; applied together)");
     app.add_option("--frame", framePath, "save the next frame: .jpg from the stream, .png rendered losslessly");
     std::string output = "beauty";
-    app.add_option("--output", output, "with --frame: beauty, light:NAME (one light alone) or shadow:NAME (its shadow mask); "
-                                       "other than beauty is rendered on request (PNG or JPEG by the file name)");
+    app.add_option("--output", output, "with --frame: beauty, light:NAME (one light alone), shadow:NAME (its shadow mask) or layer:NAME (a G-buffer layer); "
+                                       "other than beauty is rendered on request (PNG, JPEG or EXR by the file name; a beauty EXR holds one layer per light)");
     app.add_option("--timeout", timeoutS, "seconds to wait for each answer")->check(CLI::Range(0.1, 3600.0));
     CLI11_PARSE(app, argc, argv);
 
@@ -133,8 +133,10 @@ int main(int argc, char** argv) {
     }
 
     if (!framePath.empty()) {
-        if (endsWith(framePath, ".png") || output != "beauty") {
-            const std::string resource = std::string(endsWith(framePath, ".png") ? "/v1/frame.png" : "/v1/frame.jpg") +
+        if (endsWith(framePath, ".png") || endsWith(framePath, ".exr") || output != "beauty") {
+            const std::string resource = std::string(endsWith(framePath, ".png")   ? "/v1/frame.png"
+                                                     : endsWith(framePath, ".exr") ? "/v1/frame.exr"
+                                                                                   : "/v1/frame.jpg") +
                                          "?output=" + output;
             auto body = client::httpGet(url.value(), resource, timeout);
             if (!body) {

@@ -23,13 +23,19 @@
 
 int main(int argc, char** argv) {
     CLI::App app{"dfb-server: relight a deep framebuffer interactively over HTTP and WebSocket"};
-    std::string shotPath, scenePath, bind = "127.0.0.1";
+    std::string shotPath, scenePath, bind = "127.0.0.1", assets;
+    int refineMs = 250;
     int port = 8080, quality = 85;
     app.add_option("shot", shotPath, "deep framebuffer EXR written by dfb-bake")->required();
     app.add_option("--scene", scenePath, "glTF scene for shadow casting (default: the shot's source scene)");
     app.add_option("--port", port, "TCP port; 0 picks a free one")->check(CLI::Range(0, 65535));
     app.add_option("--bind", bind, "address to listen on (default loopback only)");
     app.add_option("--jpeg-quality", quality, "JPEG quality of streamed frames")->check(CLI::Range(1, 100));
+    app.add_option("--assets", assets, "folder of cookie images that lights name (default: the shot's folder)");
+    app.add_option("--refine-window", refineMs,
+                   "ms: an edit within this time of the previous one renders with preview shadow maps, refined when "
+                   "edits stop (0 = always full quality)")
+        ->check(CLI::Range(0, 10000));
     CLI11_PARSE(app, argc, argv);
 
     auto shot = dfb::readDeepBuffer(shotPath);
@@ -79,6 +85,8 @@ int main(int argc, char** argv) {
         rig = imported;
     }
     dfb::Session session(shot.value(), shotPath, rig);
+    if (assets.empty()) assets = std::filesystem::path(shotPath).parent_path().string();
+    session.setAssetDirectory(assets.empty() ? "." : assets);
 
     boost::asio::io_context ioc(1);
     auto state = std::make_shared<dfb::net::SharedState>(ioc, session);
@@ -89,6 +97,7 @@ int main(int argc, char** argv) {
         std::cerr << "dfb-server: " << render.error().toString() << "\n";
         return 3;
     }
+    render.value()->setRefinement(std::chrono::milliseconds(refineMs), std::chrono::milliseconds(150));
     state->setRenderService(render->get());
     render.value()->requestFrame();
 

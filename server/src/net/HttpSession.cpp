@@ -5,6 +5,8 @@
 #include <dfb/protocol/Codec.h>
 #include <dfb/server/ImageCodec.h>
 
+#include <algorithm>
+#include <cctype>
 #include <string_view>
 
 namespace dfb::web {
@@ -27,6 +29,30 @@ http::response<http::string_body> makeResponse(const http::request<http::string_
     res.body() = std::move(body);
     res.prepare_payload();
     return res;
+}
+
+// The value of `name` in a URL query string, percent-decoded ("" when absent).
+std::string queryParameter(const std::string& query, const std::string& name) {
+    size_t at = 0;
+    while (at <= query.size()) {
+        const size_t amp = std::min(query.find('&', at), query.size());
+        const std::string pair = query.substr(at, amp - at);
+        if (pair.compare(0, name.size() + 1, name + "=") == 0) {
+            std::string out;
+            for (size_t i = name.size() + 1; i < pair.size(); ++i) {
+                if (pair[i] == '%' && i + 2 < pair.size() && std::isxdigit(static_cast<unsigned char>(pair[i + 1])) &&
+                    std::isxdigit(static_cast<unsigned char>(pair[i + 2]))) {
+                    out += char(std::stoi(pair.substr(i + 1, 2), nullptr, 16));
+                    i += 2;
+                } else {
+                    out += pair[i] == '+' ? ' ' : pair[i];
+                }
+            }
+            return out;
+        }
+        at = amp + 1;
+    }
+    return "";
 }
 
 http::response<http::string_body> errorResponse(const http::request<http::string_body>& req, http::status status,
@@ -88,22 +114,25 @@ void HttpSession::handle(http::request<http::string_body>&& req) {
     if (path == "/v1/session") {
         return send(makeResponse(req, http::status::ok, "application/json", mState->session().description().dump(2)));
     }
-    if (path == "/v1/frame.png" || path == "/v1/frame.jpg" || path == "/v1/frame.jpeg") {
-        // ?output=beauty | light:NAME | shadow:NAME
-        std::string output = "beauty";
+    if (path == "/v1/frame.png" || path == "/v1/frame.jpg" || path == "/v1/frame.jpeg" || path == "/v1/frame.exr") {
+        // ?output=beauty | light:NAME | shadow:NAME | layer:NAME
+        OutputRequest request;
+        request.format = path.substr(path.rfind('.') + 1);
         if (q != std::string::npos) {
-            const std::string query = target.substr(q + 1);
-            const size_t at = query.find("output=");
-            if (at != std::string::npos) output = query.substr(at + 7, query.find('&', at) - (at + 7));
+            const std::string output = queryParameter(target.substr(q + 1), "output");
+            if (!output.empty()) request.output = output;
         }
-        return sendFrame(path == "/v1/frame.png", req.version(), req.keep_alive(), output);
+        if (auto s = checkOutputRequest(request); !s) {
+            return send(errorResponse(req, http::status::bad_request, s.error().code, s.error().message));
+        }
+        return sendFrame(std::move(request), req.version(), req.keep_alive());
     }
     send(errorResponse(req, http::status::not_found, ErrorCode::MissingData, "no such resource: " + path));
 }
 
-void HttpSession::sendFrame(bool png, unsigned version, bool keepAlive, const std::string& output) {
+void HttpSession::sendFrame(OutputRequest request, unsigned version, bool keepAlive) {
     // Rendering and encoding happen on the render thread; the response is written back here.
-    mState->render().requestImage([self = shared_from_this(), png, version, keepAlive](Result<Image8> image, uint64_t rigVersion) {
+    mState->render().requestOutput(std::move(request), [self = shared_from_this(), version, keepAlive](Result<EncodedImage> image, uint64_t rigVersion) {
         http::request<http::string_body> req;
         req.version(version);
         req.keep_alive(keepAlive);
@@ -113,17 +142,11 @@ void HttpSession::sendFrame(bool png, unsigned version, bool keepAlive, const st
             res = errorResponse(req, badRequest ? http::status::bad_request : http::status::internal_server_error,
                                 image.error().code, image.error().message);
         } else {
-            auto bytes = png ? encodePng(image.value()) : encodeJpeg(image.value(), 92);
-            if (!bytes) {
-                res = errorResponse(req, http::status::internal_server_error, bytes.error().code, bytes.error().message);
-            } else {
-                res = makeResponse(req, http::status::ok, png ? "image/png" : "image/jpeg",
-                                   std::string(bytes->begin(), bytes->end()));
-                res.set("X-Rig-Version", std::to_string(rigVersion));
-            }
+            res = makeResponse(req, http::status::ok, image->contentType, std::string(image->bytes.begin(), image->bytes.end()));
+            res.set("X-Rig-Version", std::to_string(rigVersion));
         }
         asio::post(self->mStream.get_executor(), [self, r = std::move(res)]() mutable { self->send(std::move(r)); });
-    }, output);
+    });
 }
 
 void HttpSession::send(http::response<http::string_body>&& res) {

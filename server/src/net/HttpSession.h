@@ -5,6 +5,8 @@
 #include "net/Beast.h"
 #include "net/SharedState.h"
 
+#include <dfb/server/Outputs.h>
+
 #include <memory>
 #include <optional>
 
@@ -21,7 +23,7 @@ private:
     void handle(http::request<http::string_body>&& req);
     void send(http::response<http::string_body>&& res);
     void onWrite(bool close, error_code ec, size_t bytes);
-    void sendFrame(bool png, unsigned version, bool keepAlive, const std::string& output);
+    void sendFrame(OutputRequest request, unsigned version, bool keepAlive);
 
     beast::tcp_stream mStream;
     beast::flat_buffer mBuffer;

@@ -1,6 +1,9 @@
 #include "session/Session.h"
 
 #include <dfb/server/BendyChain.h>
+#include <dfb/server/ImageCodec.h>
+
+#include <filesystem>
 
 namespace dfb {
 
@@ -36,7 +39,20 @@ Session::Session(const DeepBuffer& shot, std::string shotPath, Rig initialRig) :
 
 Result<uint64_t> Session::applyEdit(const std::vector<protocol::Change>& changes) {
     std::lock_guard lock(mMutex);
-    if (auto s = protocol::applyChanges(mRig, changes); !s) return s.error();
+    Rig next = mRig;
+    if (auto s = protocol::applyChanges(next, changes); !s) return s.error();
+    // A new cookie must be an image the engine can read (from the asset folder), or the edit is
+    // refused now rather than every frame failing later.
+    for (const Light& l : next.lights) {
+        const Light* before = mRig.find(l.name);
+        if (l.cookie.empty() || (before && before->cookie == l.cookie)) continue;
+        auto img = readLinearImage((std::filesystem::path(mAssetDir) / l.cookie).string());
+        if (!img) {
+            return makeError(ErrorCode::InvalidValue, l.name + ".cookie: '" + l.cookie + "' is not a readable image in the asset folder " +
+                                                          mAssetDir + " (" + img.error().message + ")");
+        }
+    }
+    mRig = std::move(next);
     updateWarnings(mRig);
     return ++mRig.version;
 }

@@ -19,6 +19,16 @@ public:
     /// Applies all changes of an edit or none. Returns the new rig version.
     Result<uint64_t> applyEdit(const std::vector<protocol::Change>& changes);
 
+    /// Where cookie images are looked up (the engine's asset folder); default ".".
+    void setAssetDirectory(std::string dir) {
+        std::lock_guard lock(mMutex);
+        mAssetDir = std::move(dir);
+    }
+    std::string assetDirectory() const {
+        std::lock_guard lock(mMutex);
+        return mAssetDir;
+    }
+
     Rig rig() const;
     uint64_t rigVersion() const;
     /// Resolution, camera and source of the shot, for the welcome message and GET /v1/session.
@@ -27,6 +37,7 @@ public:
 private:
     mutable std::mutex mMutex;
     Rig mRig;
+    std::string mAssetDir = ".";
     nlohmann::json mDescription;
 };
 
