@@ -33,7 +33,9 @@ protected:
         mDir = std::filesystem::temp_directory_path() / ("dfb_out_" + std::to_string(::getpid()));
         std::filesystem::create_directories(mDir);
         mServer = std::make_unique<dfb::test::Process>(
-            std::vector<std::string>{DFB_SERVER_EXE, SHOT, "--port", "0", "--assets", mDir.string()});
+            // A wide refinement window: under a loaded CI machine edits 60 ms apart may render
+            // more than the default 250 ms apart, and every edit here must count as a drag.
+            std::vector<std::string>{DFB_SERVER_EXE, SHOT, "--port", "0", "--assets", mDir.string(), "--refine-window", "5000"});
         auto m = mServer->waitForLine(std::regex(R"(listening on (http://127\.0\.0\.1:(\d+)/))"), 60s);
         ASSERT_TRUE(m.has_value()) << "server did not start:\n" << mServer->output();
         mUrl = (*m)[1];

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 
 namespace dfb::shaders {
 std::string_view serverShader(std::string_view name);
@@ -111,6 +112,7 @@ private:
     Status renderShadow(LightCache& c);
     Status renderCubeShadow(LightCache& c);
     Result<GLuint> cookieTexture(const Light& l);
+    Status waitGpu(const char* stage);
     Status shade(LightCache& c, int output = 0);
     Status renderAccumulation(const Rig& rig, FrameStats& st);
     Result<ImageF> readFloat(GLuint texture, const char* what, glm::vec3 scale = glm::vec3(1.f));
@@ -119,6 +121,9 @@ private:
     std::string mAssetDir = ".";
     std::map<std::string, gl::Texture> mCookies; // by file name, loaded on first use
     bool mPreview = false;
+    // Set when the GPU hung or the context was lost: every later call returns it at once (the
+    // context cannot be trusted again; the server must create a new engine).
+    std::optional<Error> mFailure;
     int mWidth = 0, mHeight = 0;
     glm::vec3 mCameraPosition{0.f}, mCameraForward{0.f, 0.f, -1.f};
     bool mOrthographic = false;
@@ -700,7 +705,28 @@ Status GlEngine::shade(LightCache& c, int output) {
     return okStatus();
 }
 
+// Waits for the GPU to finish what was submitted, at most GPU_TIMEOUT: a hung GPU or a lost
+// context becomes an error naming the stage instead of a hang (Context::check reads the reset
+// status that robust contexts report).
+Status GlEngine::waitGpu(const char* stage) {
+    constexpr GLuint64 GPU_TIMEOUT_NS = 20'000'000'000ull;
+    GLsync fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    GLenum r = fence ? glClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, GPU_TIMEOUT_NS) : GLenum(GL_WAIT_FAILED);
+    if (fence) glDeleteSync(fence);
+    Status s = okStatus();
+    if (r == GL_TIMEOUT_EXPIRED) {
+        s = makeError(ErrorCode::GpuError, std::string("the GPU did not finish the ") + stage +
+                                               " within 20 s (hung GPU or lost context); restart the server");
+    } else if (r == GL_WAIT_FAILED) {
+        s = makeError(ErrorCode::GpuError, std::string("waiting for the GPU failed after the ") + stage);
+    }
+    if (s) s = mContext->check(stage);
+    if (!s) mFailure = s.error();
+    return s;
+}
+
 Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
+    if (mFailure) return *mFailure;
     if (auto s = mContext->makeCurrent(); !s) return s;
     engine::ViewBlock view{};
     view.cameraPosition = glm::vec4(mCameraPosition, mOrthographic ? 1.f : 0.f);
@@ -732,7 +758,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
             c.hasContribution = false;
         }
     }
-    glFinish();
+    if (auto s = waitGpu("shadow maps"); !s) return s;
     st.shadowMs = msSince(t);
 
     t = Clock::now();
@@ -761,7 +787,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
         if (auto s = shade(c); !s) return s;
         ++st.lightsShaded;
     }
-    glFinish();
+    if (auto s = waitGpu("shading"); !s) return s;
     st.shadeMs = msSince(t);
 
     t = Clock::now();
@@ -831,7 +857,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     for (const Light& l : rig.lights) {
         if (l.enabled) mLights[l.name].compositedVersion = mLights[l.name].version;
     }
-    glFinish();
+    if (auto s = waitGpu("composite"); !s) return s;
     st.compositeMs = msSince(t);
     return okStatus();
 }
@@ -846,7 +872,7 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     glUseProgram(mTonemapProgram.id());
     glBindTextureUnit(engine::TEX_INPUT, mAccum.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
-    glFinish();
+    if (auto s = waitGpu("view transform"); !s) return s.error();
     st.compositeMs += msSince(t); // the view transform belongs to the composite stage
 
     t = Clock::now();
