@@ -394,7 +394,11 @@ json toJson(const Light& l) {
 json toJson(const Rig& rig) {
     json lights = json::array();
     for (const Light& l : rig.lights) lights.push_back(toJson(l));
-    return json{{"version", rig.version}, {"exposure", rig.exposureStops}, {"time", rig.time}, {"lights", lights}};
+    return json{{"version", rig.version},
+                {"exposure", rig.exposureStops},
+                {"viewTransform", rig.viewTransform == ViewTransform::Filmic ? "filmic" : "srgb"},
+                {"time", rig.time},
+                {"lights", lights}};
 }
 
 Result<Rig> rigFromJson(const json& j) {
@@ -408,6 +412,8 @@ Result<Rig> rigFromJson(const json& j) {
             auto n = getNumber(*it, "rig.exposure", -20.0, 20.0);
             if (!n) return n.error();
             rig.exposureStops = n.value();
+        } else if (it.key() == "viewTransform") {
+            if (auto s = applyChange(rig, {"viewTransform", *it}); !s) return invalid("rig." + s.error().message);
         } else if (it.key() == "time") {
             if (!it->is_number() || !std::isfinite(it->get<double>())) return invalid("rig.time: expected a finite number");
             rig.time = it->get<double>();
@@ -433,6 +439,12 @@ Status applyChange(Rig& rig, const Change& c) {
         rig.time = c.value.get<double>();
         return okStatus();
     }
+    if (c.path == "viewTransform") {
+        if (c.value == "srgb") rig.viewTransform = ViewTransform::Srgb;
+        else if (c.value == "filmic") rig.viewTransform = ViewTransform::Filmic;
+        else return invalid("viewTransform: " + c.value.dump() + " is not \"srgb\" or \"filmic\"");
+        return okStatus();
+    }
     if (c.path == "exposure") {
         auto n = getNumber(c.value, c.path, -20.0, 20.0);
         if (!n) return n.error();
@@ -441,7 +453,7 @@ Status applyChange(Rig& rig, const Change& c) {
     }
     const size_t dot = c.path.find('.');
     if (dot == std::string::npos || dot == 0 || dot + 1 == c.path.size()) {
-        return invalid("path '" + c.path + "': expected LIGHT.PROPERTY or 'exposure'");
+        return invalid("path '" + c.path + "': expected LIGHT.PROPERTY, 'exposure', 'viewTransform' or 'time'");
     }
     const std::string lightName = c.path.substr(0, dot), prop = c.path.substr(dot + 1);
     Light* l = rig.find(lightName);

@@ -50,7 +50,7 @@ layout(std140, binding = UBO_LIGHT) uniform LightBlock {
 layout(std140, binding = UBO_VIEW) uniform ViewBlock {
     vec4 cameraPosition;    // xyz world position of the shot camera, w = 1 if orthographic
     vec4 cameraForward;     // xyz unit view direction (orthographic views use it as -V)
-    vec4 exposure;          // x = 2^stops
+    vec4 exposure;          // x = 2^stops, y = 1 for the filmic view transform
     ivec4 sampleLayout;     // x = SAMPLE_ROW (width of the sample textures)
 } uView;
 

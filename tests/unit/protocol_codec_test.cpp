@@ -89,6 +89,20 @@ TEST(Codec, PointLightsCookiesBarnDoorsAndShadowFilter) {
     EXPECT_EQ(toJson(rig), toJson(before));
 }
 
+TEST(Codec, ViewTransform) {
+    Rig rig = testRig();
+    EXPECT_EQ(rig.viewTransform, ViewTransform::Srgb);
+    ASSERT_TRUE(applyChange(rig, {"viewTransform", "filmic"}).ok());
+    EXPECT_EQ(rig.viewTransform, ViewTransform::Filmic);
+    auto back = rigFromJson(toJson(rig));
+    ASSERT_TRUE(back.ok()) << back.error().toString();
+    EXPECT_EQ(back->viewTransform, ViewTransform::Filmic);
+    auto bad = applyChange(rig, {"viewTransform", "agx"});
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().message.find("viewTransform"), std::string::npos);
+    EXPECT_EQ(rig.viewTransform, ViewTransform::Filmic);
+}
+
 TEST(Codec, EditsAreAllOrNothing) {
     Rig rig = testRig();
     const float before = rig.find("key")->intensityCd;

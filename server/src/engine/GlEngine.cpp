@@ -731,7 +731,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     engine::ViewBlock view{};
     view.cameraPosition = glm::vec4(mCameraPosition, mOrthographic ? 1.f : 0.f);
     view.cameraForward = glm::vec4(mCameraForward, 0.f);
-    view.exposure = glm::vec4(std::exp2(rig.exposureStops), 0, 0, 0);
+    view.exposure = glm::vec4(std::exp2(rig.exposureStops), rig.viewTransform == ViewTransform::Filmic ? 1.f : 0.f, 0, 0);
     view.sampleLayout = glm::ivec4(mSampleRow, 0, 0, 0);
     glNamedBufferSubData(mViewUbo.id(), 0, sizeof view, &view);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_VIEW, mViewUbo.id());

@@ -9,6 +9,12 @@
 namespace dfb {
 namespace {
 
+// The filmic view transform: the ACES curve fitted by Narkowicz (2016), as composite_tonemap.frag.
+float filmic(float x) {
+    x = std::max(x, 0.f);
+    return std::clamp((x * (2.51f * x + 0.03f)) / (x * (2.43f * x + 0.59f) + 0.14f), 0.f, 1.f);
+}
+
 float srgbEncode(float c) {
     c = std::clamp(c, 0.f, 1.f);
     return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.f / 2.4f) - 0.055f;
@@ -110,7 +116,10 @@ Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const 
     img.rgba.resize(f.rgba.size());
     for (size_t i = 0; i < f.rgba.size(); i += 4) {
         for (int c = 0; c < 3; ++c) {
-            const float v = kind == "light" ? srgbEncode(f.rgba[i + size_t(c)]) : std::clamp(f.rgba[i + size_t(c)], 0.f, 1.f);
+            const float x = f.rgba[i + size_t(c)];
+            const float v = kind != "light" ? std::clamp(x, 0.f, 1.f)
+                            : rig.viewTransform == ViewTransform::Filmic ? srgbEncode(filmic(x))
+                                                                         : srgbEncode(x);
             img.rgba[i + size_t(c)] = uint8_t(std::lround(v * 255.f));
         }
         img.rgba[i + 3] = 255;

@@ -89,10 +89,15 @@ struct Light {
 /// `segments` segments, with radii matching its cone: it renders exactly like the spot light.
 void makeStraightChain(Light& light, float length, int segments = 2);
 
+/// How linear radiance becomes display values (after exposure): the sRGB transfer function alone,
+/// or a filmic curve (the ACES fitted curve of Narkowicz 2016, shoulder and toe) then sRGB.
+enum class ViewTransform { Srgb, Filmic };
+
 /// The whole rig plus the view settings that apply to the beauty image.
 struct Rig {
     uint64_t version = 0;             ///< bumped by the server on every accepted change
     float exposureStops = 0.f;        ///< exposure in stops (image * 2^exposure), [-20, 20]
+    ViewTransform viewTransform = ViewTransform::Srgb;
     double time = 0.0;                ///< session clock, seconds: where keyframes are evaluated
     std::vector<Light> lights;
 
