@@ -10,6 +10,7 @@
 
 #include <dfb/gbuffer/ExrIO.h>
 #include <dfb/gbuffer/Scene.h>
+#include <dfb/server/InitialRig.h>
 
 #include <CLI/CLI.hpp>
 #include <glm/glm.hpp>
@@ -58,32 +59,9 @@ int main(int argc, char** argv) {
         return 2;
     }
     dfb::ShadowGeometry casters = dfb::shadowCasters(scene.value());
-    const dfb::Bounds& b = scene->bounds;
-    dfb::Rig rig = dfb::defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
-    // Lights of the scene's KHR_lights_punctual extension become the initial rig when present.
-    dfb::Rig imported;
-    imported.version = 1;
-    for (const dfb::SceneLight& sl : scene->lights) {
-        dfb::Light l;
-        std::string name;
-        for (char ch : sl.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-') ? ch : '_';
-        l.name = name.substr(0, 64);
-        while (imported.find(l.name)) l.name += "_";
-        l.type = sl.type == "directional" ? dfb::LightType::Directional
-                 : sl.type == "point"     ? dfb::LightType::Point
-                                          : dfb::LightType::Spot;
-        l.position = {sl.position.x, sl.position.y, sl.position.z};
-        l.direction = {sl.direction.x, sl.direction.y, sl.direction.z};
-        l.color = {sl.color.r, sl.color.g, sl.color.b};
-        l.intensityCd = std::max(sl.intensity, 0.f);
-        l.coneAngleDeg = std::clamp(glm::degrees(sl.outerConeRadians), 0.1f, 85.f);
-        l.penumbraDeg = std::clamp(glm::degrees(sl.outerConeRadians - sl.innerConeRadians), 0.f, l.coneAngleDeg);
-        imported.lights.push_back(l);
-    }
-    if (!imported.lights.empty()) {
-        std::printf("dfb-server: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", imported.lights.size());
-        rig = imported;
-    }
+    bool imported = false;
+    dfb::Rig rig = dfb::initialRig(scene.value(), &imported);
+    if (imported) std::printf("dfb-server: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", rig.lights.size());
     dfb::Session session(shot.value(), shotPath, rig);
     if (assets.empty()) assets = std::filesystem::path(shotPath).parent_path().string();
     session.setAssetDirectory(assets.empty() ? "." : assets);
