@@ -149,7 +149,12 @@ int main(int argc, char** argv) {
              r.lights[0].controlPoints[3][2] = 0.2f * glm::length(b.max - b.min) + 0.01f * float(i % 20);
          }},
     };
-    for (const Kind& k : kinds) {
+    // The last kind again as the preview frames of a drag (progressive refinement: quarter-size
+    // shadow maps; the server refines when the drag stops).
+    std::vector<Kind> all = kinds;
+    all.push_back({"  same, drag preview", kinds.back().apply});
+    for (const Kind& k : all) {
+        engine.value()->setPreview(&k == &all.back());
         std::vector<double> total, shadow, shade, composite, readback, encode;
         for (int i = 0; i < edits; ++i) {
             k.apply(rig, i);
@@ -177,6 +182,7 @@ int main(int argc, char** argv) {
                     percentile(shade, 0.5), percentile(composite, 0.5), percentile(readback, 0.5),
                     percentile(encode, 0.5));
     }
+    engine.value()->setPreview(false);
     std::printf("\n(stage columns are medians; the stages of one edit add up to its total)\n");
 
     // Scaling with the number of lights: editing one light (position: shadow map + shading) of
