@@ -23,6 +23,9 @@ layout(location = 0) out vec4 oColor;
 // light reaches (inside the cone, facing it), g = their coverage.
 layout(location = 0) uniform int uOutput;
 layout(location = 1) uniform int uLinked;
+// Preview shading (progressive refinement): 2 shades every second pixel of every second row into
+// a half-size image; 1 shades every pixel.
+layout(location = 2) uniform int uPixelStep;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 // The deformed shadow map at a receiver with tube coordinates `c` and arc length `s`: the
@@ -85,10 +88,12 @@ vec3 shadeSample(uint s) {
 }
 
 void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
 #ifdef DFB_FLAT_SAMPLES
-    oColor = vec4(shadeSample(uint(gl_FragCoord.y) * uint(uView.sampleLayout.x) + uint(gl_FragCoord.x)), 1.0);
+    // Flat buffer: one sample per pixel, stored at the pixel itself (no indirection, no loop).
+    oColor = vec4(shadeSample(uint(pixel.y) * uint(uView.sampleLayout.x) + uint(pixel.x)), 1.0);
 #else
-    uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
+    uvec2 range = texelFetch(gPixelSamples, pixel, 0).xy;
     vec3 sum = vec3(0.0);
     for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(s);
     oColor = vec4(sum, 1.0);

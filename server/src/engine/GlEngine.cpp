@@ -70,6 +70,7 @@ struct LightCache {
     bool hasContribution = false;
     bool shadowIsCube = false;     // a point light's cube map (GL_TEXTURE_CUBE_MAP)
     bool previewShadow = false;    // rendered at preview size: re-render at full size when refining
+    bool previewShading = false;   // contribution shaded at half resolution (top-left quarter)
     glm::vec2 cubeNearFar{0.f};    // the cube faces' projection planes
     int shadowSize = 0;
     gl::Texture shadowMap;
@@ -650,8 +651,11 @@ Status GlEngine::shade(LightCache& c, int output) {
     glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
 
+    // Preview frames shade every second pixel into a half-size image (progressive refinement);
+    // shadow masks and full frames shade every pixel.
+    const int step = mPreview && output == 0 ? 2 : 1;
     glBindFramebuffer(GL_FRAMEBUFFER, c.contributionFb.id());
-    glViewport(0, 0, mWidth, mHeight);
+    glViewport(0, 0, (mWidth + step - 1) / step, (mHeight + step - 1) / step);
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);
     if (l.type == LightType::Bendy) {
@@ -661,6 +665,7 @@ Status GlEngine::shade(LightCache& c, int output) {
         glUseProgram(mSpotProgram.id());
     }
     glUniform1i(0, output);
+    glUniform1i(2, step);
     // Light linking: a bit per object id, lit where set.
     const bool linked = !l.include.empty() || !l.exclude.empty();
     glUniform1i(1, linked ? 1 : 0);
@@ -698,6 +703,7 @@ Status GlEngine::shade(LightCache& c, int output) {
     glDrawArrays(GL_TRIANGLES, 0, 3);
     c.hasContribution = true;
     if (output == 0) {
+        c.previewShading = step != 1;
         c.shadedRadiance = toGlm(l.color) * l.intensityCd;
         c.scale = glm::vec3(1.f);
         ++c.version;
@@ -765,7 +771,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
-        if (c.hasContribution && sameShadingInputs(c.params, l)) {
+        if (c.hasContribution && sameShadingInputs(c.params, l) && (mPreview || !c.previewShading)) {
             // Colour or intensity only: rescale, unless a channel shaded at zero must now light.
             const glm::vec3 radiance = toGlm(l.color) * l.intensityCd;
             bool rescalable = true;
@@ -804,6 +810,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     auto addLight = [&](const std::string& name) {
         const LightCache& c = mLights[name];
         glUniform3f(0, c.scale.x, c.scale.y, c.scale.z);
+        glUniform1i(1, c.previewShading ? 2 : 1);
         glBindTextureUnit(engine::TEX_INPUT, c.contribution.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
     };
@@ -840,6 +847,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
         glDisable(GL_BLEND);
         glUseProgram(mAddProgram.id());
         glUniform3f(0, 1.f, 1.f, 1.f);
+        glUniform1i(1, 1);
         glBindTextureUnit(engine::TEX_INPUT, mStatic.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glEnable(GL_BLEND);
@@ -903,9 +911,20 @@ Result<ImageF> GlEngine::readFloat(GLuint texture, const char* what, glm::vec3 s
     return img;
 }
 
+// Outputs that read single lights' contributions are always full quality, even mid-drag.
+struct FullQuality {
+    bool& preview;
+    bool saved;
+    explicit FullQuality(bool& p) : preview(p), saved(p) { preview = false; }
+    ~FullQuality() { preview = saved; }
+    FullQuality(const FullQuality&) = delete;
+    FullQuality& operator=(const FullQuality&) = delete;
+};
+
 Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& lightName) {
     const Light* l = rig.find(lightName);
     if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    FullQuality full(mPreview);
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error();
     if (!l->enabled) {
@@ -922,6 +941,7 @@ Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& li
 Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lightName) {
     const Light* l = rig.find(lightName);
     if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    FullQuality full(mPreview);
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error(); // brings the light's shadow map up to date
     if (!l->enabled) return makeError(ErrorCode::InvalidValue, "light '" + lightName + "' is disabled");
@@ -934,6 +954,7 @@ Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lig
 }
 
 Result<std::vector<NamedImageF>> GlEngine::renderLayers(const Rig& rig) {
+    FullQuality full(mPreview);
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error();
     std::vector<NamedImageF> layers;

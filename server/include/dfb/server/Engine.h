@@ -98,7 +98,9 @@ public:
 
     /// Preview mode, for frames rendered while a control is being dragged (progressive
     /// refinement): shadow maps that must be re-rendered are rendered at a quarter of their size
-    /// (at least 256). The next render with preview off re-renders them at full size.
+    /// (at least 256), and lights that must be re-shaded are shaded at half resolution (every
+    /// second pixel, upsampled). The next render with preview off re-renders both at full quality.
+    /// renderLightLinear, renderShadowMask and renderLayers are always full quality.
     virtual void setPreview(bool preview) = 0;
 
     /// "renderer | GL version | EGL platform".
