@@ -142,6 +142,17 @@ int main(int argc, char** argv) {
              r.lights[0].position[2] = z0 + 0.3f * std::sin(a);
          }},
         {"exposure", [](Rig& r, int i) { r.exposureStops = 0.01f * float(i % 20); }},
+        // The fill becomes a shadowed point light (1024 cube map) on the first edit, then moves:
+        // six cube faces + shading per edit.
+        {"point light position", [](Rig& r, int i) {
+             Light& f = r.lights[1];
+             if (f.type != LightType::Point) {
+                 f.type = LightType::Point;
+                 f.shadow = true;
+                 f.shadowMapSize = 1024;
+             }
+             f.position[0] += (i % 2) ? 0.01f : -0.01f;
+         }},
         // The key light becomes a BendyLight (2048 shadow map) on the first edit; then one control
         // point is dragged: deformed shadow map + BendyLight shading per edit.
         {"BendyLight ctrl point", [&b](Rig& r, int i) {
