@@ -429,3 +429,15 @@ TEST(EngineLights, FilmicViewTransformRollsHighlightsOffInsteadOfClipping) {
     EXPECT_GT(clipped, 500);
     EXPECT_LE(worst, 1);
 }
+
+TEST(EngineLights, NoUsableGpuIsAClearErrorNotAHang) {
+    // A failed GL context (here: an EGL platform that does not exist) is a GpuError naming why.
+    ::setenv("DFB_EGL_PLATFORM", "no-such-platform", 1);
+    auto engine = Engine::create(planeShot(0.5f), ShadowGeometry{});
+    ::unsetenv("DFB_EGL_PLATFORM");
+    ASSERT_FALSE(engine.ok());
+    EXPECT_EQ(engine.error().code, ErrorCode::GpuError);
+    EXPECT_NE(engine.error().message.find("EGL platform"), std::string::npos) << engine.error().message;
+    auto again = Engine::create(planeShot(0.5f), ShadowGeometry{}); // and nothing is left broken
+    EXPECT_TRUE(again.ok()) << again.error().toString();
+}
