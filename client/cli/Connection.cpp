@@ -119,6 +119,8 @@ Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::
     asio::connect(impl->ws.next_layer(), results, ec);
     if (ec) return netError("connecting to " + url.host + ":" + url.port, ec);
     setDeadline(impl->ws.next_layer(), timeout);
+    // Edits are small: send them at once, not after the server's delayed ACK (Nagle).
+    impl->ws.next_layer().set_option(tcp::no_delay(true), ec);
     impl->timeout = timeout;
     impl->ws.read_message_max(256u << 20);
     websocket::response_type res;

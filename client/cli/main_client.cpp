@@ -140,15 +140,16 @@ void writeFile(const std::string& path, const void* data, size_t size) {
 
 /// View settings given on the command line (frame, watch).
 struct ViewArgs {
-    std::string output = "beauty", format, viewTransform = "srgb";
+    std::string output = "beauty", format, viewTransform = "rig";
     int quality = 85;
     double exposure = 0;
     void add(CLI::App* c) {
-        c->add_option("--output", output, "beauty, light:NAME, shadow:NAME or layer:NAME");
+        c->add_option("--output", output, "beauty, light:NAME (one light alone), shadow:NAME (its shadow mask) or layer:NAME "
+                                          "(a G-buffer layer: P, N, albedo, ...); a beauty EXR holds one float layer per light");
         c->add_option("--format", format, "jpeg, png or exr (default: from the file name, else jpeg)");
         c->add_option("--quality", quality, "JPEG quality")->check(CLI::Range(1, 100));
         c->add_option("--exposure", exposure, "stops added to the rig's exposure")->check(CLI::Range(-20.0, 20.0));
-        c->add_option("--view-transform", viewTransform, "srgb or linear")->check(CLI::IsMember({"srgb", "linear"}));
+        c->add_option("--view-transform", viewTransform, "rig (the rig's), srgb or filmic")->check(CLI::IsMember({"rig", "srgb", "filmic"}));
     }
     std::string formatFor(const std::string& path) const {
         if (!format.empty()) return format;

@@ -227,12 +227,14 @@ Status setLightProperty(Light& l, const std::string& prop, const json& v, const 
             l.type = LightType::Spot;
         } else if (v == "directional") {
             l.type = LightType::Directional;
+        } else if (v == "point") {
+            l.type = LightType::Point;
         } else if (v == "bendy") {
             // A new chain starts straight along the axis, matching the cone: it looks like the spot.
             if (l.controlPoints.empty()) makeStraightChain(l, 4.f);
             l.type = LightType::Bendy;
         } else {
-            return invalid(path + ": unknown light type " + v.dump() + " (\"spot\", \"bendy\" or \"directional\")");
+            return invalid(path + ": unknown light type " + v.dump() + " (\"spot\", \"point\", \"bendy\" or \"directional\")");
         }
     } else if (prop == "include" || prop == "exclude") {
         if (!v.is_array() || v.size() > 4096) return invalid(path + ": expected an array of object ids (at most 4096)");
@@ -298,6 +300,29 @@ Status setLightProperty(Light& l, const std::string& prop, const json& v, const 
         auto n = getNumber(v, path, 0.0, 16.0);
         if (!n) return n.error();
         l.shadowBias = n.value();
+    } else if (prop == "shadowFilter") {
+        if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 4) {
+            return invalid(path + ": must be an integer in [0, 4] (shadow-map texels)");
+        }
+        l.shadowFilter = int(v.get<int64_t>());
+    } else if (prop == "cookie") {
+        if (!v.is_string()) return invalid(path + ": expected a file name (string)");
+        const std::string c = v.get<std::string>();
+        // A name inside the asset folder: no absolute paths, no way out of it.
+        if (c.size() > 255 || (!c.empty() && (c[0] == '/' || c.find("..") != std::string::npos || c.find('\\') != std::string::npos ||
+                                              c.find('\0') != std::string::npos))) {
+            return invalid(path + ": a cookie is a relative file name inside the asset folder (no '/' at the start, no '..')");
+        }
+        l.cookie = c;
+    } else if (prop == "barnDoors") {
+        if (!v.is_array() || v.size() != 4) return invalid(path + ": expected [left, right, top, bottom] in degrees");
+        std::array<float, 4> doors{};
+        for (size_t i = 0; i < 4; ++i) {
+            auto n = getNumber(v[i], path + "[" + std::to_string(i) + "]", 0.0, 90.0);
+            if (!n) return n.error();
+            doors[i] = n.value();
+        }
+        l.barnDoorsDeg = doors;
     } else {
         return invalid(path + ": unknown light property '" + prop + "'");
     }
@@ -333,7 +358,7 @@ Result<Light> lightFromJson(const json& j, const std::string& where) {
 }
 
 std::string lightTypeName(LightType t) {
-    return t == LightType::Bendy ? "bendy" : t == LightType::Directional ? "directional" : "spot";
+    return t == LightType::Bendy ? "bendy" : t == LightType::Directional ? "directional" : t == LightType::Point ? "point" : "spot";
 }
 
 } // namespace
@@ -342,7 +367,9 @@ json toJson(const Light& l) {
     json j = json{{"name", l.name},         {"type", lightTypeName(l.type)}, {"enabled", l.enabled},
                 {"position", l.position}, {"direction", l.direction},      {"color", l.color},
                 {"intensity", l.intensityCd}, {"coneAngle", l.coneAngleDeg}, {"penumbra", l.penumbraDeg},
-                {"shadow", l.shadow},     {"shadowMapSize", l.shadowMapSize}, {"shadowBias", l.shadowBias}};
+                {"shadow", l.shadow},     {"shadowMapSize", l.shadowMapSize}, {"shadowBias", l.shadowBias},
+                {"shadowFilter", l.shadowFilter}, {"barnDoors", l.barnDoorsDeg}};
+    if (!l.cookie.empty()) j["cookie"] = l.cookie;
     if (l.type == LightType::Bendy || !l.controlPoints.empty()) {
         j["controlPoints"] = l.controlPoints;
         j["radii"] = l.radii;
@@ -367,7 +394,11 @@ json toJson(const Light& l) {
 json toJson(const Rig& rig) {
     json lights = json::array();
     for (const Light& l : rig.lights) lights.push_back(toJson(l));
-    return json{{"version", rig.version}, {"exposure", rig.exposureStops}, {"time", rig.time}, {"lights", lights}};
+    return json{{"version", rig.version},
+                {"exposure", rig.exposureStops},
+                {"viewTransform", rig.viewTransform == ViewTransform::Filmic ? "filmic" : "srgb"},
+                {"time", rig.time},
+                {"lights", lights}};
 }
 
 Result<Rig> rigFromJson(const json& j) {
@@ -381,6 +412,8 @@ Result<Rig> rigFromJson(const json& j) {
             auto n = getNumber(*it, "rig.exposure", -20.0, 20.0);
             if (!n) return n.error();
             rig.exposureStops = n.value();
+        } else if (it.key() == "viewTransform") {
+            if (auto s = applyChange(rig, {"viewTransform", *it}); !s) return invalid("rig." + s.error().message);
         } else if (it.key() == "time") {
             if (!it->is_number() || !std::isfinite(it->get<double>())) return invalid("rig.time: expected a finite number");
             rig.time = it->get<double>();
@@ -406,6 +439,12 @@ Status applyChange(Rig& rig, const Change& c) {
         rig.time = c.value.get<double>();
         return okStatus();
     }
+    if (c.path == "viewTransform") {
+        if (c.value == "srgb") rig.viewTransform = ViewTransform::Srgb;
+        else if (c.value == "filmic") rig.viewTransform = ViewTransform::Filmic;
+        else return invalid("viewTransform: " + c.value.dump() + " is not \"srgb\" or \"filmic\"");
+        return okStatus();
+    }
     if (c.path == "exposure") {
         auto n = getNumber(c.value, c.path, -20.0, 20.0);
         if (!n) return n.error();
@@ -414,7 +453,7 @@ Status applyChange(Rig& rig, const Change& c) {
     }
     const size_t dot = c.path.find('.');
     if (dot == std::string::npos || dot == 0 || dot + 1 == c.path.size()) {
-        return invalid("path '" + c.path + "': expected LIGHT.PROPERTY or 'exposure'");
+        return invalid("path '" + c.path + "': expected LIGHT.PROPERTY, 'exposure', 'viewTransform' or 'time'");
     }
     const std::string lightName = c.path.substr(0, dot), prop = c.path.substr(dot + 1);
     Light* l = rig.find(lightName);

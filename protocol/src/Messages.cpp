@@ -122,11 +122,16 @@ Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
             }
             v.exposureStops = x.get<float>();
         } else if (k == "viewTransform") {
-            if (x != "srgb" && x != "linear") return invalid("view.viewTransform: " + x.dump() + " is not \"srgb\" or \"linear\"");
+            if (x != "rig" && x != "srgb" && x != "filmic") {
+                return invalid("view.viewTransform: " + x.dump() + " is not \"rig\", \"srgb\" or \"filmic\"");
+            }
             v.viewTransform = x.get<std::string>();
         } else {
             return invalid("view: unknown setting '" + k + "'");
         }
+    }
+    if (v.encoding == Encoding::Exr && v.output.rfind("layer:", 0) == 0) {
+        return invalid("view: layer outputs are 8-bit views (jpeg, png); the shot's EXR file holds the float layers");
     }
     return v;
 }

@@ -177,7 +177,7 @@ bool tubeCoordinates(vec3 Q, int k, float t, out TubeCoords c) {
     return true;
 }
 
-TubeCoords inverseMap(vec3 Q) {
+TubeCoords inverseMapImpl(vec3 Q, bool culled) {
     TubeCoords best;
     best.valid = false; best.inside = false; best.segment = 0; best.t = 0.0; best.v = 0.0; best.w = 0.0;
     bool found = false, bestInside = false;
@@ -189,6 +189,18 @@ TubeCoords inverseMap(vec3 Q) {
         float roots[3];
         int n;
         if (k < K) {
+            if (culled) {
+                // The tube around segment k lies in the sphere around its control points' centroid
+                // that holds them all, grown by the largest radius (a quadratic Bezier stays in its
+                // control polygon's hull; its radius between its control radii). Skipping the
+                // solve outside it only changes points that are inside no tube: unlit anyway.
+                vec3 c = (uBendy.bendyP[2 * k].xyz + uBendy.bendyP[2 * k + 1].xyz + uBendy.bendyP[2 * k + 2].xyz) / 3.0;
+                float reach = sqrt(max(max(dot(uBendy.bendyP[2 * k].xyz - c, uBendy.bendyP[2 * k].xyz - c),
+                                           dot(uBendy.bendyP[2 * k + 1].xyz - c, uBendy.bendyP[2 * k + 1].xyz - c)),
+                                       dot(uBendy.bendyP[2 * k + 2].xyz - c, uBendy.bendyP[2 * k + 2].xyz - c))) +
+                              1.1 * max(max(uBendy.bendyP[2 * k].w, uBendy.bendyP[2 * k + 1].w), uBendy.bendyP[2 * k + 2].w) + 1e-4;
+                if (dot(Q - c, Q - c) > reach * reach) continue;
+            }
             vec3 A = uBendy.bendyP[2 * k].xyz - uBendy.bendyP[2 * k + 1].xyz * 2.0 + uBendy.bendyP[2 * k + 2].xyz;
             vec3 B = (uBendy.bendyP[2 * k + 1].xyz - uBendy.bendyP[2 * k].xyz) * 2.0;
             vec3 D = Q - uBendy.bendyP[2 * k].xyz;
@@ -221,6 +233,13 @@ TubeCoords inverseMap(vec3 Q) {
     if (found) tubeCoordinates(Q, bestK, bestT, best);
     return best;
 }
+
+TubeCoords inverseMap(vec3 Q) { return inverseMapImpl(Q, false); }
+
+// inverseMap for shading: the same answer for every point inside a tube (and its extension); for
+// points inside none it may find no foot (valid = false) instead of the nearest outside one,
+// which shading treats alike (unlit). Casters must use inverseMap: their outside vertices matter.
+TubeCoords inverseMapForShading(vec3 Q) { return inverseMapImpl(Q, true); }
 
 // Eq. 7 with arc length: Q' = p0 + s uL + s tan(theta) (v vL + w wL).
 vec3 deformedPoint(TubeCoords c) {

@@ -17,6 +17,8 @@
 #define TEX_GBUFFER_SHEEN 9   // RGBA16F: sheen rgb, sheen roughness
 #define TEX_GBUFFER_COAT 10   // RG16F: coat weight, coat roughness
 #define TEX_GBUFFER_ID 11     // R32UI: object id (light linking)
+#define TEX_SHADOW_CUBE 12    // DEPTH32F cube map with compare mode (point lights)
+#define TEX_COOKIE 13         // RGBA16F: a spot light's cookie image
 #define SSBO_LINK_MASK 6      // per light: bit (id % 32) of word (id / 32) set = the object is lit
 
 layout(std430, binding = SSBO_LINK_MASK) readonly buffer LinkMask { uint linkMask[]; };
@@ -32,18 +34,23 @@ bool objectLinked(uint id) {
 
 layout(std140, binding = UBO_LIGHT) uniform LightBlock {
     mat4 worldToLightClip;  // spot light's view-projection (shadow map space)
-    vec4 lightPosition;     // xyz world position
+    vec4 lightPosition;     // xyz world position, w = kind: 0 directional, 1 spot, 2 point
     vec4 lightAxis;         // xyz unit axis the light points along
     vec4 lightRadiance;     // rgb = colour * intensity (candela)
     vec4 lightCone;         // x = cos(outer half-angle), y = cos(inner half-angle),
                             // z = 1 if shadowed, w = normal offset per unit distance (world)
-    vec4 lightShadow;       // x = 1 / shadow-map size, yzw unused
+    vec4 lightShadow;       // x = 1 / shadow-map size, y = PCF radius in texels, z = 1 if cube map,
+                            // w unused
+    vec4 lightRight;        // xyz the spot's right (axis x up, as its shadow frustum), w = 1 if cookie
+    vec4 lightUp;           // xyz the spot's up, w = tan(outer half-angle) (cookie mapping)
+    vec4 lightDoors;        // barn doors: left, right, top, bottom half-angles in radians
+    vec4 lightCube;         // point lights: x = near, y = far of the cube faces' projections
 } uLight;
 
 layout(std140, binding = UBO_VIEW) uniform ViewBlock {
     vec4 cameraPosition;    // xyz world position of the shot camera, w = 1 if orthographic
     vec4 cameraForward;     // xyz unit view direction (orthographic views use it as -V)
-    vec4 exposure;          // x = 2^stops
+    vec4 exposure;          // x = 2^stops, y = 1 for the filmic view transform
     ivec4 sampleLayout;     // x = SAMPLE_ROW (width of the sample textures)
 } uView;
 
@@ -51,4 +58,15 @@ ivec2 sampleTexel(uint s) { return ivec2(int(s) % uView.sampleLayout.x, int(s) /
 
 vec3 viewVector(vec3 P) {
     return uView.cameraPosition.w > 0.5 ? -uView.cameraForward.xyz : normalize(uView.cameraPosition.xyz - P);
+}
+
+// Percentage-closer filter of radius uLight.lightShadow.y texels ((2r+1)^2 taps) on top of the
+// hardware's 2x2 bilinear comparison: the light's soft-shadow filter size.
+float filteredShadow(sampler2DShadow map, vec2 uv, float ref) {
+    int r = int(uLight.lightShadow.y + 0.5);
+    float texel = uLight.lightShadow.x;
+    float sum = 0.0;
+    for (int y = -r; y <= r; ++y)
+        for (int x = -r; x <= r; ++x) sum += texture(map, vec3(uv + vec2(x, y) * texel, ref));
+    return sum / float((2 * r + 1) * (2 * r + 1));
 }

@@ -5,5 +5,8 @@
 #include "common_uniforms.glsl"
 layout(binding = TEX_INPUT) uniform sampler2D uInput;
 layout(location = 0) uniform vec3 uScale;
+// 2 for a contribution shaded at half resolution while dragging (a preview, upsampled by nearest
+// pixel); 1 otherwise.
+layout(location = 1) uniform int uPixelStep;
 layout(location = 0) out vec4 oColor;
-void main() { oColor = vec4(texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb * uScale, 0.0); }
+void main() { oColor = vec4(texelFetch(uInput, ivec2(gl_FragCoord.xy) / max(uPixelStep, 1), 0).rgb * uScale, 0.0); }

@@ -1,5 +1,6 @@
 #version 450 core
-// Exposure, then the sRGB transfer function (IEC 61966-2-1) to 8 bits.
+// Exposure, the view transform (none, or the filmic curve), then the sRGB transfer function
+// (IEC 61966-2-1) to 8 bits.
 #include "common_uniforms.glsl"
 layout(binding = TEX_INPUT) uniform sampler2D uInput;
 layout(location = 0) out vec4 oColor;
@@ -7,7 +8,13 @@ vec3 linearToSrgb(vec3 c) {
     c = clamp(c, 0.0, 1.0);
     return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
 }
+// The ACES filmic curve fitted by K. Narkowicz ("ACES Filmic Tone Mapping Curve", 2016): a toe
+// and a shoulder that roll highlights off instead of clipping them. Mirror: Outputs.cpp.
+vec3 filmic(vec3 x) {
+    return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
 void main() {
     vec3 c = texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb * uView.exposure.x;
+    if (uView.exposure.y > 0.5) c = filmic(max(c, vec3(0.0)));
     oColor = vec4(linearToSrgb(c), 1.0);
 }

@@ -23,24 +23,38 @@ layout(location = 0) out vec4 oColor;
 // light reaches (inside the cone, facing it), g = their coverage.
 layout(location = 0) uniform int uOutput;
 layout(location = 1) uniform int uLinked;
+// Preview shading (progressive refinement): 2 shades every second pixel of every second row into
+// a half-size image; 1 shades every pixel.
+layout(location = 2) uniform int uPixelStep;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
-// The deformed shadow map at a receiver: bias along the geometric normal in world space, then
-// map the biased point like any caster vertex.
-float bendyShadow(vec3 P, vec3 Ng, float dist) {
-    TubeCoords c = inverseMap(P + Ng * (uLight.lightCone.w * dist));
-    if (!c.valid) return 0.0;
-    vec4 clip = uLight.worldToLightClip * vec4(deformedPoint(c), 1.0);
+// The deformed shadow map at a receiver with tube coordinates `c` and arc length `s`: the
+// receiver is biased along its geometric normal by `offset` (world units) and mapped like any
+// caster vertex. The biased point's tube coordinates are those of the receiver moved by the bias
+// in the tube's frame (first order: the foot moves along u_hat by the bias's u_hat part, the
+// radius with it; the offset across changes by the rest), which spares a second cubic solve per
+// sample. Exact for straight chains; on bends it neglects the frame's turn over the bias length
+// (a fraction of a shadow-map texel), far below a texel.
+float bendyShadow(TubeCoords c, float s, vec3 Ng, float offset) {
+    vec3 uHat, vHat, wHat;
+    tubeFrame(c.segment, c.t, uHat, vHat, wHat);
+    float R = chainRadius(c.segment, c.t);
+    vec3 d = Ng * offset;
+    float du = dot(d, uHat);
+    float s2 = max(s + du, 0.0);
+    // The foot moves du along the chain, where the radius is R + R'(s) du (R' per arc length):
+    // the receiver's offset from the chain, (v vHat + w wHat) R + the bias across, over it.
+    float R2 = max(R + chainRadiusDerivative(c.segment, c.t) / max(length(chainDerivative(c.segment, c.t)), 1e-12) * du, 1e-9);
+    float v2 = (c.v * R + dot(d, vHat)) / R2, w2 = (c.w * R + dot(d, wHat)) / R2;
+    vec3 q = uBendy.bendyP[0].xyz + uBendy.bendyAxisU.xyz * s2 +
+             (uBendy.bendyAxisV.xyz * v2 + uBendy.bendyAxisW.xyz * w2) * (s2 * uBendy.bendyAxisU.w);
+    vec4 clip = uLight.worldToLightClip * vec4(q, 1.0);
     if (clip.w <= 0.0) return 0.0;
     vec3 ndc = clip.xyz / clip.w;
     vec2 uv = ndc.xy * 0.5 + 0.5;
     float ref = ndc.z * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
-    float texel = uLight.lightShadow.x;
-    float sum = 0.0;
-    for (int y = -1; y <= 1; ++y)
-        for (int x = -1; x <= 1; ++x) sum += texture(shadowMap, vec3(uv + vec2(x, y) * texel, ref));
-    return sum / 9.0;
+    return filteredShadow(shadowMap, uv, ref);
 }
 
 vec3 shadeSample(uint s) {
@@ -49,9 +63,11 @@ vec3 shadeSample(uint s) {
     if (pA.w <= 0.0) return vec3(0.0);
     if (uLinked != 0 && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 P = pA.xyz;
-    TubeCoords c = inverseMap(P);
+    TubeCoords c = inverseMapForShading(P);
     if (!c.valid) return vec3(0.0); // no foot: unlit
-    vec3 qd = deformedPoint(c);
+    float arc = arcLength(c.segment, c.t);
+    float rho = arc * uBendy.bendyAxisU.w;
+    vec3 qd = uBendy.bendyP[0].xyz + uBendy.bendyAxisU.xyz * arc + (uBendy.bendyAxisV.xyz * c.v + uBendy.bendyAxisW.xyz * c.w) * rho;
     vec3 toSource = uBendy.bendyP[0].xyz - qd;
     float dist2 = max(dot(toSource, toSource), 1e-12);
     float dist = sqrt(dist2);
@@ -62,7 +78,7 @@ vec3 shadeSample(uint s) {
     if (dot(N, Li) <= 0.0) return vec3(0.0);
     float vis = 1.0;
     if (uLight.lightCone.z > 0.5) {
-        vis = bendyShadow(P, normalize(texelFetch(gNg, t, 0).xyz), dist);
+        vis = bendyShadow(c, arc, normalize(texelFetch(gNg, t, 0).xyz), uLight.lightCone.w * dist);
         if (vis <= 0.0 && uOutput == 0) return vec3(0.0);
     }
     if (uOutput == 1) return vec3(vis * pA.w, pA.w, 0.0);
@@ -72,10 +88,12 @@ vec3 shadeSample(uint s) {
 }
 
 void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
 #ifdef DFB_FLAT_SAMPLES
-    oColor = vec4(shadeSample(uint(gl_FragCoord.y) * uint(uView.sampleLayout.x) + uint(gl_FragCoord.x)), 1.0);
+    // Flat buffer: one sample per pixel, stored at the pixel itself (no indirection, no loop).
+    oColor = vec4(shadeSample(uint(pixel.y) * uint(uView.sampleLayout.x) + uint(pixel.x)), 1.0);
 #else
-    uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
+    uvec2 range = texelFetch(gPixelSamples, pixel, 0).xy;
     vec3 sum = vec3(0.0);
     for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(s);
     oColor = vec4(sum, 1.0);

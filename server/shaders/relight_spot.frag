@@ -1,8 +1,9 @@
 #version 450 core
-// One spot light's contribution per pixel from the G-buffer samples (DESIGN section 6;
-// docs/lighting.md): every sample of the pixel is shaded and the results averaged with their
-// coverages. Radiance = f(l, v) * cos * I / d^2 * spot(cone) * visibility, with I in candela
-// (KHR_lights_punctual, with the smooth cone falloff of its reference implementation).
+// One spot, point or directional light's contribution per pixel from the G-buffer samples
+// (DESIGN section 6; docs/lighting.md): every sample of the pixel is shaded and the results
+// averaged with their coverages. Radiance = f(l, v) * cos * I / d^2 * spot(cone) * doors * cookie
+// * visibility, with I in candela (KHR_lights_punctual, with the smooth cone falloff of its
+// reference implementation), or in lux without falloff for a directional light.
 #include "common_uniforms.glsl"
 #include "common_brdf.glsl"
 
@@ -15,28 +16,68 @@ layout(binding = TEX_GBUFFER_SHEEN) uniform sampler2D gSheen;
 layout(binding = TEX_GBUFFER_COAT) uniform sampler2D gCoat;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(binding = TEX_SHADOW_MAP) uniform sampler2DShadow shadowMap;
+layout(binding = TEX_SHADOW_CUBE) uniform samplerCubeShadow shadowCube;
+layout(binding = TEX_COOKIE) uniform sampler2D cookie;
 
 layout(location = 0) out vec4 oColor;
 // 0: the light's radiance. 1: its shadow mask: r = coverage-weighted visibility of the samples the
 // light reaches (inside the cone, facing it), g = their coverage.
 layout(location = 0) uniform int uOutput;
 layout(location = 1) uniform int uLinked;
+// Preview shading (progressive refinement): 2 shades every second pixel of every second row into
+// a half-size image; 1 shades every pixel.
+layout(location = 2) uniform int uPixelStep;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
-// 3x3 percentage-closer filter on top of the hardware 2x2 comparison.
+const float KIND_DIRECTIONAL = 0.0, KIND_POINT = 2.0;
+
 float shadowVisibility(vec3 P, vec3 Ng, float dist) {
     vec3 biased = P + Ng * (uLight.lightCone.w * dist);
+    if (uLight.lightShadow.z > 0.5) {
+        // Point light: the cube face's projection depth of the biased point (its major axis is
+        // the face's view depth), filtered across the direction like the 2D maps.
+        vec3 d = biased - uLight.lightPosition.xyz;
+        float major = max(abs(d.x), max(abs(d.y), abs(d.z)));
+        float n = uLight.lightCube.x, f = uLight.lightCube.y;
+        float ref = 0.5 * ((f + n) / (f - n) - 2.0 * f * n / ((f - n) * max(major, 1e-12))) + 0.5;
+        vec3 dn = normalize(d);
+        vec3 t1 = normalize(cross(dn, abs(dn.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
+        vec3 t2 = cross(dn, t1);
+        float texel = 2.0 * major * uLight.lightShadow.x; // a face is 2 * major wide at its depth
+        int r = int(uLight.lightShadow.y + 0.5);
+        float sum = 0.0;
+        for (int y = -r; y <= r; ++y)
+            for (int x = -r; x <= r; ++x) sum += texture(shadowCube, vec4(d + (t1 * float(x) + t2 * float(y)) * texel, ref));
+        return sum / float((2 * r + 1) * (2 * r + 1));
+    }
     vec4 clip = uLight.worldToLightClip * vec4(biased, 1.0);
     if (clip.w <= 0.0) return 0.0;
     vec3 ndc = clip.xyz / clip.w;
     vec2 uv = ndc.xy * 0.5 + 0.5;
     float ref = ndc.z * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
-    float texel = uLight.lightShadow.x;
-    float sum = 0.0;
-    for (int y = -1; y <= 1; ++y)
-        for (int x = -1; x <= 1; ++x) sum += texture(shadowMap, vec3(uv + vec2(x, y) * texel, ref));
-    return sum / 9.0;
+    return filteredShadow(shadowMap, uv, ref);
+}
+
+// Barn doors and cookie of a spot light, for the direction `fromLight` (unit, light to point):
+// each flap cuts the light past its half-angle with a 0.5-degree soft edge; the cookie is
+// projected across the cone (its edge circle inscribed in the image), the image's top towards the
+// light's up.
+vec3 spotMask(vec3 fromLight) {
+    float z = dot(fromLight, uLight.lightAxis.xyz);
+    if (z <= 0.0) return vec3(0.0);
+    float x = dot(fromLight, uLight.lightRight.xyz), y = dot(fromLight, uLight.lightUp.xyz);
+    float ax = atan(x, z), ay = atan(y, z);
+    const float edge = 0.00436332; // a quarter of a degree either side
+    vec4 d = uLight.lightDoors;
+    float doors = (1.0 - smoothstep(d.x - edge, d.x + edge, -ax)) * (1.0 - smoothstep(d.y - edge, d.y + edge, ax)) *
+                  (1.0 - smoothstep(d.z - edge, d.z + edge, ay)) * (1.0 - smoothstep(d.w - edge, d.w + edge, -ay));
+    vec3 mask = vec3(doors);
+    if (uLight.lightRight.w > 0.5 && doors > 0.0) {
+        vec2 uv = 0.5 + 0.5 * vec2(x, y) / (z * uLight.lightUp.w);
+        mask *= texture(cookie, uv).rgb; // uploaded with the image's top row at t = 1
+    }
+    return mask;
 }
 
 vec3 shadeSample(uint s) {
@@ -47,22 +88,25 @@ vec3 shadeSample(uint s) {
     vec3 P = pA.xyz;
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
     vec3 L;
-    float dist2, dist, spot;
-    if (uLight.lightPosition.w == 0.0) {
+    float dist2, dist;
+    vec3 spot = vec3(1.0);
+    if (uLight.lightPosition.w == KIND_DIRECTIONAL) {
         // Directional (KHR_lights_punctual): parallel light, intensity in lux, no falloff.
         L = -uLight.lightAxis.xyz;
         dist2 = 1.0;
         dist = 1.0;
-        spot = 1.0;
     } else {
         vec3 toLight = uLight.lightPosition.xyz - P;
         dist2 = max(dot(toLight, toLight), 1e-12);
         dist = sqrt(dist2);
         L = toLight / dist;
-        // Cone falloff: smooth between the outer and inner cosines.
-        spot = smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-L, uLight.lightAxis.xyz));
+        if (uLight.lightPosition.w != KIND_POINT) {
+            // Cone falloff: smooth between the outer and inner cosines; then doors and cookie.
+            spot = vec3(smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-L, uLight.lightAxis.xyz)));
+            if (spot.x > 0.0) spot *= spotMask(-L);
+        }
     }
-    if (spot <= 0.0 || dot(N, L) <= 0.0) return vec3(0.0);
+    if (max(spot.x, max(spot.y, spot.z)) <= 0.0 || dot(N, L) <= 0.0) return vec3(0.0);
     float vis = 1.0;
     if (uLight.lightCone.z > 0.5) {
         vis = shadowVisibility(P, normalize(texelFetch(gNg, t, 0).xyz), dist);
@@ -71,15 +115,16 @@ vec3 shadeSample(uint s) {
     if (uOutput == 1) return vec3(vis * pA.w, pA.w, 0.0);
     vec3 f = evaluateLayeredBrdfCos(N, L, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
                                     texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
-    return f * uLight.lightRadiance.rgb * (spot * vis / dist2) * pA.w;
+    return f * uLight.lightRadiance.rgb * spot * (vis / dist2) * pA.w;
 }
 
 void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
 #ifdef DFB_FLAT_SAMPLES
     // Flat buffer: one sample per pixel, stored at the pixel itself (no indirection, no loop).
-    oColor = vec4(shadeSample(uint(gl_FragCoord.y) * uint(uView.sampleLayout.x) + uint(gl_FragCoord.x)), 1.0);
+    oColor = vec4(shadeSample(uint(pixel.y) * uint(uView.sampleLayout.x) + uint(pixel.x)), 1.0);
 #else
-    uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
+    uvec2 range = texelFetch(gPixelSamples, pixel, 0).xy;
     vec3 sum = vec3(0.0);
     for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(s);
     oColor = vec4(sum, 1.0);

@@ -12,9 +12,9 @@
 
 #include <dfb/gbuffer/ExrIO.h>
 #include <dfb/gbuffer/Scene.h>
+#include <dfb/server/InitialRig.h>
 
 #include <CLI/CLI.hpp>
-#include <glm/glm.hpp>
 
 #include <algorithm>
 #include <cctype>
@@ -72,36 +72,6 @@ std::string nameFromPath(const std::string& path) {
     return n.substr(0, 64);
 }
 
-// The rig a new session starts from: the scene's KHR_lights_punctual lights when it has any,
-// else a key and a fill framed on the scene's bounds.
-dfb::Rig initialRig(const dfb::Scene& scene) {
-    const dfb::Bounds& b = scene.bounds;
-    dfb::Rig rig = dfb::defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
-    dfb::Rig imported;
-    imported.version = 1;
-    for (const dfb::SceneLight& sl : scene.lights) {
-        if (sl.type == "point") {
-            std::fprintf(stderr, "dfb-server: scene light '%s' is a point light, not supported yet: skipped\n", sl.name.c_str());
-            continue;
-        }
-        dfb::Light l;
-        std::string name;
-        for (char ch : sl.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-') ? ch : '_';
-        l.name = name.substr(0, 64);
-        while (imported.find(l.name)) l.name += "_";
-        l.type = sl.type == "directional" ? dfb::LightType::Directional : dfb::LightType::Spot;
-        l.position = {sl.position.x, sl.position.y, sl.position.z};
-        l.direction = {sl.direction.x, sl.direction.y, sl.direction.z};
-        l.color = {sl.color.r, sl.color.g, sl.color.b};
-        l.intensityCd = std::max(sl.intensity, 0.f);
-        l.coneAngleDeg = std::clamp(glm::degrees(sl.outerConeRadians), 0.1f, 85.f);
-        l.penumbraDeg = std::clamp(glm::degrees(sl.outerConeRadians - sl.innerConeRadians), 0.f, l.coneAngleDeg);
-        imported.lights.push_back(l);
-    }
-    if (!imported.lights.empty()) return imported;
-    return rig;
-}
-
 // Reads {"sessions": {"NAME": {"editor": "...", "viewer": "..."}}}.
 dfb::Result<std::map<std::string, dfb::net::SessionTokens>> readTokenFile(const std::string& path) {
     std::ifstream in(path);
@@ -155,9 +125,9 @@ int main(int argc, char** argv) {
     app.footer("Each session is one shot with its own rig, history, tokens and clients. The server prints, per session, "
                "an editor and a viewer URL carrying the token.\n"
                "Exit codes: 0 clean stop, 1 bad command line or token file, 2 bad shot/scene/journal, 3 GPU/EGL, 5 cannot bind.");
-    std::string shotPath, scenePath, sessionsDir, stateDir, tokenFile, bind = "127.0.0.1";
+    std::string shotPath, scenePath, sessionsDir, stateDir, tokenFile, assets, bind = "127.0.0.1";
     std::vector<std::string> sessionArgs;
-    int port = 8080;
+    int port = 8080, refineMs = 250;
     app.add_option("shot", shotPath, "deep framebuffer EXR written by dfb-bake (a session named after the file)");
     app.add_option("--session", sessionArgs, "NAME=SHOT.exr: one session (repeatable)");
     app.add_option("--sessions", sessionsDir, "a directory: every *.exr in it becomes a session named after the file");
@@ -168,6 +138,11 @@ int main(int argc, char** argv) {
     app.add_option("--scene", scenePath, "glTF scene for shadow casting (default: each shot's source scene)");
     app.add_option("--port", port, "TCP port; 0 picks a free one")->check(CLI::Range(0, 65535));
     app.add_option("--bind", bind, "address to listen on (default loopback only)");
+    app.add_option("--assets", assets, "folder of cookie images that lights name (default: each shot's folder)");
+    app.add_option("--refine-window", refineMs,
+                   "ms: an edit within this time of the previous one renders with preview shadow maps, refined when "
+                   "edits stop (0 = always full quality)")
+        ->check(CLI::Range(0, 10000));
     CLI11_PARSE(app, argc, argv);
 
     std::vector<SessionSpec> specs;
@@ -247,11 +222,19 @@ int main(int argc, char** argv) {
             return EXIT_INPUT;
         }
         const fs::path dir = stateDir.empty() ? fs::path() : fs::path(stateDir) / spec.name;
-        auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, initialRig(loaded.value()), dir);
+        bool imported = false;
+        dfb::Rig rig = dfb::initialRig(loaded.value(), &imported);
+        auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, rig, dir);
         if (!session) {
             std::cerr << "dfb-server: session " << spec.name << ": " << session.error().toString() << "\n";
             return EXIT_INPUT;
         }
+        if (imported && session.value()->rigVersion() == rig.version) {
+            std::printf("dfb-server: session %s: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", spec.name.c_str(),
+                        rig.lights.size());
+        }
+        const std::string assetDir = !assets.empty() ? assets : fs::path(spec.shotPath).parent_path().string();
+        session.value()->setAssetDirectory(assetDir.empty() ? "." : assetDir);
         dfb::net::SessionTokens tokens;
         if (auto it = configured.find(spec.name); it != configured.end()) tokens = it->second;
         else if (!dir.empty()) tokens = persistentTokens(dir);
@@ -261,8 +244,8 @@ int main(int argc, char** argv) {
                                                           std::move(session.value()), tokens);
         std::weak_ptr<dfb::net::SessionHub> weak = hub;
         auto render = dfb::RenderService::start(hub->shot(), dfb::shadowCasters(loaded.value()), hub->session(),
-                                                [weak](uint64_t v) {
-                                                    if (auto h = weak.lock()) h->onNewVersion(v);
+                                                [weak](uint64_t, uint64_t serial) {
+                                                    if (auto h = weak.lock()) h->onNewImage(serial);
                                                 },
                                                 &state->metrics());
         if (!render) {
@@ -276,6 +259,7 @@ int main(int argc, char** argv) {
                       hub->session().persistent() ? (", saved in " + dir.string()).c_str() : ", not saved (no --state)",
                       render.value()->deviceDescription().c_str());
         banner.push_back(line);
+        render.value()->setRefinement(std::chrono::milliseconds(refineMs), std::chrono::milliseconds(150));
         hub->setRender(std::move(render.value()));
         hub->render().requestFrame();
         state->addSession(hub);

@@ -56,6 +56,14 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
     rim.shadow = true;
     rim.shadowMapSize = 512;
     rig.lights.push_back(rim);
+    Light bulb = rig.lights[1];
+    bulb.name = "bulb";
+    bulb.type = LightType::Point;
+    bulb.position = {1.f, 1.5f, 1.f};
+    bulb.intensityCd = 4.f;
+    bulb.shadow = true;
+    bulb.shadowMapSize = 256;
+    rig.lights.push_back(bulb);
 
     std::mt19937 rng(12345);
     std::uniform_real_distribution<float> u(-1.f, 1.f);
@@ -63,7 +71,7 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
     double worst = 0;
     for (int e = 1; e <= 200; ++e) {
         Light& l = rig.lights[rng() % rig.lights.size()];
-        switch (rng() % 11) {
+        switch (rng() % 14) {
         case 0: l.intensityCd = std::max(0.f, l.intensityCd * (1.f + 0.3f * u(rng))); break;
         case 1: l.color = {0.5f + 0.5f * std::abs(u(rng)), 0.5f + 0.5f * std::abs(u(rng)), 0.5f + 0.5f * std::abs(u(rng))}; break;
         case 2: l.coneAngleDeg = std::clamp(l.coneAngleDeg + 3.f * u(rng), 10.f, 70.f);
@@ -83,10 +91,14 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
             else l.shadowMapSize = (rng() % 2) ? 512 : 1024;
             break;
         case 10: rig.exposureStops = 0.5f * u(rng); break;
+        case 11: l.barnDoorsDeg[rng() % 4] = 5.f + 85.f * std::abs(u(rng)); break;
+        case 12: l.shadowFilter = int(rng() % 3); break;
+        case 13: cached.value()->setPreview(rng() % 2 == 0); break; // a drag starts or stops
         }
         ++rig.version;
         ASSERT_TRUE(cached.value()->render(rig).ok());
         if (e % 40 == 0) {
+            cached.value()->setPreview(false); // the comparison is with full quality
             auto a = cached.value()->renderLinear(rig);
             auto fresh = Engine::create(shot.value(), casters);
             ASSERT_TRUE(fresh.ok());

@@ -182,6 +182,47 @@ TEST(Sessions, TwoEditorsAndAViewerSeeTheSameChangesAndFrames) {
     EXPECT_EQ(roles, (std::multiset<std::string>{"editor", "editor", "viewer"}));
 }
 
+TEST(Sessions, ASlowClientGetsTheNewestFrameAndNoBacklog) {
+    Server server({SHOT, "--refine-window", "0"});
+    ASSERT_TRUE(server.up()) << server.process->output();
+    const std::string id = sessionOf(SHOT);
+    // A viewer with a tiny receive window and large frames (float EXR, ~0.5 MB: more than the
+    // kernel's socket buffers hold in a few frames) that stops reading after the welcome, while
+    // an editor makes 30 edits and waits for each frame.
+    test::WsClient slow(server.port, id, server.tokens[id].viewer, 4096);
+    ASSERT_EQ(slow.nextText()["type"], "welcome");
+    slow.send(json{{"type", "view"}, {"seq", 1}, {"encoding", "exr"}});
+    test::WsClient editor(server.port, id, server.tokens[id].editor);
+    const json welcome = editor.nextText();
+    uint64_t last = welcome["rig"]["version"];
+    const int N = 30;
+    for (int i = 0; i < N; ++i) {
+        editor.send(edit(uint64_t(i + 1), "key.intensity", 10 + i));
+        const json ack = editor.nextText();
+        ASSERT_EQ(ack["type"], "ack") << ack;
+        last = ack["rigVersion"];
+        editor.frameAtLeast(last);
+    }
+    // Now the slow client reads: it gets the newest version, after a few frames at most (one
+    // being written when it stalled, one waiting), not one per edit.
+    const auto f = slow.frameAtLeast(last);
+    EXPECT_EQ(f.rigVersion, last);
+    EXPECT_EQ(f.bytes[6], 3); // EXR, its own view
+    size_t exrFrames = 0, exrBytes = 0;
+    for (const auto& fr : slow.frames()) {
+        exrFrames += fr.bytes[6] == 3;
+        exrBytes += fr.bytes[6] == 3 ? fr.bytes.size() : 0;
+    }
+    std::printf("the slow client received %zu frames (%zu in EXR, %zu bytes) for %d edits\n", slow.frames().size(), exrFrames,
+                exrBytes, N);
+    EXPECT_LE(exrFrames, size_t(N) / 2);
+    // Its view was encoded only for the frames it could take: fewer encodings than edits.
+    const std::string metrics = server.get("/metrics", "").body;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(metrics, m, std::regex(R"(dfb_frames_encoded_total\{session="[^"]+"\} (\d+))")));
+    EXPECT_LT(std::stoul(m[1]), size_t(N) + 1 + size_t(N) / 2) << metrics; // the editor's N+1, and few for the slow one
+}
+
 TEST(Sessions, EveryKindOfBadMessageGetsItsErrorAndChangesNothing) {
     Server server({SHOT});
     ASSERT_TRUE(server.up()) << server.process->output();

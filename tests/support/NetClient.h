@@ -76,9 +76,16 @@ public:
         std::vector<uint8_t> bytes; // the whole binary message, header included
     };
 
-    WsClient(const std::string& port, const std::string& session, const std::string& token) : mWs(mIoc) {
+    /// `receiveBuffer` > 0 shrinks the socket's receive buffer (set before connecting, so the
+    /// TCP window stays small): a client that does not read then really stalls the server's writes.
+    WsClient(const std::string& port, const std::string& session, const std::string& token, int receiveBuffer = 0) : mWs(mIoc) {
         tcp::resolver resolver(mIoc);
-        asio::connect(mWs.next_layer(), resolver.resolve("127.0.0.1", port));
+        auto endpoints = resolver.resolve("127.0.0.1", port);
+        if (receiveBuffer > 0) {
+            mWs.next_layer().open(tcp::v4());
+            mWs.next_layer().set_option(asio::socket_base::receive_buffer_size(receiveBuffer));
+        }
+        mWs.next_layer().connect(*endpoints.begin());
         setReceiveTimeout(mWs.next_layer(), std::chrono::seconds(60));
         mWs.read_message_max(64u << 20);
         mWs.handshake("127.0.0.1", "/v1/sessions/" + session + "/ws?token=" + token);

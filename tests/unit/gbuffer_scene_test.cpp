@@ -1,6 +1,7 @@
 // glTF loading: real asset scenes load with the right triangle counts; bad files say what is wrong.
 
 #include <dfb/gbuffer/Scene.h>
+#include <dfb/server/InitialRig.h>
 
 #include "support/Assets.h"
 #include "support/GltfBuilder.h"
@@ -81,10 +82,15 @@ TEST(Scene, KhrLightsPunctualArePlacedByTheirNodes) {
     sun.type = "directional";
     sun.intensity = 3;
     b.model.lights.push_back(sun);
+    tinygltf::Light bulb;
+    bulb.name = "desk lamp";
+    bulb.type = "point";
+    bulb.intensity = 7;
+    b.model.lights.push_back(bulb);
     b.model.extensionsUsed.push_back("KHR_lights_punctual");
-    for (int i = 0; i < 2; ++i) {
+    for (int i = 0; i < 3; ++i) {
         tinygltf::Node n;
-        n.name = i == 0 ? "key_node" : "sun_node";
+        n.name = i == 0 ? "key_node" : i == 1 ? "sun_node" : "bulb_node";
         n.translation = {1.0, 4.0, 2.0};
         // Rotate -90 degrees about X: the light's -Z points down (-Y).
         n.rotation = {-0.7071067811865476, 0, 0, 0.7071067811865476};
@@ -97,7 +103,7 @@ TEST(Scene, KhrLightsPunctualArePlacedByTheirNodes) {
     ASSERT_TRUE(b.write(path));
     auto s = loadScene(path);
     ASSERT_TRUE(s.ok()) << s.error().toString();
-    ASSERT_EQ(s->lights.size(), 2u);
+    ASSERT_EQ(s->lights.size(), 3u);
     const SceneLight& k = s->lights[0];
     EXPECT_EQ(k.name, "key");
     EXPECT_EQ(k.type, "spot");
@@ -107,5 +113,24 @@ TEST(Scene, KhrLightsPunctualArePlacedByTheirNodes) {
     EXPECT_NEAR(k.intensity, 120.f, 1e-4f);
     EXPECT_NEAR(k.color.g, 0.5f, 1e-6f);
     EXPECT_EQ(s->lights[1].type, "directional");
+    EXPECT_EQ(s->lights[2].type, "point");
+    // They become the session's initial rig (spot, directional and point lights), names made valid.
+    bool imported = false;
+    const Rig rig = initialRig(s.value(), &imported);
+    EXPECT_TRUE(imported);
+    ASSERT_EQ(rig.lights.size(), 3u);
+    EXPECT_EQ(rig.lights[0].type, LightType::Spot);
+    EXPECT_NEAR(rig.lights[0].coneAngleDeg, 28.6479f, 1e-3f);
+    EXPECT_NEAR(rig.lights[0].penumbraDeg, 11.4592f, 1e-3f);
+    EXPECT_EQ(rig.lights[1].type, LightType::Directional);
+    EXPECT_EQ(rig.lights[2].type, LightType::Point);
+    EXPECT_EQ(rig.lights[2].name, "desk_lamp");
+    EXPECT_FLOAT_EQ(rig.lights[2].intensityCd, 7.f);
+    // A scene without lights gets the default key and fill.
+    auto plain = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
+    ASSERT_TRUE(plain.ok());
+    const Rig fallback = initialRig(plain.value(), &imported);
+    EXPECT_FALSE(imported);
+    EXPECT_EQ(fallback.lights.size(), 2u);
     std::filesystem::remove(path);
 }

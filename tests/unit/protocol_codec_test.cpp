@@ -38,6 +38,46 @@ TEST(Codec, AppliesChangesAndValidatesValues) {
     EXPECT_EQ(toJson(rig), toJson(before)); // nothing changed
 }
 
+TEST(Codec, PointLightsCookiesBarnDoorsAndShadowFilter) {
+    Rig rig = testRig();
+    ASSERT_TRUE(applyChanges(rig, {{"key.type", "point"}, {"key.barnDoors", {10, 20, 30, 90}}, {"key.shadowFilter", 3},
+                                   {"key.cookie", "gobos/window.png"}})
+                    .ok());
+    const Light& l = *rig.find("key");
+    EXPECT_EQ(l.type, LightType::Point);
+    EXPECT_EQ(l.barnDoorsDeg, (std::array<float, 4>{10, 20, 30, 90}));
+    EXPECT_EQ(l.shadowFilter, 3);
+    EXPECT_EQ(l.cookie, "gobos/window.png");
+    auto back = rigFromJson(toJson(rig));
+    ASSERT_TRUE(back.ok()) << back.error().toString();
+    EXPECT_EQ(toJson(back.value()), toJson(rig));
+    const Rig before = rig;
+    for (const Change& bad : {Change{"key.type", "area"}, Change{"key.barnDoors", {10, 20, 30}}, Change{"key.barnDoors", {10, 20, 30, 91}},
+                              Change{"key.shadowFilter", 5}, Change{"key.shadowFilter", 1.5}, Change{"key.cookie", "/etc/passwd"},
+                              Change{"key.cookie", "../secret.png"}, Change{"key.cookie", 3}}) {
+        auto s = applyChange(rig, bad);
+        EXPECT_FALSE(s.ok()) << bad.path << " = " << bad.value.dump();
+        if (!s.ok()) {
+            EXPECT_NE(s.error().message.find(bad.path), std::string::npos) << s.error().message;
+        }
+    }
+    EXPECT_EQ(toJson(rig), toJson(before));
+}
+
+TEST(Codec, ViewTransform) {
+    Rig rig = testRig();
+    EXPECT_EQ(rig.viewTransform, ViewTransform::Srgb);
+    ASSERT_TRUE(applyChange(rig, {"viewTransform", "filmic"}).ok());
+    EXPECT_EQ(rig.viewTransform, ViewTransform::Filmic);
+    auto back = rigFromJson(toJson(rig));
+    ASSERT_TRUE(back.ok()) << back.error().toString();
+    EXPECT_EQ(back->viewTransform, ViewTransform::Filmic);
+    auto bad = applyChange(rig, {"viewTransform", "agx"});
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().message.find("viewTransform"), std::string::npos);
+    EXPECT_EQ(rig.viewTransform, ViewTransform::Filmic);
+}
+
 TEST(Codec, EditsAreAllOrNothing) {
     Rig rig = testRig();
     const float before = rig.find("key")->intensityCd;

@@ -55,7 +55,8 @@ TEST(Messages, RefusesMalformedMessagesNamingTheProblem) {
                           Case{R"({"type":"view","seq":1,"quality":0})", ErrorCode::InvalidValue, "view.quality"},
                           Case{R"({"type":"view","seq":1,"exposure":30})", ErrorCode::InvalidValue, "view.exposure"},
                           Case{R"({"type":"view","seq":1,"output":"light:"})", ErrorCode::InvalidValue, "view.output"},
-                          Case{R"({"type":"view","seq":1,"viewTransform":"filmic"})", ErrorCode::InvalidValue, "viewTransform"},
+                          Case{R"({"type":"view","seq":1,"viewTransform":"linear"})", ErrorCode::InvalidValue, "viewTransform"},
+                          Case{R"({"type":"view","seq":1,"output":"layer:N","encoding":"exr"})", ErrorCode::InvalidValue, "layer"},
                           Case{R"({"type":"pick","seq":1,"x":1.5,"y":2})", ErrorCode::Protocol, "pick.x"},
                           Case{R"({"type":"pick","seq":1,"x":1})", ErrorCode::Protocol, "pick.y"},
                           Case{R"({"type":"presence","editing":[1]})", ErrorCode::Protocol, "presence.editing"}}) {
@@ -84,7 +85,7 @@ TEST(Messages, ViewSettingsFromJsonAndQuery) {
     EXPECT_EQ(viewFromQuery("format=gif").error().code, ErrorCode::InvalidValue);
     EXPECT_EQ(viewFromQuery("quality=lots").error().code, ErrorCode::InvalidValue);
     EXPECT_NE(viewFromQuery("size=4").error().message.find("size"), std::string::npos);
-    EXPECT_EQ(toJson(ViewSettings{}), json::parse(R"({"output":"beauty","encoding":"jpeg","quality":85,"exposure":0.0,"viewTransform":"srgb"})"));
+    EXPECT_EQ(toJson(ViewSettings{}), json::parse(R"({"output":"beauty","encoding":"jpeg","quality":85,"exposure":0.0,"viewTransform":"rig"})"));
 }
 
 TEST(Messages, ServerMessagesCarryTheDocumentedFields) {

@@ -65,9 +65,12 @@ int main(int argc, char** argv) {
     app.add_option("--shot", shotPath, "shot for the edit -> frame timing (default: bake the bundled scene at 960x540)");
     app.add_option("--assets", assets, "folder with MetalRoughSpheresNoTextures.glb (the 1M-triangle case)");
     app.add_option("--edits", edits, "edits per measurement")->check(CLI::Range(3, 10000));
+    int only = 0;
+    app.add_option("--only", only, "run only section 1, 2 or 3")->check(CLI::Range(0, 3));
     CLI11_PARSE(app, argc, argv);
 
     // 1. Shadow pass versus triangles and map size.
+    if (only == 0 || only == 1) {
     std::printf("1. deformed shadow-map pass (median of %d renders, adaptive tessellation up to 64)\n", edits);
     std::printf("%-34s %10s %8s %10s %10s\n", "scene", "triangles", "map", "shadow ms", "plain spot");
     struct Case {
@@ -118,8 +121,9 @@ int main(int argc, char** argv) {
         }
     }
 
+    }
     // 2. Deformation per vertex.
-    {
+    if (only == 0 || only == 2) {
         std::printf("\n2. deformation Q -> Q' (inverse map + eq. 7) per vertex, 2-segment chain\n");
         auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
         if (!scene) return 2;
@@ -183,7 +187,7 @@ void main() {
     }
 
     // 3. Edit -> encoded frame for a control-point drag.
-    {
+    if (only == 0 || only == 3) {
         std::printf("\n3. control-point drag, edit -> JPEG, key light bent, fill spot cached\n");
         DeepBuffer shot;
         auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");

@@ -13,10 +13,14 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <dfb/server/ImageCodec.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <map>
+#include <optional>
 
 namespace dfb::shaders {
 std::string_view serverShader(std::string_view name);
@@ -41,6 +45,10 @@ float shadowHalfAngleDeg(const Light& l) {
 
 // What a light's shadow map depends on; any difference re-renders it.
 bool sameShadowInputs(const Light& a, const Light& b) {
+    if (a.type == LightType::Point || b.type == LightType::Point) {
+        // Omnidirectional: direction and cone play no part in a cube map.
+        return a.type == b.type && a.position == b.position && a.shadow == b.shadow && a.shadowMapSize == b.shadowMapSize;
+    }
     return a.position == b.position && a.direction == b.direction && shadowHalfAngleDeg(a) == shadowHalfAngleDeg(b) &&
            (a.type != LightType::Bendy || a.coneAngleDeg == b.coneAngleDeg) &&
            a.shadow == b.shadow && a.shadowMapSize == b.shadowMapSize && a.type == b.type &&
@@ -51,7 +59,8 @@ bool sameShadowInputs(const Light& a, const Light& b) {
 // not among them: they only rescale the cached image.
 bool sameShadingInputs(const Light& a, const Light& b) {
     return sameShadowInputs(a, b) && a.coneAngleDeg == b.coneAngleDeg && a.penumbraDeg == b.penumbraDeg && a.shadowBias == b.shadowBias && a.type == b.type &&
-           a.include == b.include && a.exclude == b.exclude &&
+           a.include == b.include && a.exclude == b.exclude && a.shadowFilter == b.shadowFilter &&
+           a.cookie == b.cookie && a.barnDoorsDeg == b.barnDoorsDeg &&
            (a.type != LightType::Bendy || (a.colors == b.colors && a.exactDirection == b.exactDirection));
 }
 
@@ -59,6 +68,10 @@ struct LightCache {
     Light params;
     bool hasShadow = false;
     bool hasContribution = false;
+    bool shadowIsCube = false;     // a point light's cube map (GL_TEXTURE_CUBE_MAP)
+    bool previewShadow = false;    // rendered at preview size: re-render at full size when refining
+    bool previewShading = false;   // contribution shaded at half resolution (top-left quarter)
+    glm::vec2 cubeNearFar{0.f};    // the cube faces' projection planes
     int shadowSize = 0;
     gl::Texture shadowMap;
     gl::Framebuffer shadowFb;
@@ -85,21 +98,33 @@ public:
     Result<ImageF> renderLinear(const Rig& rig) override;
     Result<ImageF> renderShadowMask(const Rig& rig, const std::string& lightName) override;
     Result<ImageF> renderLightLinear(const Rig& rig, const std::string& lightName) override;
+    Result<std::vector<NamedImageF>> renderLayers(const Rig& rig) override;
     std::string deviceDescription() const override { return mContext->description(); }
     int width() const override { return mWidth; }
     void setShadowSubdivisionLimit(int maxLevel) override { mSubdivisionLimit = std::clamp(maxLevel, 1, 64); }
     int height() const override { return mHeight; }
+    void setAssetDirectory(std::string dir) override { mAssetDir = std::move(dir); }
+    void setPreview(bool preview) override { mPreview = preview; }
 
 private:
     Result<gl::Program> program(const char* vert, const char* frag);
     glm::mat4 lightViewProj(const Light& l) const;
     void uploadBendy(LightCache& c);
     Status renderShadow(LightCache& c);
+    Status renderCubeShadow(LightCache& c);
+    Result<GLuint> cookieTexture(const Light& l);
+    Status waitGpu(const char* stage);
     Status shade(LightCache& c, int output = 0);
     Status renderAccumulation(const Rig& rig, FrameStats& st);
     Result<ImageF> readFloat(GLuint texture, const char* what, glm::vec3 scale = glm::vec3(1.f));
 
     std::unique_ptr<gl::Context> mContext;
+    std::string mAssetDir = ".";
+    std::map<std::string, gl::Texture> mCookies; // by file name, loaded on first use
+    bool mPreview = false;
+    // Set when the GPU hung or the context was lost: every later call returns it at once (the
+    // context cannot be trusted again; the server must create a new engine).
+    std::optional<Error> mFailure;
     int mWidth = 0, mHeight = 0;
     glm::vec3 mCameraPosition{0.f}, mCameraForward{0.f, 0.f, -1.f};
     bool mOrthographic = false;
@@ -377,10 +402,20 @@ void GlEngine::uploadBendy(LightCache& c) {
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, c.bendyUbo.id());
 }
 
+// The side of the shadow map a light gets now: its own, or a quarter of it (at least 256) while a
+// control is being dragged (progressive refinement, DESIGN section 6).
+int shadowSizeFor(const Light& l, bool preview) {
+    return preview ? std::min(l.shadowMapSize, std::max(256, l.shadowMapSize / 4)) : l.shadowMapSize;
+}
+
 Status GlEngine::renderShadow(LightCache& c) {
     const Light& l = c.params;
-    if (!c.shadowMap || c.shadowSize != l.shadowMapSize) {
-        c.shadowSize = l.shadowMapSize;
+    c.previewShadow = mPreview && shadowSizeFor(l, true) != l.shadowMapSize;
+    if (l.type == LightType::Point) return renderCubeShadow(c);
+    const int size = shadowSizeFor(l, mPreview);
+    if (!c.shadowMap || c.shadowIsCube || c.shadowSize != size) {
+        c.shadowIsCube = false;
+        c.shadowSize = size;
         c.shadowMap = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, c.shadowSize, c.shadowSize);
         glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
         glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -460,6 +495,102 @@ Status GlEngine::renderShadow(LightCache& c) {
     return okStatus();
 }
 
+Status GlEngine::renderCubeShadow(LightCache& c) {
+    const Light& l = c.params;
+    const int size = shadowSizeFor(l, mPreview);
+    if (!c.shadowMap || !c.shadowIsCube || c.shadowSize != size) {
+        c.shadowIsCube = true;
+        c.shadowSize = size;
+        GLuint id = 0;
+        glCreateTextures(GL_TEXTURE_CUBE_MAP, 1, &id);
+        c.shadowMap = gl::Texture(id);
+        glTextureStorage2D(id, 1, GL_DEPTH_COMPONENT32F, size, size);
+        glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(id, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+        glTextureParameteri(id, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+        GLuint fb = 0;
+        glCreateFramebuffers(1, &fb);
+        c.shadowFb = gl::Framebuffer(fb);
+        glNamedFramebufferDrawBuffer(fb, GL_NONE);
+    }
+    // Filtering across face edges (the PCF taps of a direction near an edge reach the next face).
+    glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
+    const glm::vec3 pos = toGlm(l.position);
+    float farthest = 0.f;
+    for (int i = 0; i < 8; ++i) {
+        glm::vec3 corner((i & 1) ? mSceneMax.x : mSceneMin.x, (i & 2) ? mSceneMax.y : mSceneMin.y,
+                         (i & 4) ? mSceneMax.z : mSceneMin.z);
+        farthest = std::max(farthest, glm::length(corner - pos));
+    }
+    const float zfar = std::max(farthest * 1.01f, 1e-3f);
+    const float znear = std::max(zfar * 1e-4f, 1e-5f);
+    c.cubeNearFar = {znear, zfar};
+    const glm::mat4 proj = glm::perspective(glm::radians(90.f), 1.f, znear, zfar);
+    // GL's cube-map face orientations (GL 4.5 section 8.13, table 8.19): face i is looked up for
+    // directions whose major axis is `target`, with s and t along the faces' -z/x/.. axes, which
+    // is what a camera with these up vectors renders.
+    const glm::vec3 targets[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    const glm::vec3 ups[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
+    glBindFramebuffer(GL_FRAMEBUFFER, c.shadowFb.id());
+    glViewport(0, 0, size, size);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_BLEND);
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(1.5f, 2.f);
+    glUseProgram(mShadowProgram.id());
+    glBindVertexArray(mCasterVao.id());
+    const float one = 1.f;
+    for (int face = 0; face < 6; ++face) {
+        glNamedFramebufferTextureLayer(c.shadowFb.id(), GL_DEPTH_ATTACHMENT, c.shadowMap.id(), 0, face);
+        if (face == 0) {
+            if (auto s = gl::checkFramebuffer(c.shadowFb.id(), ("cube shadow map of light '" + l.name + "'").c_str()); !s) return s;
+        }
+        glClearNamedFramebufferfv(c.shadowFb.id(), GL_DEPTH, 0, &one);
+        engine::LightBlock block{};
+        block.worldToLightClip = proj * glm::lookAt(pos, pos + targets[face], ups[face]);
+        glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
+        glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
+        if (mCasterIndexCount > 0) glDrawElements(GL_TRIANGLES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+    }
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    glDisable(GL_DEPTH_TEST);
+    c.hasShadow = true;
+    return okStatus();
+}
+
+Result<GLuint> GlEngine::cookieTexture(const Light& l) {
+    auto it = mCookies.find(l.cookie);
+    if (it != mCookies.end()) return it->second.id();
+    const std::string path = (std::filesystem::path(mAssetDir) / l.cookie).string();
+    auto img = readLinearImage(path);
+    if (!img) {
+        return makeError(img.error().code, "light '" + l.name + "': cookie '" + l.cookie + "': " + img.error().message);
+    }
+    const int levels = 1 + int(std::floor(std::log2(double(std::max(img->width, img->height)))));
+    GLuint id = 0;
+    glCreateTextures(GL_TEXTURE_2D, 1, &id);
+    gl::Texture t(id);
+    glTextureStorage2D(id, levels, GL_RGBA16F, img->width, img->height);
+    // Row 0 of the image (its top) goes to t = 1, the light's up (relight_spot.frag).
+    std::vector<float> flipped(img->rgba.size());
+    const size_t row = size_t(img->width) * 4;
+    for (int y = 0; y < img->height; ++y)
+        std::copy_n(img->rgba.begin() + ptrdiff_t(size_t(y) * row), row, flipped.begin() + ptrdiff_t(size_t(img->height - 1 - y) * row));
+    glTextureSubImage2D(id, 0, 0, 0, img->width, img->height, GL_RGBA, GL_FLOAT, flipped.data());
+    glGenerateTextureMipmap(id);
+    glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return mCookies.emplace(l.cookie, std::move(t)).first->second.id();
+}
+
 Status GlEngine::shade(LightCache& c, int output) {
     const Light& l = c.params;
     if (!c.contribution) {
@@ -473,31 +604,58 @@ Status GlEngine::shade(LightCache& c, int output) {
     engine::LightBlock block{};
     block.worldToLightClip = c.worldToLightClip;
     // w = 0 marks a directional light: parallel rays, no distance or cone falloff.
-    block.lightPosition = glm::vec4(toGlm(l.position), l.type == LightType::Directional ? 0.f : 1.f);
+    block.lightPosition = glm::vec4(toGlm(l.position), l.type == LightType::Directional ? 0.f
+                                                       : l.type == LightType::Point     ? 2.f
+                                                                                        : 1.f);
     block.lightAxis = glm::vec4(glm::normalize(toGlm(l.direction)), 0.f);
     block.lightRadiance = glm::vec4(toGlm(l.color) * l.intensityCd, 0.f);
     const float outer = glm::radians(l.coneAngleDeg);
     const float inner = glm::radians(std::max(l.coneAngleDeg - l.penumbraDeg, 0.f));
     const bool shadowed = l.shadow;
-    // Normal offset: `shadowBias` shadow-map texels, whose world size grows linearly with distance.
-    const float fovy = 2.f * glm::radians(shadowHalfAngleDeg(l));
-    const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(std::max(l.shadowMapSize, 1));
+    // Normal offset: `shadowBias` shadow-map texels, whose world size grows linearly with distance
+    // (a cube face spans 90 degrees: 2 / size per unit distance).
+    const int mapSize = c.hasShadow ? c.shadowSize : l.shadowMapSize;
+    const float fovy = 2.f * glm::radians(l.type == LightType::Point ? 45.f : shadowHalfAngleDeg(l));
+    const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(std::max(mapSize, 1));
     float normalOffset = l.shadowBias * texelPerDistance;
     if (l.type == LightType::Directional) {
         // Orthographic texels have one world size: the frustum's width over the map's.
         const glm::mat4 m = glm::inverse(c.worldToLightClip);
         const float width = glm::length(glm::vec3(m * glm::vec4(1, 0, 0, 1)) / (m * glm::vec4(1, 0, 0, 1)).w -
                                         glm::vec3(m * glm::vec4(-1, 0, 0, 1)) / (m * glm::vec4(-1, 0, 0, 1)).w);
-        normalOffset = l.shadowBias * width / float(std::max(l.shadowMapSize, 1));
+        normalOffset = l.shadowBias * width / float(std::max(mapSize, 1));
     }
     block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
                                 shadowed ? 1.f : 0.f, normalOffset);
-    block.lightShadow = glm::vec4(1.f / float(std::max(l.shadowMapSize, 1)), 0.f, 0.f, 0.f);
+    block.lightShadow = glm::vec4(1.f / float(std::max(mapSize, 1)), float(l.shadowFilter), c.shadowIsCube ? 1.f : 0.f, 0.f);
+    {
+        // The spot's frame, as its shadow frustum's (lightViewProj): barn doors and cookie.
+        const glm::vec3 axis = glm::normalize(toGlm(l.direction));
+        glm::vec3 up(0, 1, 0);
+        if (std::abs(glm::dot(up, axis)) > 0.99f) up = glm::vec3(1, 0, 0);
+        const glm::vec3 right = glm::normalize(glm::cross(axis, up));
+        GLuint cookie = 0;
+        if (l.type == LightType::Spot && !l.cookie.empty()) {
+            auto t = cookieTexture(l);
+            if (!t) return t.error();
+            cookie = t.value();
+        }
+        glBindTextureUnit(engine::TEX_COOKIE, cookie);
+        block.lightRight = glm::vec4(right, cookie ? 1.f : 0.f);
+        block.lightUp = glm::vec4(glm::cross(right, axis), std::tan(outer));
+        // An open door (90 degrees) must never cut: put it out of atan's reach.
+        auto door = [&](int i) { return l.barnDoorsDeg[size_t(i)] >= 90.f ? 10.f : glm::radians(l.barnDoorsDeg[size_t(i)]); };
+        block.lightDoors = l.type == LightType::Spot ? glm::vec4(door(0), door(1), door(2), door(3)) : glm::vec4(10.f);
+        block.lightCube = glm::vec4(c.cubeNearFar, 0.f, 0.f);
+    }
     glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
 
+    // Preview frames shade every second pixel into a half-size image (progressive refinement);
+    // shadow masks and full frames shade every pixel.
+    const int step = mPreview && output == 0 ? 2 : 1;
     glBindFramebuffer(GL_FRAMEBUFFER, c.contributionFb.id());
-    glViewport(0, 0, mWidth, mHeight);
+    glViewport(0, 0, (mWidth + step - 1) / step, (mHeight + step - 1) / step);
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);
     if (l.type == LightType::Bendy) {
@@ -507,6 +665,7 @@ Status GlEngine::shade(LightCache& c, int output) {
         glUseProgram(mSpotProgram.id());
     }
     glUniform1i(0, output);
+    glUniform1i(2, step);
     // Light linking: a bit per object id, lit where set.
     const bool linked = !l.include.empty() || !l.exclude.empty();
     glUniform1i(1, linked ? 1 : 0);
@@ -538,11 +697,13 @@ Status GlEngine::shade(LightCache& c, int output) {
     glBindTextureUnit(engine::TEX_GBUFFER_COAT, mCoat.id());
     glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
     // An unshadowed light still needs a complete texture on the shadow unit: reuse its own or any.
-    glBindTextureUnit(engine::TEX_SHADOW_MAP, c.shadowMap ? c.shadowMap.id() : 0);
+    glBindTextureUnit(engine::TEX_SHADOW_MAP, c.shadowMap && !c.shadowIsCube ? c.shadowMap.id() : 0);
+    glBindTextureUnit(engine::TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube ? c.shadowMap.id() : 0);
     glBindVertexArray(mEmptyVao.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     c.hasContribution = true;
     if (output == 0) {
+        c.previewShading = step != 1;
         c.shadedRadiance = toGlm(l.color) * l.intensityCd;
         c.scale = glm::vec3(1.f);
         ++c.version;
@@ -550,12 +711,33 @@ Status GlEngine::shade(LightCache& c, int output) {
     return okStatus();
 }
 
+// Waits for the GPU to finish what was submitted, at most GPU_TIMEOUT: a hung GPU or a lost
+// context becomes an error naming the stage instead of a hang (Context::check reads the reset
+// status that robust contexts report).
+Status GlEngine::waitGpu(const char* stage) {
+    constexpr GLuint64 GPU_TIMEOUT_NS = 20'000'000'000ull;
+    GLsync fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    GLenum r = fence ? glClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, GPU_TIMEOUT_NS) : GLenum(GL_WAIT_FAILED);
+    if (fence) glDeleteSync(fence);
+    Status s = okStatus();
+    if (r == GL_TIMEOUT_EXPIRED) {
+        s = makeError(ErrorCode::GpuError, std::string("the GPU did not finish the ") + stage +
+                                               " within 20 s (hung GPU or lost context); restart the server");
+    } else if (r == GL_WAIT_FAILED) {
+        s = makeError(ErrorCode::GpuError, std::string("waiting for the GPU failed after the ") + stage);
+    }
+    if (s) s = mContext->check(stage);
+    if (!s) mFailure = s.error();
+    return s;
+}
+
 Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
+    if (mFailure) return *mFailure;
     if (auto s = mContext->makeCurrent(); !s) return s;
     engine::ViewBlock view{};
     view.cameraPosition = glm::vec4(mCameraPosition, mOrthographic ? 1.f : 0.f);
     view.cameraForward = glm::vec4(mCameraForward, 0.f);
-    view.exposure = glm::vec4(std::exp2(rig.exposureStops), 0, 0, 0);
+    view.exposure = glm::vec4(std::exp2(rig.exposureStops), rig.viewTransform == ViewTransform::Filmic ? 1.f : 0.f, 0, 0);
     view.sampleLayout = glm::ivec4(mSampleRow, 0, 0, 0);
     glNamedBufferSubData(mViewUbo.id(), 0, sizeof view, &view);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_VIEW, mViewUbo.id());
@@ -569,7 +751,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
-        const bool shadowValid = c.hasShadow && sameShadowInputs(c.params, l) &&
+        const bool shadowValid = c.hasShadow && sameShadowInputs(c.params, l) && (mPreview || !c.previewShadow) &&
                                  (l.type != LightType::Bendy || c.subdivisionLimit == mSubdivisionLimit);
         if (l.shadow && !shadowValid) {
             c.params = l;
@@ -582,14 +764,14 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
             c.hasContribution = false;
         }
     }
-    glFinish();
+    if (auto s = waitGpu("shadow maps"); !s) return s;
     st.shadowMs = msSince(t);
 
     t = Clock::now();
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
-        if (c.hasContribution && sameShadingInputs(c.params, l)) {
+        if (c.hasContribution && sameShadingInputs(c.params, l) && (mPreview || !c.previewShading)) {
             // Colour or intensity only: rescale, unless a channel shaded at zero must now light.
             const glm::vec3 radiance = toGlm(l.color) * l.intensityCd;
             bool rescalable = true;
@@ -611,7 +793,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
         if (auto s = shade(c); !s) return s;
         ++st.lightsShaded;
     }
-    glFinish();
+    if (auto s = waitGpu("shading"); !s) return s;
     st.shadeMs = msSince(t);
 
     t = Clock::now();
@@ -628,6 +810,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     auto addLight = [&](const std::string& name) {
         const LightCache& c = mLights[name];
         glUniform3f(0, c.scale.x, c.scale.y, c.scale.z);
+        glUniform1i(1, c.previewShading ? 2 : 1);
         glBindTextureUnit(engine::TEX_INPUT, c.contribution.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
     };
@@ -664,6 +847,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
         glDisable(GL_BLEND);
         glUseProgram(mAddProgram.id());
         glUniform3f(0, 1.f, 1.f, 1.f);
+        glUniform1i(1, 1);
         glBindTextureUnit(engine::TEX_INPUT, mStatic.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glEnable(GL_BLEND);
@@ -681,7 +865,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
     for (const Light& l : rig.lights) {
         if (l.enabled) mLights[l.name].compositedVersion = mLights[l.name].version;
     }
-    glFinish();
+    if (auto s = waitGpu("composite"); !s) return s;
     st.compositeMs = msSince(t);
     return okStatus();
 }
@@ -696,7 +880,7 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     glUseProgram(mTonemapProgram.id());
     glBindTextureUnit(engine::TEX_INPUT, mAccum.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
-    glFinish();
+    if (auto s = waitGpu("view transform"); !s) return s.error();
     st.compositeMs += msSince(t); // the view transform belongs to the composite stage
 
     t = Clock::now();
@@ -727,9 +911,20 @@ Result<ImageF> GlEngine::readFloat(GLuint texture, const char* what, glm::vec3 s
     return img;
 }
 
+// Outputs that read single lights' contributions are always full quality, even mid-drag.
+struct FullQuality {
+    bool& preview;
+    bool saved;
+    explicit FullQuality(bool& p) : preview(p), saved(p) { preview = false; }
+    ~FullQuality() { preview = saved; }
+    FullQuality(const FullQuality&) = delete;
+    FullQuality& operator=(const FullQuality&) = delete;
+};
+
 Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& lightName) {
     const Light* l = rig.find(lightName);
     if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    FullQuality full(mPreview);
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error();
     if (!l->enabled) {
@@ -746,6 +941,7 @@ Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& li
 Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lightName) {
     const Light* l = rig.find(lightName);
     if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    FullQuality full(mPreview);
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error(); // brings the light's shadow map up to date
     if (!l->enabled) return makeError(ErrorCode::InvalidValue, "light '" + lightName + "' is disabled");
@@ -755,6 +951,25 @@ Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lig
     c.hasContribution = false; // the next frame re-shades it (and rebuilds the sums that hold it)
     ++c.version;
     return readFloat(c.contribution.id(), "shadow mask");
+}
+
+Result<std::vector<NamedImageF>> GlEngine::renderLayers(const Rig& rig) {
+    FullQuality full(mPreview);
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error();
+    std::vector<NamedImageF> layers;
+    auto beauty = readFloat(mAccum.id(), "beauty layer");
+    if (!beauty) return beauty.error();
+    for (size_t i = 3; i < beauty->rgba.size(); i += 4) beauty->rgba[i] = 1.f;
+    layers.push_back({"", std::move(beauty.value())});
+    for (const Light& l : rig.lights) {
+        if (!l.enabled) continue;
+        const LightCache& c = mLights[l.name];
+        auto img = readFloat(c.contribution.id(), "light layer", c.scale);
+        if (!img) return img.error();
+        layers.push_back({l.name, std::move(img.value())});
+    }
+    return layers;
 }
 
 Result<ImageF> GlEngine::renderLinear(const Rig& rig) {

@@ -4,6 +4,8 @@
 #include <OpenImageIO/imageio.h>
 #include <turbojpeg.h>
 
+#include <cmath>
+
 namespace dfb {
 
 Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality) {
@@ -43,6 +45,84 @@ Result<std::vector<uint8_t>> encodePng(const Image8& image) {
         return makeError(ErrorCode::IoError, "PNG encoding failed: " + out->geterror());
     }
     return std::vector<uint8_t>(bytes.begin(), bytes.end());
+}
+
+Result<std::vector<uint8_t>> encodeExr(const std::vector<NamedImageF>& layers) {
+    if (layers.empty() || layers[0].image.width <= 0 || layers[0].image.height <= 0) {
+        return makeError(ErrorCode::InvalidValue, "encodeExr: no image");
+    }
+    const int w = layers[0].image.width, h = layers[0].image.height;
+    std::vector<std::string> names;
+    for (const NamedImageF& l : layers) {
+        if (l.image.width != w || l.image.height != h || l.image.rgba.size() != size_t(w) * size_t(h) * 4) {
+            return makeError(ErrorCode::InvalidValue, "encodeExr: layer '" + l.name + "' differs in size");
+        }
+        const std::string prefix = l.name.empty() ? "" : l.name + ".";
+        for (const char* c : {"R", "G", "B"}) names.push_back(prefix + c);
+        if (l.name.empty()) names.push_back("A");
+    }
+    const int nch = int(names.size());
+    OIIO::ImageSpec spec(w, h, nch, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = names;
+    spec.alpha_channel = -1;
+    for (int i = 0; i < nch; ++i)
+        if (names[size_t(i)] == "A") spec.alpha_channel = i;
+    spec.attribute("compression", "zip");
+    // Interleave the layers' pixels into one scanline buffer.
+    std::vector<float> pixels(size_t(w) * size_t(h) * size_t(nch));
+    size_t ch = 0;
+    for (const NamedImageF& l : layers) {
+        const int n = l.name.empty() ? 4 : 3;
+        for (size_t p = 0; p < size_t(w) * size_t(h); ++p)
+            for (int c = 0; c < n; ++c) pixels[p * size_t(nch) + ch + size_t(c)] = l.image.rgba[p * 4 + size_t(c)];
+        ch += size_t(n);
+    }
+    std::vector<unsigned char> bytes;
+    OIIO::Filesystem::IOVecOutput proxy(bytes);
+    auto out = OIIO::ImageOutput::create("out.exr");
+    if (!out) return makeError(ErrorCode::IoError, "OpenImageIO has no EXR writer: " + OIIO::geterror());
+    if (!out->set_ioproxy(&proxy) || !out->open("out.exr", spec) ||
+        !out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()) || !out->close()) {
+        return makeError(ErrorCode::IoError, "EXR encoding failed: " + out->geterror());
+    }
+    return std::vector<uint8_t>(bytes.begin(), bytes.end());
+}
+
+Result<ImageF> readLinearImage(const std::string& path) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) return makeError(ErrorCode::IoError, "cannot read image '" + path + "': " + OIIO::geterror());
+    const OIIO::ImageSpec spec = in->spec();
+    constexpr int MAX_SIDE = 16384;
+    if (spec.width <= 0 || spec.height <= 0 || spec.width > MAX_SIDE || spec.height > MAX_SIDE || spec.nchannels <= 0) {
+        return makeError(ErrorCode::InvalidValue, "image '" + path + "' has an unsupported size " +
+                                                      std::to_string(spec.width) + "x" + std::to_string(spec.height));
+    }
+    std::vector<float> src(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, src.data())) {
+        return makeError(ErrorCode::IoError, "cannot read image '" + path + "': " + in->geterror());
+    }
+    const bool srgb = !(spec.format.basetype == OIIO::TypeDesc::HALF || spec.format.basetype == OIIO::TypeDesc::FLOAT ||
+                        spec.format.basetype == OIIO::TypeDesc::DOUBLE);
+    auto decode = [srgb](float v) {
+        if (!std::isfinite(v)) return 0.f;
+        if (!srgb) return std::max(v, 0.f);
+        v = std::clamp(v, 0.f, 1.f);
+        return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+    };
+    ImageF img;
+    img.width = spec.width;
+    img.height = spec.height;
+    img.rgba.resize(size_t(spec.width) * size_t(spec.height) * 4);
+    const size_t n = size_t(spec.nchannels);
+    for (size_t p = 0; p < size_t(spec.width) * size_t(spec.height); ++p) {
+        const float* s = &src[p * n];
+        const float r = decode(s[0]), g = n >= 3 ? decode(s[1]) : r, b = n >= 3 ? decode(s[2]) : r;
+        img.rgba[p * 4] = r;
+        img.rgba[p * 4 + 1] = g;
+        img.rgba[p * 4 + 2] = b;
+        img.rgba[p * 4 + 3] = n == 2 ? s[1] : n >= 4 ? s[3] : 1.f;
+    }
+    return img;
 }
 
 } // namespace dfb

@@ -24,6 +24,8 @@ enum TextureUnit : unsigned {
     TEX_GBUFFER_SHEEN = 9,
     TEX_GBUFFER_COAT = 10,
     TEX_GBUFFER_ID = 11,
+    TEX_SHADOW_CUBE = 12,
+    TEX_COOKIE = 13,
 };
 enum StorageBinding : unsigned { SSBO_LINK_MASK = 6 };
 enum UniformBinding : unsigned { UBO_LIGHT = 0, UBO_VIEW = 1, UBO_BENDY = 2 };
@@ -35,6 +37,10 @@ struct LightBlock {
     glm::vec4 lightRadiance;
     glm::vec4 lightCone;
     glm::vec4 lightShadow;
+    glm::vec4 lightRight;
+    glm::vec4 lightUp;
+    glm::vec4 lightDoors;
+    glm::vec4 lightCube;
 };
 static_assert(offsetof(LightBlock, worldToLightClip) == 0);
 static_assert(offsetof(LightBlock, lightPosition) == 64);
@@ -42,7 +48,11 @@ static_assert(offsetof(LightBlock, lightAxis) == 80);
 static_assert(offsetof(LightBlock, lightRadiance) == 96);
 static_assert(offsetof(LightBlock, lightCone) == 112);
 static_assert(offsetof(LightBlock, lightShadow) == 128);
-static_assert(sizeof(LightBlock) == 144);
+static_assert(offsetof(LightBlock, lightRight) == 144);
+static_assert(offsetof(LightBlock, lightUp) == 160);
+static_assert(offsetof(LightBlock, lightDoors) == 176);
+static_assert(offsetof(LightBlock, lightCube) == 192);
+static_assert(sizeof(LightBlock) == 208);
 
 struct ViewBlock {
     glm::vec4 cameraPosition; // w = 1 if orthographic

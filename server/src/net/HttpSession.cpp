@@ -325,7 +325,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
                 hub->metrics().frameSent(hub->id(), frame.imageSize());
             }
             asio::post(self->mStream.get_executor(), [self, r = std::move(res)]() mutable { self->send(std::move(r)); });
-        });
+        }, /*fullQuality=*/true);
         return;
     }
     if (resource == "pick") {

@@ -28,6 +28,10 @@ void Listener::onAccept(error_code ec, tcp::socket socket) {
     if (ec) {
         fail(ec, "accept");
     } else {
+        // Small messages (acks, changes, frame headers) must not wait for Nagle's algorithm to
+        // meet the peer's delayed ACK: that adds ~40 ms to an edit-to-frame round trip.
+        error_code ignored;
+        socket.set_option(tcp::no_delay(true), ignored);
         std::make_shared<HttpSession>(std::move(socket), mState)->run();
     }
     if (mAcceptor.is_open()) doAccept();

@@ -2,7 +2,7 @@
 // One session on the network: its Session (rig, history, journal), its render thread, its access
 // tokens and its connected WebSocket clients. Every change of the session, from a WebSocket or
 // from plain HTTP, goes out through published(), so every client hears of every change.
-// I/O thread only, except onNewVersion (any thread).
+// I/O thread only, except onNewImage (any thread).
 
 #include "net/Beast.h"
 #include "session/Metrics.h"
@@ -53,8 +53,9 @@ public:
     void published(const ChangeOutcome& outcome, const WebSocketSession* except);
     /// Sends the current presence list to every client.
     void broadcastPresence();
-    /// Called on the render thread: a new version is rendered; clients pull it when they can.
-    void onNewVersion(uint64_t version);
+    /// Called on the render thread: a new image is rendered (a new version or a refinement);
+    /// clients pull it when they can.
+    void onNewImage(uint64_t imageSerial);
 
 private:
     void broadcastText(const std::string& message, const WebSocketSession* except);

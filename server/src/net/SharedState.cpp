@@ -66,12 +66,12 @@ void SessionHub::published(const ChangeOutcome& outcome, const WebSocketSession*
 
 void SessionHub::broadcastPresence() { broadcastText(protocol::encodePresence(clients()), nullptr); }
 
-void SessionHub::onNewVersion(uint64_t version) {
-    asio::post(mIoc, [self = shared_from_this(), version] {
+void SessionHub::onNewImage(uint64_t serial) {
+    asio::post(mIoc, [self = shared_from_this(), serial] {
         std::vector<std::weak_ptr<WebSocketSession>> targets;
         for (WebSocketSession* c : self->mClients) targets.push_back(c->weak_from_this());
         for (auto& w : targets) {
-            if (auto s = w.lock()) s->frameAvailable(version);
+            if (auto s = w.lock()) s->frameAvailable(serial);
         }
     });
 }

@@ -167,14 +167,14 @@ void WebSocketSession::sendText(std::shared_ptr<const std::string> message) {
     if (!mWriting) writeNext();
 }
 
-void WebSocketSession::frameAvailable(uint64_t version) {
-    mAvailableVersion = std::max(mAvailableVersion, version);
+void WebSocketSession::frameAvailable(uint64_t serial) {
+    mAvailableSerial = std::max(mAvailableSerial, serial);
     pumpFrames();
 }
 
 void WebSocketSession::pumpFrames() {
     if (mClosing || mEncodePending || mWriting || mPendingFrame) return;
-    if (!mViewDirty && mAvailableVersion <= mSentVersion) return;
+    if (!mViewDirty && mAvailableSerial <= mSentSerial) return;
     mEncodePending = true;
     mViewDirty = false;
     mHub->render().requestEncoded(mView, [self = weak_from_this(), ioc = &mState->ioc(), gen = mViewGeneration](
@@ -208,8 +208,13 @@ void WebSocketSession::onEncoded(uint64_t viewGeneration, Result<std::shared_ptr
         return;
     }
     auto f = std::move(frame.value());
-    mAvailableVersion = std::max(mAvailableVersion, f->rigVersion);
-    mSentVersion = std::max(mSentVersion, f->rigVersion);
+    mAvailableSerial = std::max(mAvailableSerial, f->imageSerial);
+    mSentSerial = std::max(mSentSerial, f->imageSerial);
+    if (f->message == mLastMessage) {
+        pumpFrames(); // the same bytes as the last frame (an output a refinement does not change)
+        return;
+    }
+    mLastMessage = f->message;
     mPendingFrame = std::move(f);
     if (!mWriting) writeNext();
 }

@@ -26,8 +26,8 @@ public:
     /// Accepts the upgrade request and starts reading.
     void run(http::request<http::string_body> req);
     void sendText(std::shared_ptr<const std::string> message);
-    /// A new rig version has been rendered: pull it when the connection is free.
-    void frameAvailable(uint64_t version);
+    /// A new image (serial) has been rendered: pull it when the connection is free.
+    void frameAvailable(uint64_t imageSerial);
     protocol::ClientInfo info() const;
 
 private:
@@ -57,8 +57,9 @@ private:
     protocol::ViewSettings mView;
     bool mViewDirty = true;          // the next frame must be encoded for new view settings
     uint64_t mViewGeneration = 0;    // bumped on every view change: older encodings are dropped
-    uint64_t mAvailableVersion = 0;  // newest rendered version we heard of
-    uint64_t mSentVersion = 0;       // version of the newest frame taken for sending
+    uint64_t mAvailableSerial = 0;   // newest rendered image we heard of
+    uint64_t mSentSerial = 0;        // image of the newest frame taken for sending
+    std::shared_ptr<const std::vector<uint8_t>> mLastMessage; // its bytes (not sent twice)
     bool mEncodePending = false;
 
     bool mWriting = false;

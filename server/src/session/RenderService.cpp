@@ -1,7 +1,5 @@
 #include "session/RenderService.h"
 
-#include "session/FrameEncoder.h"
-
 #include <dfb/protocol/Codec.h>
 #include <dfb/server/ImageCodec.h>
 
@@ -14,8 +12,8 @@
 namespace dfb {
 
 Result<std::unique_ptr<RenderService>> RenderService::start(const DeepBuffer& shot, ShadowGeometry casters, Session& session,
-                                                            VersionCallback onNewVersion, Metrics* metrics) {
-    std::unique_ptr<RenderService> s(new RenderService(shot, session, std::move(onNewVersion), metrics));
+                                                            ImageCallback onNewImage, Metrics* metrics) {
+    std::unique_ptr<RenderService> s(new RenderService(shot, session, std::move(onNewImage), metrics));
     std::promise<Status> ready;
     auto fut = ready.get_future();
     s->mThread = std::thread([svc = s.get(), c = std::move(casters), &ready]() mutable { svc->run(std::move(c), &ready); });
@@ -44,10 +42,10 @@ void RenderService::requestFrame() {
     mWake.notify_one();
 }
 
-void RenderService::requestEncoded(protocol::ViewSettings view, FrameCallback done) {
+void RenderService::requestEncoded(protocol::ViewSettings view, FrameCallback done, bool fullQuality) {
     {
         std::lock_guard lock(mMutex);
-        mEncodeRequests.emplace_back(std::move(view), std::move(done));
+        mEncodeRequests.push_back({std::move(view), std::move(done), fullQuality});
     }
     mWake.notify_one();
 }
@@ -60,43 +58,55 @@ void RenderService::requestPick(int x, int y, PickCallback done) {
     mWake.notify_one();
 }
 
-uint64_t RenderService::renderedVersion() const {
+uint64_t RenderService::imageSerial() const {
     std::lock_guard lock(mMutex);
-    return mRenderedVersion;
+    return mImageSerial;
+}
+
+void RenderService::setRefinement(std::chrono::milliseconds window, std::chrono::milliseconds settle) {
+    std::lock_guard lock(mMutex);
+    mRefineWindow = window;
+    mRefineSettle = settle;
 }
 
 Result<std::shared_ptr<const EncodedFrame>> RenderService::encode(Engine& engine, const Rig& rig, const protocol::ViewSettings& view) {
     const std::string key = view.key();
-    if (auto it = mEncoded.find(key); it != mEncoded.end()) return it->second;
-    const auto t0 = std::chrono::steady_clock::now();
-    Result<std::vector<uint8_t>> bytes = std::vector<uint8_t>{};
-    int width = mImage.width, height = mImage.height;
-    if (view.isDefaultImage() && view.encoding != protocol::Encoding::Exr) {
-        // The fast path every client starts on: the engine's own 8-bit beauty image.
-        bytes = view.encoding == protocol::Encoding::Png ? encodePng(mImage) : encodeJpeg(mImage, view.quality);
-    } else {
-        const size_t colon = view.output.find(':');
-        const std::string kind = view.output.substr(0, colon), name = colon == std::string::npos ? "" : view.output.substr(colon + 1);
-        Result<ImageF> linear = ImageF{};
-        if (kind == "beauty") linear = engine.renderLinear(rig);
-        else if (kind == "light") linear = engine.renderLightLinear(rig, name);
-        else if (kind == "shadow") linear = engine.renderShadowMask(rig, name);
-        else return makeError(ErrorCode::MissingData, "output '" + view.output + "': G-buffer layer outputs are not available in this server");
-        if (!linear) return linear.error();
-        width = linear->width;
-        height = linear->height;
-        // Masks are data, not light: no exposure. Light outputs get the rig's and the view's.
-        const bool mask = kind == "shadow";
-        const float stops = mask ? 0.f : rig.exposureStops + view.exposureStops;
-        if (view.encoding == protocol::Encoding::Exr) {
-            bytes = encodeExr(linear.value(), stops);
-        } else {
-            const Image8 img = toDisplay(linear.value(), stops, mask ? "linear" : view.viewTransform, mask);
-            bytes = view.encoding == protocol::Encoding::Png ? encodePng(img) : encodeJpeg(img, view.quality);
-        }
+    const bool fast = view.isDefaultImage() && view.encoding != protocol::Encoding::Exr;
+    auto& cache = fast ? mEncoded : mOutputs;
+    if (auto it = cache.find(key); it != cache.end() && it->second->rigVersion == rig.version) {
+        if (fast) return it->second;
+        // The same bytes stand for the newer image: a refinement does not change other outputs.
+        auto again = std::make_shared<EncodedFrame>(*it->second);
+        again->imageSerial = mImageSerial;
+        return std::shared_ptr<const EncodedFrame>(again);
     }
-    if (!bytes) return bytes.error();
-    auto msg = std::make_shared<std::vector<uint8_t>>(protocol::FRAME_HEADER_BYTES + bytes->size());
+    const auto t0 = std::chrono::steady_clock::now();
+    std::vector<uint8_t> bytes;
+    int width = mImage.width, height = mImage.height;
+    if (fast) {
+        // The fast path every client starts on: the engine's own 8-bit beauty image.
+        auto b = view.encoding == protocol::Encoding::Png ? encodePng(mImage) : encodeJpeg(mImage, view.quality);
+        if (!b) return b.error();
+        bytes = std::move(b.value());
+    } else {
+        // This client's exposure and view transform stand in for the rig's (dfb/server/Outputs.h
+        // applies the rig's). Always full quality.
+        Rig r = rig;
+        r.exposureStops = std::clamp(rig.exposureStops + view.exposureStops, -40.f, 40.f);
+        if (view.viewTransform == "srgb") r.viewTransform = ViewTransform::Srgb;
+        if (view.viewTransform == "filmic") r.viewTransform = ViewTransform::Filmic;
+        OutputRequest req;
+        req.output = view.output;
+        req.format = protocol::encodingName(view.encoding);
+        req.jpegQuality = view.quality;
+        engine.setPreview(false);
+        auto out = renderOutput(engine, mShot, r, req);
+        if (!out) return out.error();
+        bytes = std::move(out->bytes);
+        width = out->width;
+        height = out->height;
+    }
+    auto msg = std::make_shared<std::vector<uint8_t>>(protocol::FRAME_HEADER_BYTES + bytes.size());
     protocol::FrameHeader h;
     h.encoding = view.encoding;
     h.frameNumber = ++mFrameNumber;
@@ -104,15 +114,17 @@ Result<std::shared_ptr<const EncodedFrame>> RenderService::encode(Engine& engine
     h.width = uint32_t(width);
     h.height = uint32_t(height);
     protocol::writeFrameHeader(h, msg->data());
-    std::copy(bytes->begin(), bytes->end(), msg->begin() + protocol::FRAME_HEADER_BYTES);
+    std::copy(bytes.begin(), bytes.end(), msg->begin() + protocol::FRAME_HEADER_BYTES);
     auto frame = std::make_shared<EncodedFrame>();
     frame->frameNumber = h.frameNumber;
     frame->rigVersion = rig.version;
+    frame->imageSerial = mImageSerial;
+    frame->preview = fast && mImagePreview;
     frame->encoding = view.encoding;
     frame->message = std::move(msg);
     frame->stats = mStats;
     frame->encodeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    mEncoded[key] = frame;
+    cache[key] = frame;
     if (mMetrics) mMetrics->frameEncoded(mSession.id());
     return std::shared_ptr<const EncodedFrame>(frame);
 }
@@ -166,40 +178,66 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
         casters = {};
         ready->set_value(okStatus()); // `ready` must not be touched after this
     }
+    using Clock = std::chrono::steady_clock;
+    auto lastNewVersion = Clock::time_point{};
     for (;;) {
-        std::deque<std::pair<protocol::ViewSettings, FrameCallback>> encodes;
+        std::deque<EncodeRequest> encodes;
         std::deque<std::tuple<int, int, PickCallback>> picks;
+        bool refine = false;
+        std::chrono::milliseconds window{}, settle{};
         {
             std::unique_lock lock(mMutex);
-            mWake.wait(lock, [&] { return mStop || mFrameWanted || !mEncodeRequests.empty() || !mPickRequests.empty(); });
+            window = mRefineWindow;
+            settle = mRefineSettle;
+            auto wake = [&] { return mStop || mFrameWanted || !mEncodeRequests.empty() || !mPickRequests.empty(); };
+            if (mImagePreview) {
+                // A preview is on screen: refine it once changes have stopped for `settle`.
+                refine = !mWake.wait_for(lock, settle, wake);
+            } else {
+                mWake.wait(lock, wake);
+            }
             if (mStop) break;
             mFrameWanted = false;
             encodes.swap(mEncodeRequests);
             picks.swap(mPickRequests);
         }
+        engine->setAssetDirectory(mSession.assetDirectory());
         // Keyframed properties take their values at the session's time.
         const Rig rig = protocol::evaluateRig(mSession.rig());
-        if (mImageVersion != rig.version) {
+        const bool newVersion = mImageVersion != rig.version;
+        // Someone needs the real image now: refine at once instead of after `settle`.
+        const bool fullNow = std::any_of(encodes.begin(), encodes.end(), [](const EncodeRequest& r) { return r.fullQuality; });
+        if (newVersion || ((refine || fullNow) && mImagePreview)) {
+            const auto now = Clock::now();
+            // Changes streaming in (a drag): preview quality now, the full frame when they stop.
+            const bool preview = newVersion && !fullNow && window.count() > 0 && now - lastNewVersion < window;
+            if (newVersion) lastNewVersion = now;
+            engine->setPreview(preview);
             FrameStats stats;
             auto r = engine->render(rig, &stats);
             if (!r) {
                 std::fprintf(stderr, "dfb-server: session %s: render failed: %s\n", mSession.id().c_str(), r.error().toString().c_str());
-                for (auto& req : encodes) req.second(r.error());
+                for (auto& req : encodes) req.done(r.error());
                 for (auto& req : picks) std::get<2>(req)(r.error());
+                mImagePreview = false;
                 continue;
             }
             mImage = std::move(r.value());
             mStats = stats;
             mImageVersion = rig.version;
+            mImagePreview = preview;
             mEncoded.clear();
+            if (newVersion) mOutputs.clear();
+            uint64_t serial = 0;
             {
                 std::lock_guard lock(mMutex);
-                mRenderedVersion = rig.version;
+                serial = ++mImageSerial;
             }
-            if (mMetrics) mMetrics->frameRendered(mSession.id(), rig.version);
-            if (mOnNewVersion) mOnNewVersion(rig.version);
+            if (mMetrics && newVersion) mMetrics->frameRendered(mSession.id(), rig.version);
+            if (mOnNewImage) mOnNewImage(rig.version, serial);
         }
-        for (auto& [view, cb] : encodes) cb(encode(*engine, rig, view));
+        for (auto& req : encodes) req.done(encode(*engine, rig, req.view));
+        if (!picks.empty()) engine->setPreview(false);
         for (auto& [x, y, cb] : picks) cb(pick(*engine, rig, x, y));
     }
 }

@@ -1,8 +1,10 @@
 #include "session/Session.h"
 
 #include <dfb/server/BendyChain.h>
+#include <dfb/server/ImageCodec.h>
 
 #include <cstdio>
+#include <filesystem>
 
 namespace dfb {
 
@@ -101,6 +103,19 @@ Result<std::unique_ptr<Session>> Session::open(std::string id, const DeepBuffer&
     return s;
 }
 
+Status Session::checkCookies(const Rig& next) const {
+    for (const Light& l : next.lights) {
+        const Light* before = mRig.find(l.name);
+        if (l.cookie.empty() || (before && before->cookie == l.cookie)) continue;
+        auto img = readLinearImage((std::filesystem::path(mAssetDir) / l.cookie).string());
+        if (!img) {
+            return makeError(ErrorCode::InvalidValue, l.name + ".cookie: '" + l.cookie + "' is not a readable image in the asset folder " +
+                                                          mAssetDir + " (" + img.error().message + ")");
+        }
+    }
+    return okStatus();
+}
+
 Result<ChangeOutcome> Session::apply(const json& op, bool record) {
     const std::string kind = op.value("op", "");
     Rig next = mRig;
@@ -142,6 +157,11 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
     }
     if (kind == "undo" || kind == "redo" || kind == "replace") out.info.rig = next;
 
+    // Only for new changes: a replayed journal shows what was accepted then, even if a cookie
+    // file has gone since (the render then reports it).
+    if (record && (kind == "edit" || kind == "replace")) {
+        if (auto st = checkCookies(next); !st) return st.error();
+    }
     if (record) {
         json line = op;
         line["v"] = next.version;
@@ -206,6 +226,7 @@ Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes
     {
         Rig probe = mRig;
         if (auto st = protocol::applyChanges(probe, changes); !st) return st.error();
+        if (auto st = checkCookies(probe); !st) return st.error();
     }
     json overwrote = json::array();
     if (base && *base < mRig.version) {

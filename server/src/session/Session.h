@@ -69,6 +69,16 @@ public:
     /// Replaces the lights, exposure and time (the version is the server's).
     Result<ChangeOutcome> replace(const Rig& rig, const Author& by, std::optional<uint64_t> ifVersion = std::nullopt);
 
+    /// Where cookie images are looked up (the engine's asset folder); default ".".
+    void setAssetDirectory(std::string dir) {
+        std::lock_guard lock(mMutex);
+        mAssetDir = std::move(dir);
+    }
+    std::string assetDirectory() const {
+        std::lock_guard lock(mMutex);
+        return mAssetDir;
+    }
+
     Rig rig() const;
     uint64_t rigVersion() const;
     size_t undoDepth() const;
@@ -89,7 +99,9 @@ private:
     Session(std::string id, const DeepBuffer& shot, std::string shotPath, Rig rig);
     // Applies one journal operation (replay) or a new one (journal != null: written first).
     Result<ChangeOutcome> apply(const nlohmann::json& op, bool record);
-    Result<ChangeOutcome> commit(nlohmann::json op);
+    // A cookie new in `next` must be an image the engine can read, or the change is refused now
+    // rather than every frame failing later.
+    Status checkCookies(const Rig& next) const;
 
     const std::string mId;
     mutable std::mutex mMutex;
@@ -100,6 +112,7 @@ private:
     std::optional<Journal> mJournal;
     /// The client whose edit is the newest undo step and may take merged edits; 0: none.
     uint64_t mMergeableBy = 0;
+    std::string mAssetDir = ".";
     nlohmann::json mDescription;
 };
 

@@ -41,10 +41,12 @@ struct ViewSettings {
     Encoding encoding = Encoding::Jpeg;
     int quality = 85;               ///< JPEG quality, 1..100 (ignored by PNG and EXR)
     float exposureStops = 0.f;      ///< added to the rig's exposure, stops, [-20, 20]
-    std::string viewTransform = "srgb"; ///< "srgb" (the sRGB curve) or "linear" (clamped, no curve)
+    /// "rig" (the rig's view transform), "srgb" or "filmic": overrides the rig's for this client.
+    std::string viewTransform = "rig";
 
-    /// True for the settings every client starts with: the shared beauty JPEG fast path.
-    bool isDefaultImage() const { return output == "beauty" && exposureStops == 0.f && viewTransform == "srgb"; }
+    /// True when the image is the rig's own beauty (any encoding but EXR shares the engine's
+    /// 8-bit frame, the fast path every client starts on).
+    bool isDefaultImage() const { return output == "beauty" && exposureStops == 0.f && viewTransform == "rig"; }
     /// A string that is equal for equal settings (frames are encoded once per key and version).
     std::string key() const;
     bool operator==(const ViewSettings&) const = default;
@@ -52,7 +54,8 @@ struct ViewSettings {
 
 nlohmann::json toJson(const ViewSettings& view);
 /// Applies the fields present in `j` ({"output", "encoding", "quality", "exposure",
-/// "viewTransform"}) to `base`; absent fields keep their value. InvalidValue names the field.
+/// "viewTransform"}) to `base`; absent fields keep their value. InvalidValue names the field
+/// (a G-buffer layer as EXR included: layers are 8-bit views).
 Result<ViewSettings> applyViewJson(ViewSettings base, const nlohmann::json& j);
 /// The same from an HTTP query string: output=..&format=png|jpeg|exr&quality=..&exposure=..&
 /// viewTransform=.. (percent-encoded values are decoded).

@@ -17,7 +17,8 @@ using Vec3 = std::array<float, 3>;
 /// Light types: a spot light, or a BendyLight (paper 000: a spot light whose light travels along a
 /// chain of quadratic Bezier segments; docs/lighting.md).
 /// Directional: parallel light along `direction` (the sun), intensity in lux, no cone.
-enum class LightType { Spot, Bendy, Directional };
+/// Point: light in every direction from `position` (candela), omnidirectional (cube) shadows.
+enum class LightType { Spot, Bendy, Directional, Point };
 
 /// Most Bezier segments a BendyLight chain may have (lightmath::MAX_SEGMENTS).
 constexpr int MAX_BENDY_SEGMENTS = 8;
@@ -47,6 +48,17 @@ struct Light {
     bool shadow = true;               ///< casts shadows
     int shadowMapSize = 2048;         ///< shadow-map side in texels, power of two in [64, 8192]
     float shadowBias = 1.5f;          ///< receiver offset along the normal, in shadow-map texels, [0, 16]
+    /// Soft-shadow filter: radius of the percentage-closer filter in shadow-map texels, [0, 4]
+    /// (0 = one bilinear comparison, 1 = 3x3 taps, r = (2r+1)^2 taps).
+    int shadowFilter = 1;
+    /// Spot lights: an image projected from the light across its cone (a "cookie" or gobo),
+    /// multiplying its colour. A file name relative to the server's asset folder (PNG, JPEG, EXR,
+    /// anything OpenImageIO reads); empty = none.
+    std::string cookie;
+    /// Spot lights: barn doors, the four flaps' half-angles from the axis in degrees,
+    /// (left, right, top, bottom) in the light's frame (right = direction x up); 90 = open.
+    /// Each in [0, 90]; light beyond a flap is cut with a 0.5-degree soft edge.
+    std::array<float, 4> barnDoorsDeg{90.f, 90.f, 90.f, 90.f};
     /// Light linking by object id (1-based ids of the shot's manifest; paper 000 section 6.3
     /// compares BendyLights with linked lights). Non-empty `include`: the light lights only those
     /// objects; `exclude`: never those. Shading only: every object still casts shadows.
@@ -77,10 +89,15 @@ struct Light {
 /// `segments` segments, with radii matching its cone: it renders exactly like the spot light.
 void makeStraightChain(Light& light, float length, int segments = 2);
 
+/// How linear radiance becomes display values (after exposure): the sRGB transfer function alone,
+/// or a filmic curve (the ACES fitted curve of Narkowicz 2016, shoulder and toe) then sRGB.
+enum class ViewTransform { Srgb, Filmic };
+
 /// The whole rig plus the view settings that apply to the beauty image.
 struct Rig {
     uint64_t version = 0;             ///< bumped by the server on every accepted change
     float exposureStops = 0.f;        ///< exposure in stops (image * 2^exposure), [-20, 20]
+    ViewTransform viewTransform = ViewTransform::Srgb;
     double time = 0.0;                ///< session clock, seconds: where keyframes are evaluated
     std::vector<Light> lights;
 

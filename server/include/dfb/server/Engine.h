@@ -33,6 +33,12 @@ struct ImageF {
     std::vector<float> rgba;
 };
 
+/// A named float image: one layer of a multi-layer output (ImageCodec's encodeExr).
+struct NamedImageF {
+    std::string name; ///< empty = the beauty (main R, G, B, A channels); otherwise a light's name
+    ImageF image;
+};
+
 /// Triangles that cast shadows, in world space: 3 indices per triangle into `positions`.
 struct ShadowGeometry {
     std::vector<glm::vec3> positions;
@@ -73,6 +79,11 @@ public:
     /// the beauty image. Fails with MissingData for an unknown light.
     virtual Result<ImageF> renderLightLinear(const Rig& rig, const std::string& lightName) = 0;
 
+    /// Light groups for compositing: the linear beauty (name "", alpha 1) followed by the linear
+    /// contribution of every enabled light (named after it), so that beauty = emission + the sum
+    /// of the light layers. Before exposure, like renderLinear().
+    virtual Result<std::vector<NamedImageF>> renderLayers(const Rig& rig) = 0;
+
     /// The shadow mask of one light of the rig: per pixel, r = coverage-weighted visibility (0..1)
     /// of the samples the light reaches (inside its cone, facing it), g = the coverage of those
     /// samples (0 where the light does not reach). Fails with MissingData for an unknown light.
@@ -81,6 +92,16 @@ public:
     /// Most pieces one caster edge is cut into for a BendyLight's deformed shadow map (adaptive
     /// tessellation, 1..64; default 64). 1 disables subdivision (for comparisons).
     virtual void setShadowSubdivisionLimit(int maxLevel) = 0;
+
+    /// Where cookie images are read from (Light::cookie names a file in it); default ".".
+    virtual void setAssetDirectory(std::string dir) = 0;
+
+    /// Preview mode, for frames rendered while a control is being dragged (progressive
+    /// refinement): shadow maps that must be re-rendered are rendered at a quarter of their size
+    /// (at least 256), and lights that must be re-shaded are shaded at half resolution (every
+    /// second pixel, upsampled). The next render with preview off re-renders both at full quality.
+    /// renderLightLinear, renderShadowMask and renderLayers are always full quality.
+    virtual void setPreview(bool preview) = 0;
 
     /// "renderer | GL version | EGL platform".
     virtual std::string deviceDescription() const = 0;

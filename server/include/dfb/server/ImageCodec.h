@@ -6,6 +6,7 @@
 #include <dfb/server/Engine.h>
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace dfb {
@@ -15,5 +16,15 @@ Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality = 90);
 
 /// 8-bit RGB PNG. Thread-safe.
 Result<std::vector<uint8_t>> encodePng(const Image8& image);
+
+/// A scanline OpenEXR file in memory, 32-bit float channels, ZIP compression, row 0 at the top.
+/// Each layer: `name` empty = the main R, G, B, A channels; otherwise the channels NAME.R, NAME.G,
+/// NAME.B (the EXR layer convention compositors read as light groups). All layers must have the
+/// same size. Thread-safe.
+Result<std::vector<uint8_t>> encodeExr(const std::vector<NamedImageF>& layers);
+
+/// Reads any image OpenImageIO reads as linear float RGBA (integer-coded files are taken as sRGB
+/// and decoded; float files as linear; grey is replicated, missing alpha is 1). Errors name the file.
+Result<ImageF> readLinearImage(const std::string& path);
 
 } // namespace dfb

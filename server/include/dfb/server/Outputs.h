@@ -1,0 +1,44 @@
+#pragma once
+// What a client can ask to see of a shot (DESIGN section 6, docs/protocol.md "outputs"): the
+// beauty, one light alone, a light's shadow mask or a G-buffer layer, encoded as JPEG, PNG or
+// OpenEXR (float; the beauty's EXR carries one layer per light for compositing).
+
+#include <dfb/core/Result.h>
+#include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/protocol/Rig.h>
+#include <dfb/server/Engine.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace dfb {
+
+struct OutputRequest {
+    /// "beauty", "light:NAME", "shadow:NAME" or "layer:NAME" (a viewable G-buffer layer).
+    std::string output = "beauty";
+    /// "jpeg" (or "jpg"), "png" or "exr".
+    std::string format = "png";
+    int jpegQuality = 92;
+};
+
+struct EncodedImage {
+    std::vector<uint8_t> bytes;
+    std::string contentType; ///< image/jpeg, image/png or image/x-exr
+    int width = 0;
+    int height = 0;
+};
+
+/// Checks the names of an output request (not whether a light exists): InvalidValue naming the
+/// accepted outputs and formats otherwise.
+Status checkOutputRequest(const OutputRequest& request);
+
+/// Renders and encodes one output of `rig` (already evaluated at the session's time).
+/// 8-bit encodings get the rig's exposure and the sRGB view transform (shadow masks: visibility as
+/// grey, black where the light does not reach; layers: the mappings of layerImage()). EXR holds
+/// linear floats times the rig's exposure: the beauty as R, G, B, A plus a layer NAME.R/G/B per
+/// enabled light; one light alone as R, G, B; a shadow mask as R = G = B = visibility and A = the
+/// coverage the light reaches. G-buffer layers have no EXR output (the shot file holds them).
+Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request);
+
+} // namespace dfb

@@ -1,0 +1,130 @@
+#include <dfb/server/Outputs.h>
+
+#include <dfb/gbuffer/LayerImage.h>
+#include <dfb/server/ImageCodec.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace dfb {
+namespace {
+
+// The filmic view transform: the ACES curve fitted by Narkowicz (2016), as composite_tonemap.frag.
+float filmic(float x) {
+    x = std::max(x, 0.f);
+    return std::clamp((x * (2.51f * x + 0.03f)) / (x * (2.43f * x + 0.59f) + 0.14f), 0.f, 1.f);
+}
+
+float srgbEncode(float c) {
+    c = std::clamp(c, 0.f, 1.f);
+    return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.f / 2.4f) - 0.055f;
+}
+
+struct Parsed {
+    std::string kind; // beauty, light, shadow, layer
+    std::string name;
+};
+
+Result<Parsed> parse(const OutputRequest& r) {
+    if (r.format != "png" && r.format != "jpeg" && r.format != "jpg" && r.format != "exr") {
+        return makeError(ErrorCode::InvalidValue, "unknown format '" + r.format + "' (jpeg, png or exr)");
+    }
+    if (r.output == "beauty" || r.output.empty()) return Parsed{"beauty", ""};
+    const size_t colon = r.output.find(':');
+    Parsed p{r.output.substr(0, colon), colon == std::string::npos ? "" : r.output.substr(colon + 1)};
+    if ((p.kind != "light" && p.kind != "shadow" && p.kind != "layer") || p.name.empty()) {
+        return makeError(ErrorCode::InvalidValue,
+                         "unknown output '" + r.output + "' (beauty, light:NAME, shadow:NAME or layer:NAME)");
+    }
+    if (p.kind == "layer" && r.format == "exr") {
+        return makeError(ErrorCode::InvalidValue, "layer outputs are 8-bit views (png, jpeg); the shot's EXR file holds the float layers");
+    }
+    return p;
+}
+
+Result<EncodedImage> encode8(const Image8& img, const OutputRequest& r) {
+    auto bytes = r.format == "png" ? encodePng(img) : encodeJpeg(img, r.jpegQuality);
+    if (!bytes) return bytes.error();
+    return EncodedImage{std::move(bytes.value()), r.format == "png" ? "image/png" : "image/jpeg", img.width, img.height};
+}
+
+Result<EncodedImage> encodeFloat(std::vector<NamedImageF> layers) {
+    const int w = layers.at(0).image.width, h = layers.at(0).image.height;
+    auto bytes = encodeExr(layers);
+    if (!bytes) return bytes.error();
+    return EncodedImage{std::move(bytes.value()), "image/x-exr", w, h};
+}
+
+void scale(ImageF& img, float s, bool alphaToo) {
+    for (size_t i = 0; i < img.rgba.size(); ++i)
+        if (alphaToo || i % 4 != 3) img.rgba[i] *= s;
+}
+
+} // namespace
+
+Status checkOutputRequest(const OutputRequest& request) {
+    auto p = parse(request);
+    return p ? okStatus() : Status(p.error());
+}
+
+Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request) {
+    auto parsed = parse(request);
+    if (!parsed) return parsed.error();
+    const auto& [kind, name] = parsed.value();
+    const float exposure = std::exp2(rig.exposureStops);
+    const bool exr = request.format == "exr";
+    if (kind == "beauty") {
+        if (!exr) {
+            auto img = engine.render(rig);
+            if (!img) return img.error();
+            return encode8(img.value(), request);
+        }
+        auto layers = engine.renderLayers(rig);
+        if (!layers) return layers.error();
+        for (NamedImageF& l : layers.value()) scale(l.image, exposure, false);
+        return encodeFloat(std::move(layers.value()));
+    }
+    if (kind == "layer") {
+        auto rgb = layerImage(shot, name);
+        if (!rgb) return rgb.error();
+        Image8 img;
+        img.width = shot.width;
+        img.height = shot.height;
+        img.rgba.resize(size_t(img.width) * size_t(img.height) * 4, 255);
+        for (size_t p = 0; p < size_t(img.width) * size_t(img.height); ++p)
+            for (int c = 0; c < 3; ++c) img.rgba[p * 4 + size_t(c)] = rgb.value()[p * 3 + size_t(c)];
+        return encode8(img, request);
+    }
+    auto linear = kind == "light" ? engine.renderLightLinear(rig, name) : engine.renderShadowMask(rig, name);
+    if (!linear) return linear.error();
+    ImageF& f = linear.value();
+    if (kind == "shadow") {
+        for (size_t i = 0; i < f.rgba.size(); i += 4) {
+            const float coverage = f.rgba[i + 1];
+            const float vis = coverage > 0.f ? std::clamp(f.rgba[i] / coverage, 0.f, 1.f) * std::min(coverage, 1.f) : 0.f;
+            f.rgba[i] = f.rgba[i + 1] = f.rgba[i + 2] = vis;
+            f.rgba[i + 3] = std::min(coverage, 1.f);
+        }
+    } else {
+        scale(f, exposure, false);
+        for (size_t i = 3; i < f.rgba.size(); i += 4) f.rgba[i] = 1.f;
+    }
+    if (exr) return encodeFloat({{"", std::move(f)}});
+    Image8 img;
+    img.width = f.width;
+    img.height = f.height;
+    img.rgba.resize(f.rgba.size());
+    for (size_t i = 0; i < f.rgba.size(); i += 4) {
+        for (int c = 0; c < 3; ++c) {
+            const float x = f.rgba[i + size_t(c)];
+            const float v = kind != "light" ? std::clamp(x, 0.f, 1.f)
+                            : rig.viewTransform == ViewTransform::Filmic ? srgbEncode(filmic(x))
+                                                                         : srgbEncode(x);
+            img.rgba[i + size_t(c)] = uint8_t(std::lround(v * 255.f));
+        }
+        img.rgba[i + 3] = 255;
+    }
+    return encode8(img, request);
+}
+
+} // namespace dfb
