@@ -118,10 +118,15 @@ async function screenToImage(page, x, y) {
   const b = await page.locator("#frame").boundingBox();
   return { x: (x - b.x) * 320 / b.width, y: (y - b.y) * 180 / b.height };
 }
+// The centre of an element. The overlay is redrawn when the rig changes, so an element found may
+// be replaced before it is measured: look again until one stays (bounded by WAIT).
 async function center(page, selector) {
-  const b = await page.locator(selector).boundingBox();
-  if (!b) throw new Error(`${selector} is not visible`);
-  return { x: b.x + b.width / 2, y: b.y + b.height / 2 };
+  const end = Date.now() + WAIT.timeout;
+  for (;;) {
+    const b = await page.locator(selector).boundingBox({ timeout: WAIT.timeout }).catch(() => null);
+    if (b) return { x: b.x + b.width / 2, y: b.y + b.height / 2 };
+    if (Date.now() > end) throw new Error(`${selector} is not visible`);
+  }
 }
 async function typeInto(page, selector, text) {
   await page.fill(selector, text);
@@ -290,6 +295,7 @@ try {
     await a.click("#redo");
     await waitRig((r) => JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints) === JSON.stringify(key1.controlPoints),
                   "redo restores the dragged point");
+    await a.waitForFunction((x) => Math.abs(Number(document.getElementById("cp-2-0").value) - x) < 1e-3, key1.controlPoints[1][0], WAIT);
 
     // Shift: in depth. The point stays under the pointer's start in the image, and goes farther.
     const q = await center(a, '[data-handle="cp"][data-index="2"]');
@@ -374,6 +380,14 @@ try {
     await a.click("#addLight");
     await waitRig((r) => r.lights.some((l) => l.name === "bendy" && l.type === "bendy" && l.controlPoints.length >= 2), "an added BendyLight");
     await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "bendy", null, WAIT);
+    await a.selectOption("#addType", "point");
+    await a.click("#addLight");
+    await waitRig((r) => r.lights.some((l) => l.name === "point" && l.type === "point"), "an added point light");
+    await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "point", null, WAIT);
+    assert(!(await a.$("#prop-direction-0")) && !(await a.$("#prop-coneAngle")), "a point light shows a direction or a cone");
+    await a.click("#delLight");
+    await waitRig((r) => !r.lights.some((l) => l.name === "point"), "the point light deleted");
+    await a.click('#lights li[data-light="bendy"] .lname');
     await a.click("#dupLight");
     await waitRig((r) => r.lights.some((l) => l.name === "bendy_copy"), "a duplicate");
     await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "bendy_copy", null, WAIT);
