@@ -311,11 +311,12 @@ json toJson(const ClientInfo& c) {
 std::string encodeWelcome(const WelcomeInfo& w) {
     json clients = json::array();
     for (const ClientInfo& c : w.clients) clients.push_back(toJson(c));
-    return json{{"type", "welcome"},  {"protocol", PROTOCOL_VERSION}, {"client", w.clientId},
-                {"role", toString(w.role)}, {"sessionId", w.sessionId}, {"session", w.session},
-                {"rig", toJson(w.rig)}, {"view", toJson(w.view)},     {"clients", clients},
-                {"history", {{"undo", w.undoDepth}, {"redo", w.redoDepth}}}}
-        .dump();
+    json j{{"type", "welcome"},  {"protocol", PROTOCOL_VERSION}, {"client", w.clientId},
+           {"role", toString(w.role)}, {"sessionId", w.sessionId}, {"session", w.session},
+           {"rig", toJson(w.rig)}, {"view", toJson(w.view)},     {"clients", clients},
+           {"history", {{"undo", w.undoDepth}, {"redo", w.redoDepth}}}};
+    if (w.viewerToken && w.role == Role::Editor) j["viewerToken"] = *w.viewerToken;
+    return j.dump();
 }
 
 std::string encodeAck(uint64_t seq, uint64_t rigVersion, const json& extra) {

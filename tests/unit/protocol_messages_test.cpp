@@ -104,6 +104,11 @@ TEST(Messages, ServerMessagesCarryTheDocumentedFields) {
     EXPECT_EQ(welcome["rig"]["lights"][0]["name"], "key");
     EXPECT_EQ(welcome["clients"][0]["editing"], nullptr);
     EXPECT_EQ(welcome["view"]["encoding"], "jpeg");
+    // The viewer token goes to editors only.
+    w.viewerToken = "viewer-token-0123456789";
+    EXPECT_FALSE(json::parse(encodeWelcome(w)).contains("viewerToken"));
+    w.role = Role::Editor;
+    EXPECT_EQ(json::parse(encodeWelcome(w))["viewerToken"], "viewer-token-0123456789");
 
     const json ack = json::parse(encodeAck(7, 12, {{"overwrote", json::array({{{"path", "key.intensity"}}})}}));
     EXPECT_EQ(ack["seq"], 7);

@@ -54,6 +54,7 @@ void WebSocketSession::onAccept(error_code ec) {
     w.clients = mHub->clients();
     w.undoDepth = mHub->session().undoDepth();
     w.redoDepth = mHub->session().redoDepth();
+    if (mRole == protocol::Role::Editor) w.viewerToken = mHub->tokens().viewer;
     reply(protocol::encodeWelcome(w));
     mHub->broadcastPresence();
     // A new client sees the current image at once, without waiting for somebody's edit.

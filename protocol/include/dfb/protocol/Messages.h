@@ -146,6 +146,9 @@ struct WelcomeInfo {
     std::vector<ClientInfo> clients;
     size_t undoDepth = 0;
     size_t redoDepth = 0;
+    /// For editors only: the session's viewer token, so that an editor can hand reviewers a
+    /// link that cannot edit (an editor already holds more than a viewer can do).
+    std::optional<std::string> viewerToken;
 };
 std::string encodeWelcome(const WelcomeInfo& w);
 
