@@ -330,10 +330,14 @@ try {
     await shot(a, "04-edit-from-second-browser.png");
   });
 
-  await check("a viewer cannot edit", async () => {
+  await check("a viewer cannot edit (opened from the viewer link an editor shares)", async () => {
+    // The editor's Review panel offers the session's viewer link; the viewer opens that.
+    const shared = await a.$eval("#viewerLink", (e) => e.value);
+    assert(shared === server.viewerUrl, `shared viewer link ${shared}, server's ${server.viewerUrl}`);
     const ctxV = await browser.newContext({ viewport });
     const v = await ctxV.newPage();
-    await v.goto(`${server.viewerUrl}&name=carol`);
+    await v.goto(`${shared}&name=carol`);
+    assert(!(await v.isVisible("#viewerShare")), "a viewer is offered a viewer link it cannot know");
     await frameAtLeast(v, 1);
     await v.waitForFunction(() => document.body.classList.contains("viewer"), null, WAIT);
     assert(await v.isVisible("#note"), "the viewer note is not shown");
