@@ -560,6 +560,10 @@ TEST(Sessions, ClientSubcommands) {
     std::tie(rc, out) = client({"watch", "--count", "1", "--save", (dir / "frames").string(), "--format", "png"}, viewerUrl);
     EXPECT_EQ(rc, 0) << out;
     EXPECT_TRUE(std::filesystem::exists(dir / "frames" / "frame_000001.png")) << out;
+    // --duration ends a quiet watch on time, with the one frame a new client gets.
+    std::tie(rc, out) = client({"watch", "--duration", "1"}, viewerUrl);
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("received 1 frame"), std::string::npos) << out;
     std::tie(rc, out) = client({"bench", "--edits", "3", "--clients", "2", "--warmup", "0"}, editorUrl);
     EXPECT_EQ(rc, 0) << out;
     EXPECT_NE(out.find("p99"), std::string::npos) << out;
