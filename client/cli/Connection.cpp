@@ -144,10 +144,12 @@ Status Connection::sendText(const std::string& text) {
     return okStatus();
 }
 
-Result<ServerMessage> Connection::receive() {
+Result<ServerMessage> Connection::receive() { return receive(mImpl->timeout); }
+
+Result<ServerMessage> Connection::receive(std::chrono::milliseconds timeout) {
     beast::error_code ec;
     mImpl->buffer.consume(mImpl->buffer.size());
-    ec = runFor(mImpl->ioc, mImpl->ws.next_layer(), mImpl->timeout,
+    ec = runFor(mImpl->ioc, mImpl->ws.next_layer(), timeout,
                 [&](auto handler) { mImpl->ws.async_read(mImpl->buffer, handler); });
     if (ec) return netError("receiving", ec);
     if (mImpl->ws.got_text()) {

@@ -43,8 +43,10 @@ public:
     ~Connection();
 
     Status sendText(const std::string& text);
-    /// Waits for the next message. Fails with Network on timeout or close, Protocol on garbage.
+    /// Waits for the next message (at most the connection's timeout, or `timeout` when given).
+    /// Fails with Network on timeout or close, Protocol on garbage.
     Result<ServerMessage> receive();
+    Result<ServerMessage> receive(std::chrono::milliseconds timeout);
     void close();
     /// Ends a receive() blocked in another thread (it fails with Network). Thread-safe.
     void shutdown();

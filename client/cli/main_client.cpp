@@ -444,7 +444,12 @@ int main(int argc, char** argv) {
             int frames = 0;
             uint64_t lastVersion = 0;
             while ((watchCount == 0 || frames < watchCount) && (watchSeconds == 0 || std::chrono::steady_clock::now() < end)) {
-                auto m = conn->receive();
+                auto wait = cl.timeout();
+                if (watchSeconds > 0) {
+                    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
+                    wait = std::max(std::chrono::milliseconds(1), std::min(wait, left));
+                }
+                auto m = conn->receive(wait);
                 if (!m) {
                     // The deadline of --duration is reached as a receive timeout at the latest.
                     if (watchSeconds > 0 && std::chrono::steady_clock::now() >= end) break;

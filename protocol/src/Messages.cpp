@@ -57,6 +57,8 @@ std::string percentDecode(std::string_view s) {
 
 } // namespace
 
+std::string dump(const json& j, int indent) { return j.dump(indent, ' ', false, json::error_handler_t::replace); }
+
 const char* toString(Role role) { return role == Role::Editor ? "editor" : "viewer"; }
 
 const char* encodingName(Encoding e) {
@@ -78,7 +80,7 @@ const char* mimeType(Encoding e) {
 }
 
 std::string ViewSettings::key() const {
-    return output + "|" + encodingName(encoding) + "|" + std::to_string(quality) + "|" + json(exposureStops).dump() +
+    return output + "|" + encodingName(encoding) + "|" + std::to_string(quality) + "|" + dump(json(exposureStops)) +
            "|" + viewTransform;
 }
 
@@ -110,7 +112,7 @@ Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
             if (x == "jpeg" || x == "jpg") v.encoding = Encoding::Jpeg;
             else if (x == "png") v.encoding = Encoding::Png;
             else if (x == "exr") v.encoding = Encoding::Exr;
-            else return invalid("view.encoding: " + x.dump() + " is not \"jpeg\", \"png\" or \"exr\"");
+            else return invalid("view.encoding: " + dump(x) + " is not \"jpeg\", \"png\" or \"exr\"");
         } else if (k == "quality") {
             if (!x.is_number_integer() || x.get<int64_t>() < 1 || x.get<int64_t>() > 100) {
                 return invalid("view.quality: expected an integer in [1, 100]");
@@ -123,7 +125,7 @@ Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
             v.exposureStops = x.get<float>();
         } else if (k == "viewTransform") {
             if (x != "rig" && x != "srgb" && x != "filmic") {
-                return invalid("view.viewTransform: " + x.dump() + " is not \"rig\", \"srgb\" or \"filmic\"");
+                return invalid("view.viewTransform: " + dump(x) + " is not \"rig\", \"srgb\" or \"filmic\"");
             }
             v.viewTransform = x.get<std::string>();
         } else {
@@ -189,7 +191,13 @@ Result<ClientMessage> parseClientMessage(std::string_view text) {
         }
         if (j.contains("name")) {
             if (!j["name"].is_string()) return protocolError("hello.name: expected a string");
-            m.name = j["name"].get<std::string>().substr(0, 64);
+            std::string name = j["name"].get<std::string>();
+            if (name.size() > 64) {
+                size_t cut = 64;
+                while (cut > 0 && (static_cast<unsigned char>(name[cut]) & 0xC0) == 0x80) --cut; // not inside a character
+                name.resize(cut);
+            }
+            m.name = name;
         }
         return ClientMessage{m};
     }
@@ -281,26 +289,26 @@ nlohmann::json changesToJson(const std::vector<Change>& changes) {
     return arr;
 }
 
-std::string encode(const HelloMessage& m) { return json{{"type", "hello"}, {"protocol", m.protocol}, {"name", m.name}}.dump(); }
+std::string encode(const HelloMessage& m) { return dump(json{{"type", "hello"}, {"protocol", m.protocol}, {"name", m.name}}); }
 std::string encode(const EditMessage& m) {
     json j{{"type", "edit"}, {"seq", m.seq}, {"changes", changesToJson(m.changes)}};
     if (m.base) j["base"] = *m.base;
     if (m.ifVersion) j["ifVersion"] = *m.ifVersion;
     if (m.merge) j["merge"] = true;
-    return j.dump();
+    return dump(j);
 }
-std::string encode(const UndoMessage& m) { return json{{"type", "undo"}, {"seq", m.seq}}.dump(); }
-std::string encode(const RedoMessage& m) { return json{{"type", "redo"}, {"seq", m.seq}}.dump(); }
-std::string encode(const TimeMessage& m) { return json{{"type", "time"}, {"seq", m.seq}, {"t", m.seconds}}.dump(); }
+std::string encode(const UndoMessage& m) { return dump(json{{"type", "undo"}, {"seq", m.seq}}); }
+std::string encode(const RedoMessage& m) { return dump(json{{"type", "redo"}, {"seq", m.seq}}); }
+std::string encode(const TimeMessage& m) { return dump(json{{"type", "time"}, {"seq", m.seq}, {"t", m.seconds}}); }
 std::string encode(const ViewMessage& m) {
     json j = m.settings.is_object() ? m.settings : json::object();
     j["type"] = "view";
     j["seq"] = m.seq;
-    return j.dump();
+    return dump(j);
 }
-std::string encode(const PickMessage& m) { return json{{"type", "pick"}, {"seq", m.seq}, {"x", m.x}, {"y", m.y}}.dump(); }
+std::string encode(const PickMessage& m) { return dump(json{{"type", "pick"}, {"seq", m.seq}, {"x", m.x}, {"y", m.y}}); }
 std::string encode(const PresenceMessage& m) {
-    return json{{"type", "presence"}, {"editing", m.editing ? json(*m.editing) : json(nullptr)}}.dump();
+    return dump(json{{"type", "presence"}, {"editing", m.editing ? json(*m.editing) : json(nullptr)}});
 }
 
 json toJson(const ClientInfo& c) {
@@ -316,39 +324,39 @@ std::string encodeWelcome(const WelcomeInfo& w) {
            {"rig", toJson(w.rig)}, {"view", toJson(w.view)},     {"clients", clients},
            {"history", {{"undo", w.undoDepth}, {"redo", w.redoDepth}}}};
     if (w.viewerToken && w.role == Role::Editor) j["viewerToken"] = *w.viewerToken;
-    return j.dump();
+    return dump(j);
 }
 
 std::string encodeAck(uint64_t seq, uint64_t rigVersion, const json& extra) {
     json j{{"type", "ack"}, {"seq", seq}, {"rigVersion", rigVersion}};
     if (extra.is_object()) j.update(extra);
-    return j.dump();
+    return dump(j);
 }
 
 std::string encodeChange(const ChangeInfo& c) {
     json j{{"type", "change"}, {"rigVersion", c.rigVersion}, {"by", c.byClient}, {"byName", c.byName}, {"kind", c.kind}};
     if (c.rig) j["rig"] = toJson(*c.rig);
     else j["changes"] = changesToJson(c.changes);
-    return j.dump();
+    return dump(j);
 }
 
 std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq) {
     json j{{"type", "error"}, {"code", toString(code)}, {"message", message}};
     if (seq) j["seq"] = *seq;
-    return j.dump();
+    return dump(j);
 }
 
 std::string encodePresence(const std::vector<ClientInfo>& clients) {
     json arr = json::array();
     for (const ClientInfo& c : clients) arr.push_back(toJson(c));
-    return json{{"type", "presence"}, {"clients", arr}}.dump();
+    return dump(json{{"type", "presence"}, {"clients", arr}});
 }
 
 std::string encodePickResult(uint64_t seq, const json& pick) {
     json j = pick;
     j["type"] = "pick";
     j["seq"] = seq;
-    return j.dump();
+    return dump(j);
 }
 
 } // namespace dfb::protocol

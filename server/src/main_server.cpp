@@ -290,7 +290,16 @@ int main(int argc, char** argv) {
     }
     std::printf("dfb-server: listening on %s\n", base.c_str());
     std::fflush(stdout);
-    ioc.run();
+    // Handlers return errors as values; should one throw all the same (a bug), the server logs it
+    // and goes on serving the other clients instead of dropping every session.
+    for (;;) {
+        try {
+            ioc.run();
+            break;
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "dfb-server: internal error in a network handler (continuing): %s\n", e.what());
+        }
+    }
     std::printf("dfb-server: shutting down\n");
     return 0;
 }

@@ -171,6 +171,27 @@ TEST(Sessions, TwoEditorsAndAViewerSeeTheSameChangesAndFrames) {
     EXPECT_EQ(told["by"], wa["client"]);
     EXPECT_EQ(told["changes"][0]["value"], 42);
 
+    // Undo by the other editor: everyone else gets the whole restored rig.
+    b.send(json{{"type", "undo"}, {"seq", 200}});
+    json undone = b.nextText();
+    ASSERT_EQ(undone["type"], "ack") << undone;
+    EXPECT_EQ(undone["kind"], "undo");
+    for (auto* c : {&a, &v}) {
+        json ch = c->nextText();
+        if (ch["kind"] == "edit" && ch["changes"][0]["value"] == 42) ch = c->nextText(); // the viewer has not read it yet
+        EXPECT_EQ(ch["kind"], "undo") << ch;
+        EXPECT_EQ(ch["rigVersion"], undone["rigVersion"]);
+        EXPECT_FLOAT_EQ((*findLight(ch["rig"], "key"))["intensity"].get<float>(), lastKey.get<float>());
+    }
+    // The clock: a change of kind "time" for the others.
+    a.send(json{{"type", "time"}, {"seq", 300}, {"t", 1.5}});
+    EXPECT_EQ(a.nextText()["type"], "ack");
+    const json clock = v.nextText();
+    EXPECT_EQ(clock["kind"], "time");
+    EXPECT_EQ(clock["changes"][0]["path"], "time");
+    EXPECT_EQ(server.rig(id)["time"], 1.5);
+    b.nextText(); // its change
+
     // Presence lists all three with their roles, and what the first one is editing.
     json presence;
     a.send(json{{"type", "presence"}, {"editing", "fill.color"}});
@@ -423,6 +444,7 @@ TEST(Sessions, SessionsAreSeparateAndTokensOpenOnlyTheirOwn) {
     EXPECT_FLOAT_EQ((*findLight(server.rig("alpha"), "key"))["intensity"].get<float>(), 3.f);
 
     // A WebSocket without a token, or with another session's, is refused before the upgrade.
+    EXPECT_THROW(test::WsClient(server.port, "alpha", "not-the-right-token"), std::exception);
     EXPECT_THROW(test::WsClient(server.port, "beta", ""), std::exception);
     EXPECT_THROW(test::WsClient(server.port, "beta", "alpha-editor-token-0001"), std::exception);
     // Bad token files are refused at start with the reason.
@@ -430,6 +452,17 @@ TEST(Sessions, SessionsAreSeparateAndTokensOpenOnlyTheirOwn) {
     auto [rc, out] = test::run({DFB_SERVER_EXE, "--session", "alpha=" + SHOT, "--tokens", tokenFile, "--port", "0"});
     EXPECT_EQ(rc, 1) << out;
     EXPECT_NE(out.find("16-256"), std::string::npos) << out;
+
+    // A directory of shots: one session per file, each with its own tokens.
+    const auto shots = dir / "shots";
+    std::filesystem::create_directories(shots);
+    std::filesystem::copy_file(SHOT, shots / "shot_a.exr");
+    std::filesystem::copy_file(SHOT, shots / "shot_b.exr");
+    Server many({"--sessions", shots.string(), "--scene", DFB_SOURCE_DIR "/scenes/tabletop.glb"});
+    ASSERT_TRUE(many.up()) << many.process->output();
+    ASSERT_EQ(many.tokens.size(), 2u) << many.process->output();
+    EXPECT_EQ(many.get("/v1/sessions/shot_b", many.tokens["shot_b"].viewer).status, 200);
+    EXPECT_EQ(many.get("/v1/sessions/shot_b", many.tokens["shot_a"].viewer).status, 401);
     std::filesystem::remove_all(dir);
 }
 
@@ -480,6 +513,11 @@ TEST(Sessions, HttpRigEtagsFramesPicksAndMetrics) {
     while (watcher.frames().size() == before) watcher.readOne();
     EXPECT_EQ(watcher.frames().back().bytes[6], 2); // encoding 2 = PNG
 
+    watcher.send(json{{"type", "pick"}, {"seq", 9}, {"x", 160}, {"y", 150}});
+    json wsPick = watcher.nextText();
+    EXPECT_EQ(wsPick["type"], "pick") << wsPick;
+    EXPECT_EQ(wsPick["seq"], 9);
+    EXPECT_EQ(wsPick["object"], "table") << wsPick;
     auto pick = server.get(base + "/pick?x=160&y=150", token).json();
     EXPECT_EQ(pick["hit"], true) << pick;
     EXPECT_EQ(pick["object"], "table") << pick;
@@ -560,6 +598,10 @@ TEST(Sessions, ClientSubcommands) {
     std::tie(rc, out) = client({"watch", "--count", "1", "--save", (dir / "frames").string(), "--format", "png"}, viewerUrl);
     EXPECT_EQ(rc, 0) << out;
     EXPECT_TRUE(std::filesystem::exists(dir / "frames" / "frame_000001.png")) << out;
+    // --duration ends a quiet watch on time, with the one frame a new client gets.
+    std::tie(rc, out) = client({"watch", "--duration", "1"}, viewerUrl);
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("received 1 frame"), std::string::npos) << out;
     std::tie(rc, out) = client({"bench", "--edits", "3", "--clients", "2", "--warmup", "0"}, editorUrl);
     EXPECT_EQ(rc, 0) << out;
     EXPECT_NE(out.find("p99"), std::string::npos) << out;

@@ -138,3 +138,19 @@ TEST(Messages, ServerMessagesCarryTheDocumentedFields) {
     EXPECT_EQ(json::parse(encodePresence(w.clients))["clients"][0]["role"], "viewer");
     EXPECT_EQ(json::parse(encodePickResult(4, {{"hit", false}}))["seq"], 4);
 }
+
+TEST(Messages, BytesThatAreNotUtf8NeverThrow) {
+    // Found by fuzzing: a URL query or a file name is not always UTF-8, and nlohmann::json throws
+    // when it writes such a string; every message the server writes must survive it.
+    const std::string bad = "format=mn\xfa\x67&output=light:\xff";
+    auto v = viewFromQuery(bad);
+    ASSERT_FALSE(v.ok());
+    const json err = json::parse(encodeError(v.error().code, v.error().message, std::nullopt));
+    EXPECT_EQ(err["code"], "invalid_value");
+    EXPECT_NE(err["message"].get<std::string>().find("\xef\xbf\xbd"), std::string::npos); // U+FFFD
+    EXPECT_NO_THROW(json::parse(dump(json{{"shot", "/shots/\xc3(.exr"}}, 2)));
+    // A long name is cut at a character boundary, not inside one.
+    auto hello = parseClientMessage(R"({"type":"hello","name":")" + std::string(63, 'a') + "\xc3\xa9" + R"("})");
+    ASSERT_TRUE(hello.ok());
+    EXPECT_EQ(std::get<HelloMessage>(hello.value()).name, std::string(63, 'a'));
+}

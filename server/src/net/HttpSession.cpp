@@ -187,7 +187,7 @@ void HttpSession::handle(Request&& req) {
                             {"height", d["height"]}, {"rigVersion", hub->session().rigVersion()}, {"clients", hub->clientCount()}});
         }
         if (list.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "the token opens no session"));
-        return send(makeResponse(req, http::status::ok, "application/json", json{{"sessions", list}}.dump(2)));
+        return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(json{{"sessions", list}}, 2)));
     }
     const std::string prefix = "/v1/sessions/";
     if (path.rfind(prefix, 0) == 0) {
@@ -224,7 +224,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
     auto accepted = [&](const ChangeOutcome& out, json body) {
         hub->published(out, nullptr);
         body["rigVersion"] = out.info.rigVersion;
-        auto res = makeResponse(req, http::status::ok, "application/json", body.dump(2));
+        auto res = makeResponse(req, http::status::ok, "application/json", protocol::dump(body, 2));
         res.set(http::field::etag, etag(out.info.rigVersion));
         send(std::move(res));
     };
@@ -245,12 +245,12 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
                   {"history", {{"undo", session.undoDepth()}, {"redo", session.redoDepth()}}},
                   {"clients", json::array()}};
         for (const auto& c : hub->clients()) info["clients"].push_back(protocol::toJson(c));
-        return send(makeResponse(req, http::status::ok, "application/json", info.dump(2)));
+        return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(info, 2)));
     }
     if (resource == "rig") {
         if (get) {
             const Rig rig = session.rig();
-            auto res = makeResponse(req, http::status::ok, "application/json", protocol::toJson(rig).dump(2));
+            auto res = makeResponse(req, http::status::ok, "application/json", protocol::dump(protocol::toJson(rig), 2));
             res.set(http::field::etag, etag(rig.version));
             return send(std::move(res));
         }
@@ -276,7 +276,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         if (!body.is_object()) return refuse(makeError(ErrorCode::Protocol, "POST edits: the body must be a JSON object {\"changes\": [...]}"));
         body["type"] = "edit";
         body["seq"] = 0;
-        auto parsed = protocol::parseClientMessage(body.dump());
+        auto parsed = protocol::parseClientMessage(protocol::dump(body));
         if (!parsed) return refuse(parsed.error());
         auto& edit = std::get<protocol::EditMessage>(parsed.value());
         if (expected.value() && !edit.ifVersion) edit.ifVersion = expected.value();
@@ -303,7 +303,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
             since = std::stoull(*s);
         }
         return send(makeResponse(req, http::status::ok, "application/json",
-                                 json{{"rigVersion", session.rigVersion()}, {"entries", session.history(since)}}.dump(2)));
+                                 protocol::dump(json{{"rigVersion", session.rigVersion()}, {"entries", session.history(since)}}, 2)));
     }
     const unsigned version = req.version();
     const bool keepAlive = req.keep_alive();
@@ -340,7 +340,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
             xy[i] = std::stoi(*v);
         }
         hub->render().requestPick(xy[0], xy[1], [self = shared_from_this(), version, keepAlive](Result<json> r) {
-            Response res = r ? makeResponse(version, keepAlive, http::status::ok, "application/json", r->dump(2))
+            Response res = r ? makeResponse(version, keepAlive, http::status::ok, "application/json", protocol::dump(r.value(), 2))
                              : errorResponse(version, keepAlive, r.error());
             asio::post(self->mStream.get_executor(), [self, res = std::move(res)]() mutable { self->send(std::move(res)); });
         });

@@ -1,5 +1,7 @@
 #include "session/Journal.h"
 
+#include <dfb/protocol/Messages.h>
+
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -92,7 +94,7 @@ Result<Journal> Journal::open(const std::filesystem::path& dir, std::vector<nloh
 Status Journal::append(const nlohmann::json& operation) {
     const auto path = mDir / "journal.jsonl";
     // One write() of the whole line: with O_APPEND a crash leaves at most one incomplete last line.
-    if (auto s = writeAll(mFd, operation.dump() + "\n", path); !s) return s;
+    if (auto s = writeAll(mFd, protocol::dump(operation) + "\n", path); !s) return s;
     if (::fdatasync(mFd) != 0) return ioError(path, "fdatasync");
     return okStatus();
 }
@@ -101,7 +103,7 @@ Status Journal::saveRig(const nlohmann::json& rig) {
     const auto path = mDir / "rig.json", tmp = mDir / "rig.json.tmp";
     const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd < 0) return ioError(tmp, "cannot create");
-    Status s = writeAll(fd, rig.dump(2) + "\n", tmp);
+    Status s = writeAll(fd, protocol::dump(rig, 2) + "\n", tmp);
     // No fsync here: the journal, not rig.json, is what a restart trusts.
     ::close(fd);
     if (!s) return s;

@@ -170,7 +170,7 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
             if (auto st = mJournal->append(line); !st) return st.error();
         }
     } else if (!op.contains("v") || !op["v"].is_number_unsigned() || op["v"].get<uint64_t>() != next.version) {
-        return makeError(ErrorCode::InvalidFile, "operation records version " + op.value("v", json()).dump() + ", replay reached " +
+        return makeError(ErrorCode::InvalidFile, "operation records version " + protocol::dump(op.value("v", json())) + ", replay reached " +
                                                      std::to_string(next.version));
     }
 

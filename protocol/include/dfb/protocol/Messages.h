@@ -25,6 +25,10 @@ constexpr int PROTOCOL_VERSION = 1;
 /// connection on anything larger.
 constexpr size_t MAX_TEXT_MESSAGE_BYTES = 1 << 20;
 
+/// JSON text that never throws: bytes that are not UTF-8 (a file name, a URL) become U+FFFD.
+/// Everything the server and clients send goes through it.
+std::string dump(const nlohmann::json& j, int indent = -1);
+
 /// What a token allows: an editor may change the rig; a viewer receives frames and changes only.
 enum class Role { Editor, Viewer };
 const char* toString(Role role);
