@@ -421,6 +421,17 @@ try {
     await a.waitForFunction(() => !document.querySelector('#lights li[data-light="bendy"]'), null, WAIT);
   });
 
+  await check("spot light extras: barn doors edit the rig, a missing cookie file is refused verbatim", async () => {
+    await a.click('#lights li[data-light="fill"] .lname');
+    await typeInto(a, "#prop-barnDoors-0", "45");
+    await waitRig((r) => r.lights.find((l) => l.name === "fill").barnDoors?.[0] === 45, "fill's left barn door at 45 degrees");
+    await typeInto(a, "#prop-barnDoors-1", "120");
+    await waitMessage(a, /barn doors right: 120 is out of range \[0, 90\]/);
+    await typeInto(a, "#prop-cookie", "no-such-cookie.png");
+    await waitMessage(a, /^invalid_value: fill\.cookie: .*no-such-cookie\.png/);
+    await a.waitForFunction(() => document.getElementById("prop-cookie").value === "", null, WAIT);
+  });
+
   await check("outputs: a shadow mask, and a G-buffer layer or the server's refusal verbatim", async () => {
     await a.selectOption("#output", "shadow:key");
     await a.waitForFunction(() => document.getElementById("frame").dataset.output === "shadow:key" && document.getElementById("frame").complete, null, WAIT);
