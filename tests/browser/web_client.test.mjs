@@ -310,6 +310,18 @@ try {
     const proj2 = project(toNDC, cpWorld(rig2.lights.find((l) => l.name === "key"), 2));
     assert(Math.hypot((proj2.ndc[0] - proj1.ndc[0]) * 160, (proj2.ndc[1] - proj1.ndc[1]) * 90) < 0.5, "a depth move moved the point in the image");
     assert(proj2.w > proj1.w + 1e-3, `dragging up in depth did not move the point away (w ${proj1.w} -> ${proj2.w})`);
+
+    // A radius handle: dragged away from its control point, the tube there grows.
+    const r0 = rig2.lights.find((l) => l.name === "key").radii[1];
+    const rh = await center(a, '[data-handle="radius"][data-index="1"]');
+    const cph = await center(a, '[data-handle="cp"][data-index="1"]');
+    const away = { x: rh.x + (rh.x - cph.x) * 0.5, y: rh.y + (rh.y - cph.y) * 0.5 };
+    await a.mouse.move(rh.x, rh.y);
+    await a.mouse.down();
+    await a.mouse.move(away.x, away.y, { steps: 4 });
+    await a.mouse.up();
+    const rig3 = await waitRig((r) => r.lights.find((l) => l.name === "key").radii[1] > r0 * 1.2, "r[1] grows");
+    console.log(`     r[1] ${r0.toFixed(3)} -> ${rig3.lights.find((l) => l.name === "key").radii[1].toFixed(3)}`);
   });
 
   const ctxB = await browser.newContext({ viewport });
