@@ -187,6 +187,18 @@ gl::Texture uploadLayer(GLenum internalFormat, int row, int rows, const std::vec
     return t;
 }
 
+// A vertex array of vec3 positions (attribute 0) drawn through an index buffer.
+gl::VertexArray positionVao(const gl::Buffer& positions, const gl::Buffer& indices) {
+    GLuint vao = 0;
+    glCreateVertexArrays(1, &vao);
+    glVertexArrayVertexBuffer(vao, 0, positions.id(), 0, sizeof(glm::vec3));
+    glVertexArrayElementBuffer(vao, indices.id());
+    glEnableVertexArrayAttrib(vao, 0);
+    glVertexArrayAttribFormat(vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
+    glVertexArrayAttribBinding(vao, 0, 0);
+    return gl::VertexArray(vao);
+}
+
 Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     if (g.width <= 0 || g.height <= 0 || g.sampleOffset.size() != g.pixelCount() + 1) {
         return makeError(ErrorCode::InvalidValue, "engine: empty or inconsistent deep buffer");
@@ -264,14 +276,8 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mCasterIbo = casters.indices.empty() ? gl::makeBuffer(&dummyIndex, sizeof dummyIndex)
                                          : gl::makeBuffer(casters.indices.data(), casters.indices.size() * sizeof(uint32_t));
     mCasterIndexCount = GLsizei(casters.indices.size());
+    mCasterVao = positionVao(mCasterVbo, mCasterIbo);
     GLuint vao = 0;
-    glCreateVertexArrays(1, &vao);
-    mCasterVao = gl::VertexArray(vao);
-    glVertexArrayVertexBuffer(vao, 0, mCasterVbo.id(), 0, sizeof(glm::vec3));
-    glVertexArrayElementBuffer(vao, mCasterIbo.id());
-    glEnableVertexArrayAttrib(vao, 0);
-    glVertexArrayAttribFormat(vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
-    glVertexArrayAttribBinding(vao, 0, 0);
     glCreateVertexArrays(1, &vao);
     mEmptyVao = gl::VertexArray(vao);
 
@@ -321,13 +327,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         glCreateVertexArrays(1, &v);
         mFlatVao = gl::VertexArray(v); // positions come from the deformed buffer by index
         glVertexArrayElementBuffer(v, mFlatIndices.id());
-        glCreateVertexArrays(1, &v);
-        mTessVao = gl::VertexArray(v);
-        glVertexArrayVertexBuffer(v, 0, mCasterVbo.id(), 0, sizeof(glm::vec3));
-        glVertexArrayElementBuffer(v, mTessIndices.id());
-        glEnableVertexArrayAttrib(v, 0);
-        glVertexArrayAttribFormat(v, 0, 3, GL_FLOAT, GL_FALSE, 0);
-        glVertexArrayAttribBinding(v, 0, 0);
+        mTessVao = positionVao(mCasterVbo, mTessIndices);
     }
 
     mAccum = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);

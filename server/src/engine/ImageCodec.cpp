@@ -88,15 +88,33 @@ Result<std::vector<uint8_t>> encodeExr(const std::vector<NamedImageF>& layers) {
     return std::vector<uint8_t>(bytes.begin(), bytes.end());
 }
 
-Result<ImageF> readLinearImage(const std::string& path) {
+namespace {
+
+// Opens an image and checks its header: the one place that decides what the engine accepts.
+Result<std::unique_ptr<OIIO::ImageInput>> openImage(const std::string& path) {
     auto in = OIIO::ImageInput::open(path);
     if (!in) return makeError(ErrorCode::IoError, "cannot read image '" + path + "': " + OIIO::geterror());
-    const OIIO::ImageSpec spec = in->spec();
+    const OIIO::ImageSpec& spec = in->spec();
     constexpr int MAX_SIDE = 16384;
     if (spec.width <= 0 || spec.height <= 0 || spec.width > MAX_SIDE || spec.height > MAX_SIDE || spec.nchannels <= 0) {
         return makeError(ErrorCode::InvalidValue, "image '" + path + "' has an unsupported size " +
                                                       std::to_string(spec.width) + "x" + std::to_string(spec.height));
     }
+    return in;
+}
+
+} // namespace
+
+Status checkImageFile(const std::string& path) {
+    auto in = openImage(path);
+    return in ? okStatus() : Status(in.error());
+}
+
+Result<ImageF> readLinearImage(const std::string& path) {
+    auto opened = openImage(path);
+    if (!opened) return opened.error();
+    auto& in = opened.value();
+    const OIIO::ImageSpec spec = in->spec();
     std::vector<float> src(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, src.data())) {
         return makeError(ErrorCode::IoError, "cannot read image '" + path + "': " + in->geterror());

@@ -174,6 +174,7 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
             return;
         }
         engine = std::move(e.value());
+        engine->setAssetDirectory(mSession.assetDirectory()); // set before start, fixed for the server's life
         mDevice = engine->deviceDescription();
         casters = {};
         ready->set_value(okStatus()); // `ready` must not be touched after this
@@ -201,7 +202,6 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
             encodes.swap(mEncodeRequests);
             picks.swap(mPickRequests);
         }
-        engine->setAssetDirectory(mSession.assetDirectory());
         // Keyframed properties take their values at the session's time.
         const Rig rig = protocol::evaluateRig(mSession.rig());
         const bool newVersion = mImageVersion != rig.version;

@@ -107,7 +107,7 @@ Status Session::checkCookies(const Rig& next) const {
     for (const Light& l : next.lights) {
         const Light* before = mRig.find(l.name);
         if (l.cookie.empty() || (before && before->cookie == l.cookie)) continue;
-        auto img = readLinearImage((std::filesystem::path(mAssetDir) / l.cookie).string());
+        auto img = checkImageFile((std::filesystem::path(mAssetDir) / l.cookie).string());
         if (!img) {
             return makeError(ErrorCode::InvalidValue, l.name + ".cookie: '" + l.cookie + "' is not a readable image in the asset folder " +
                                                           mAssetDir + " (" + img.error().message + ")");

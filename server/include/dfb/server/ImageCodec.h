@@ -23,6 +23,10 @@ Result<std::vector<uint8_t>> encodePng(const Image8& image);
 /// same size. Thread-safe.
 Result<std::vector<uint8_t>> encodeExr(const std::vector<NamedImageF>& layers);
 
+/// Checks that `path` is an image OpenImageIO can open, of a size the engine takes (header only:
+/// cheap enough for the network thread). Errors name the file.
+Status checkImageFile(const std::string& path);
+
 /// Reads any image OpenImageIO reads as linear float RGBA (integer-coded files are taken as sRGB
 /// and decoded; float files as linear; grey is replicated, missing alpha is 1). Errors name the file.
 Result<ImageF> readLinearImage(const std::string& path);
