@@ -48,8 +48,9 @@ EGLDisplay openDisplay(const std::string& want, std::string& platformName, std::
         return eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
     };
     auto tryDevice = [&]() -> EGLDisplay {
+        // NVIDIA's EGL advertises EGL_EXT_device_base, which includes device enumeration.
         if (!hasExtension(clientExts, "EGL_EXT_platform_device") ||
-            !hasExtension(clientExts, "EGL_EXT_device_enumeration")) {
+            !(hasExtension(clientExts, "EGL_EXT_device_enumeration") || hasExtension(clientExts, "EGL_EXT_device_base"))) {
             return EGL_NO_DISPLAY;
         }
         EGLDeviceEXT devices[16];

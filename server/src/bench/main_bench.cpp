@@ -98,6 +98,8 @@ int main(int argc, char** argv) {
     app.add_flag("--scaling", scaling, "also print the scaling tables: time vs pixels (480x270 to 1920x1080, the shot's "
                                       "scene) and vs triangles (the asset scenes at 480x270)");
     app.add_option("--assets", assets, "folder of the asset scenes for the triangles table");
+    std::string only;
+    app.add_option("--only", only, "time only the edit kinds whose name contains this text (skips the lights table)");
     CLI11_PARSE(app, argc, argv);
 
     auto shot = readDeepBuffer(shotPath);
@@ -165,6 +167,7 @@ int main(int argc, char** argv) {
     std::vector<Kind> all = kinds;
     all.push_back({"  same, drag preview", kinds.back().apply});
     for (const Kind& k : all) {
+        if (!only.empty() && std::string(k.name).find(only) == std::string::npos) continue;
         engine.value()->setPreview(&k == &all.back());
         std::vector<double> total, shadow, shade, composite, readback, encode;
         for (int i = 0; i < edits; ++i) {
@@ -195,6 +198,7 @@ int main(int argc, char** argv) {
     }
     engine.value()->setPreview(false);
     std::printf("\n(stage columns are medians; the stages of one edit add up to its total)\n");
+    if (!only.empty()) return 0;
 
     // Scaling with the number of lights: editing one light (position: shadow map + shading) of
     // a rig of N shadowed spot lights spread over the scene.
