@@ -23,11 +23,11 @@ void main() {
     // A straight edge near Q bends in the deformed space about as much as the chain turns there
     // (curvature kappa = |P' x P''| / |P'|^3), scaled by how much the lateral offsets grow
     // (rho / R: the cone's radius over the tube's).
-    vec3 d = chainDerivative(c.segment, c.t);
+    vec3 d = c.derivative.xyz;
     float speed = max(length(d), 1e-20);
-    float kappa = length(cross(d, chainSecondDerivative(c.segment))) / (speed * speed * speed);
-    float s = arcLength(c.segment, c.t);
-    float ratio = s * uBendy.bendyAxisU.w / max(chainRadius(c.segment, c.t), 1e-20);
-    deformed[2u * v] = vec4(deformedPoint(c), 1.0);
+    float kappa = length(cross(d, segmentSecondDerivative(c.g))) / (speed * speed * speed);
+    float s = tubeArcLength(c);
+    float ratio = s * uBendy.bendyAxisU.w / max(c.foot.w, 1e-20);
+    deformed[2u * v] = vec4(deformedPointAt(c, s), 1.0);
     deformed[2u * v + 1u] = vec4(kappa * max(ratio, 1.0), 0.0, 0.0, 0.0);
 }

@@ -19,46 +19,71 @@ layout(std140, binding = UBO_BENDY) uniform BendyBlock {
     vec4 bendyEnd;                            // xyz P'(K) (extension direction), w R'(K)
 } uBendy;
 
+// Specialised variants fix the number of segments (the segment loops unroll, the control points
+// are read at constant indices) and the light-direction model; see common_uniforms.glsl.
+#ifdef BENDY_K
+int bendySegments() { return BENDY_K; }
+#else
 int bendySegments() { return int(uBendy.bendyAxisV.w + 0.5); }
+#endif
+#ifndef BENDY_EXACT
+#define BENDY_EXACT (uBendy.bendyAxisW.w > 0.5)
+#endif
 
 // ---- Bezier segment (eqs. 1, 2) ----
-vec3 chainPoint(int k, float t) {
+// A segment's data, read from the block once: with a per-sample segment index every block read is
+// a gather, so shading reads a segment once (bendySegment) and evaluates everything from these.
+// The extension past the last control point (k == K, a straight line along the end tangent E
+// with the radius growing linearly) is the quadratic with control points p, p + E/2, p + E: the
+// same formulas then give exactly the line, its constant derivative and zero curvature.
+struct BendySegment {
+    vec4 p0, p1, p2; // xyz control points, w radii
+    vec3 c0, c1, c2; // colours
+    vec4 frame;      // xyz v_hat at the segment's start, w arc length there
+};
+
+BendySegment bendySegment(int k) {
+    BendySegment g;
     int K = bendySegments();
-    if (k >= K) return uBendy.bendyP[2 * K].xyz + uBendy.bendyEnd.xyz * t;
+    if (k >= K) {
+        g.p0 = uBendy.bendyP[2 * K];
+        g.p1 = g.p0 + 0.5 * uBendy.bendyEnd;
+        g.p2 = g.p0 + uBendy.bendyEnd;
+        g.c0 = uBendy.bendyC[2 * K].rgb;
+        g.c1 = g.c0;
+        g.c2 = g.c0;
+        g.frame = uBendy.bendyFrameV[K];
+    } else {
+        g.p0 = uBendy.bendyP[2 * k];
+        g.p1 = uBendy.bendyP[2 * k + 1];
+        g.p2 = uBendy.bendyP[2 * k + 2];
+        g.c0 = uBendy.bendyC[2 * k].rgb;
+        g.c1 = uBendy.bendyC[2 * k + 1].rgb;
+        g.c2 = uBendy.bendyC[2 * k + 2].rgb;
+        g.frame = uBendy.bendyFrameV[k];
+    }
+    return g;
+}
+
+// Point and radius together (xyz, w): the radius is the same Bezier of the control radii.
+vec4 segmentPoint(BendySegment g, float t) {
     float s = 1.0 - t;
-    return uBendy.bendyP[2 * k].xyz * (s * s) + uBendy.bendyP[2 * k + 1].xyz * (2.0 * s * t) + uBendy.bendyP[2 * k + 2].xyz * (t * t);
+    return g.p0 * (s * s) + g.p1 * (2.0 * s * t) + g.p2 * (t * t);
 }
-
-vec3 chainDerivative(int k, float t) {
-    if (k >= bendySegments()) return uBendy.bendyEnd.xyz;
-    return (uBendy.bendyP[2 * k + 1].xyz - uBendy.bendyP[2 * k].xyz) * (2.0 * (1.0 - t)) +
-           (uBendy.bendyP[2 * k + 2].xyz - uBendy.bendyP[2 * k + 1].xyz) * (2.0 * t);
-}
-
-vec3 chainSecondDerivative(int k) {
-    if (k >= bendySegments()) return vec3(0.0);
-    return (uBendy.bendyP[2 * k].xyz - uBendy.bendyP[2 * k + 1].xyz * 2.0 + uBendy.bendyP[2 * k + 2].xyz) * 2.0;
-}
-
-float chainRadius(int k, float t) {
-    int K = bendySegments();
-    if (k >= K) return uBendy.bendyP[2 * K].w + uBendy.bendyEnd.w * t;
+// Derivative of point and radius (xyz, w).
+vec4 segmentDerivative(BendySegment g, float t) { return (g.p1 - g.p0) * (2.0 * (1.0 - t)) + (g.p2 - g.p1) * (2.0 * t); }
+vec3 segmentSecondDerivative(BendySegment g) { return (g.p0.xyz - g.p1.xyz * 2.0 + g.p2.xyz) * 2.0; }
+vec3 segmentColor(BendySegment g, float t) {
     float s = 1.0 - t;
-    return uBendy.bendyP[2 * k].w * (s * s) + uBendy.bendyP[2 * k + 1].w * (2.0 * s * t) + uBendy.bendyP[2 * k + 2].w * (t * t);
+    return g.c0 * (s * s) + g.c1 * (2.0 * s * t) + g.c2 * (t * t);
 }
 
-float chainRadiusDerivative(int k, float t) {
-    if (k >= bendySegments()) return uBendy.bendyEnd.w;
-    return (uBendy.bendyP[2 * k + 1].w - uBendy.bendyP[2 * k].w) * (2.0 * (1.0 - t)) +
-           (uBendy.bendyP[2 * k + 2].w - uBendy.bendyP[2 * k + 1].w) * (2.0 * t);
-}
-
-vec3 chainColor(int k, float t) {
-    int K = bendySegments();
-    if (k >= K) return uBendy.bendyC[2 * K].rgb;
-    float s = 1.0 - t;
-    return uBendy.bendyC[2 * k].rgb * (s * s) + uBendy.bendyC[2 * k + 1].rgb * (2.0 * s * t) + uBendy.bendyC[2 * k + 2].rgb * (t * t);
-}
+vec3 chainPoint(int k, float t) { return segmentPoint(bendySegment(k), t).xyz; }
+vec3 chainDerivative(int k, float t) { return segmentDerivative(bendySegment(k), t).xyz; }
+vec3 chainSecondDerivative(int k) { return segmentSecondDerivative(bendySegment(k)); }
+float chainRadius(int k, float t) { return segmentPoint(bendySegment(k), t).w; }
+float chainRadiusDerivative(int k, float t) { return segmentDerivative(bendySegment(k), t).w; }
+vec3 chainColor(int k, float t) { return segmentColor(bendySegment(k), t); }
 
 // ---- Tube frame ----
 vec3 minimalRotation(vec3 a, vec3 b, vec3 x) {
@@ -66,35 +91,38 @@ vec3 minimalRotation(vec3 a, vec3 b, vec3 x) {
     return x + b * (2.0 * dot(x, a)) - s * (dot(x, s) / (1.0 + dot(a, b)));
 }
 
-void tubeFrame(int k, float t, out vec3 uHat, out vec3 vHat, out vec3 wHat) {
-    uHat = normalize(chainDerivative(k, t));
-    vec3 start = normalize(chainDerivative(k, 0.0));
-    int K = bendySegments();
-    vHat = normalize(minimalRotation(start, uHat, uBendy.bendyFrameV[k < K ? k : K].xyz));
+void segmentFrame(BendySegment g, float t, out vec3 uHat, out vec3 vHat, out vec3 wHat) {
+    uHat = normalize(segmentDerivative(g, t).xyz);
+    vec3 start = normalize(segmentDerivative(g, 0.0).xyz);
+    vHat = normalize(minimalRotation(start, uHat, g.frame.xyz));
     wHat = cross(uHat, vHat);
 }
+void tubeFrame(int k, float t, out vec3 uHat, out vec3 vHat, out vec3 wHat) { segmentFrame(bendySegment(k), t, uHat, vHat, wHat); }
 
-vec3 unitTangentDerivative(int k, float t) {
-    vec3 d = chainDerivative(k, t);
+vec3 segmentUnitTangentDerivative(BendySegment g, float t) {
+    vec3 d = segmentDerivative(g, t).xyz;
     float len = length(d);
     vec3 uHat = d / len;
-    vec3 dd = chainSecondDerivative(k);
+    vec3 dd = segmentSecondDerivative(g);
     return (dd - uHat * dot(uHat, dd)) / len;
 }
+vec3 unitTangentDerivative(int k, float t) { return segmentUnitTangentDerivative(bendySegment(k), t); }
 
 // ---- Arc length (8-point Gauss-Legendre) ----
-float segmentArcLength(int k, float t) {
-    if (k >= bendySegments()) return length(uBendy.bendyEnd.xyz) * t;
+float segmentArcLength(BendySegment g, float t) {
     const float x[4] = float[4](0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363);
     const float w[4] = float[4](0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763);
     float sum = 0.0;
     for (int i = 0; i < 4; ++i) {
-        sum += w[i] * (length(chainDerivative(k, t * 0.5 * (1.0 + x[i]))) + length(chainDerivative(k, t * 0.5 * (1.0 - x[i]))));
+        sum += w[i] * (length(segmentDerivative(g, t * 0.5 * (1.0 + x[i])).xyz) + length(segmentDerivative(g, t * 0.5 * (1.0 - x[i])).xyz));
     }
     return sum * t * 0.5;
 }
 
-float arcLength(int k, float t) { return uBendy.bendyFrameV[k].w + segmentArcLength(k, t); }
+float arcLength(int k, float t) {
+    BendySegment g = bendySegment(k);
+    return g.frame.w + segmentArcLength(g, t);
+}
 
 // ---- Cubic solver (paper eq. 10 and section 4) ----
 float cbrtSigned(float x) { return sign(x) * pow(abs(x), 1.0 / 3.0); }
@@ -152,6 +180,8 @@ int solveCubic(float a3, float a2, float a1, float a0, out float roots[3]) {
 }
 
 // ---- Inverse mapping (eqs. 4-7) ----
+// The foot's segment (g) and what shading needs at the foot travel with the coordinates, so that
+// nothing is read or evaluated twice.
 struct TubeCoords {
     bool valid;
     bool inside;
@@ -159,33 +189,36 @@ struct TubeCoords {
     float t;
     float v;
     float w;
+    BendySegment g;
+    vec4 foot;       // chain point and radius at t
+    vec4 derivative; // their derivatives at t
+    vec3 uHat, vHat, wHat;
 };
 
 bool tubeCoordinates(vec3 Q, int k, float t, out TubeCoords c) {
-    c.valid = false; c.inside = false; c.segment = 0; c.t = 0.0; c.v = 0.0; c.w = 0.0;
-    float R = chainRadius(k, t);
+    c.valid = false; c.inside = false; c.segment = k; c.t = t; c.v = 0.0; c.w = 0.0;
+    c.g = bendySegment(k);
+    c.foot = segmentPoint(c.g, t);
+    c.derivative = segmentDerivative(c.g, t);
+    float R = c.foot.w;
     if (!(R > 0.0)) return false;
-    vec3 uHat, vHat, wHat;
-    tubeFrame(k, t, uHat, vHat, wHat);
-    vec3 d = Q - chainPoint(k, t);
+    segmentFrame(c.g, t, c.uHat, c.vHat, c.wHat);
+    vec3 d = Q - c.foot.xyz;
     c.valid = true;
-    c.segment = k;
-    c.t = t;
-    c.v = dot(d, vHat) / R; // eq. 5
-    c.w = dot(d, wHat) / R; // eq. 6
+    c.v = dot(d, c.vHat) / R; // eq. 5
+    c.w = dot(d, c.wHat) / R; // eq. 6
     c.inside = c.v * c.v + c.w * c.w <= 1.0;
     return true;
 }
 
 TubeCoords inverseMapImpl(vec3 Q, bool culled) {
-    TubeCoords best;
-    best.valid = false; best.inside = false; best.segment = 0; best.t = 0.0; best.v = 0.0; best.w = 0.0;
     bool found = false, bestInside = false;
     float bestR2 = 0.0, bestT = 0.0;
     int bestK = 0;
     const float slack = 1e-4;
     int K = bendySegments();
     for (int k = 0; k <= K; ++k) {
+        BendySegment g = bendySegment(k);
         float roots[3];
         int n;
         if (k < K) {
@@ -194,20 +227,19 @@ TubeCoords inverseMapImpl(vec3 Q, bool culled) {
                 // that holds them all, grown by the largest radius (a quadratic Bezier stays in its
                 // control polygon's hull; its radius between its control radii). Skipping the
                 // solve outside it only changes points that are inside no tube: unlit anyway.
-                vec3 c = (uBendy.bendyP[2 * k].xyz + uBendy.bendyP[2 * k + 1].xyz + uBendy.bendyP[2 * k + 2].xyz) / 3.0;
-                float reach = sqrt(max(max(dot(uBendy.bendyP[2 * k].xyz - c, uBendy.bendyP[2 * k].xyz - c),
-                                           dot(uBendy.bendyP[2 * k + 1].xyz - c, uBendy.bendyP[2 * k + 1].xyz - c)),
-                                       dot(uBendy.bendyP[2 * k + 2].xyz - c, uBendy.bendyP[2 * k + 2].xyz - c))) +
-                              1.1 * max(max(uBendy.bendyP[2 * k].w, uBendy.bendyP[2 * k + 1].w), uBendy.bendyP[2 * k + 2].w) + 1e-4;
+                vec3 c = (g.p0.xyz + g.p1.xyz + g.p2.xyz) / 3.0;
+                float reach = sqrt(max(max(dot(g.p0.xyz - c, g.p0.xyz - c), dot(g.p1.xyz - c, g.p1.xyz - c)),
+                                       dot(g.p2.xyz - c, g.p2.xyz - c))) +
+                              1.1 * max(max(g.p0.w, g.p1.w), g.p2.w) + 1e-4;
                 if (dot(Q - c, Q - c) > reach * reach) continue;
             }
-            vec3 A = uBendy.bendyP[2 * k].xyz - uBendy.bendyP[2 * k + 1].xyz * 2.0 + uBendy.bendyP[2 * k + 2].xyz;
-            vec3 B = (uBendy.bendyP[2 * k + 1].xyz - uBendy.bendyP[2 * k].xyz) * 2.0;
-            vec3 D = Q - uBendy.bendyP[2 * k].xyz;
+            vec3 A = g.p0.xyz - g.p1.xyz * 2.0 + g.p2.xyz;
+            vec3 B = (g.p1.xyz - g.p0.xyz) * 2.0;
+            vec3 D = Q - g.p0.xyz;
             n = solveCubic(2.0 * dot(A, A), 3.0 * dot(A, B), dot(B, B) - 2.0 * dot(A, D), -dot(B, D), roots);
         } else {
             vec3 dir = uBendy.bendyEnd.xyz;
-            roots[0] = dot(Q - uBendy.bendyP[2 * K].xyz, dir) / dot(dir, dir);
+            roots[0] = dot(Q - g.p0.xyz, dir) / dot(dir, dir);
             roots[1] = 0.0; roots[2] = 0.0;
             n = 1;
         }
@@ -215,10 +247,11 @@ TubeCoords inverseMapImpl(vec3 Q, bool culled) {
             float t = roots[i];
             float hi = k < K ? 1.0 + slack : 3.4e38;
             if (!(t >= -slack && t <= hi)) continue;
-            float R = chainRadius(k, t);
+            vec4 P = segmentPoint(g, t);
+            float R = P.w;
             if (!(R > 0.0)) continue;
             // At a foot v^2 + w^2 = |Q - P|^2 / R^2: rank without frames (see the C++).
-            vec3 d = Q - chainPoint(k, t);
+            vec3 d = Q - P.xyz;
             float r2 = dot(d, d) / (R * R);
             bool inside = r2 <= 1.0;
             if (!found || (inside && !bestInside) || (inside == bestInside && r2 < bestR2)) {
@@ -230,7 +263,8 @@ TubeCoords inverseMapImpl(vec3 Q, bool culled) {
             }
         }
     }
-    if (found) tubeCoordinates(Q, bestK, bestT, best);
+    TubeCoords best;
+    if (!tubeCoordinates(Q, bestK, bestT, best) || !found) best.valid = false;
     return best;
 }
 
@@ -241,24 +275,20 @@ TubeCoords inverseMap(vec3 Q) { return inverseMapImpl(Q, false); }
 // which shading treats alike (unlit). Casters must use inverseMap: their outside vertices matter.
 TubeCoords inverseMapForShading(vec3 Q) { return inverseMapImpl(Q, true); }
 
+// Arc length from the source to the foot.
+float tubeArcLength(TubeCoords c) { return c.g.frame.w + segmentArcLength(c.g, c.t); }
+
 // Eq. 7 with arc length: Q' = p0 + s uL + s tan(theta) (v vL + w wL).
-vec3 deformedPoint(TubeCoords c) {
-    float s = arcLength(c.segment, c.t);
+vec3 deformedPointAt(TubeCoords c, float s) {
     float rho = s * uBendy.bendyAxisU.w;
     return uBendy.bendyP[0].xyz + uBendy.bendyAxisU.xyz * s + (uBendy.bendyAxisV.xyz * c.v + uBendy.bendyAxisW.xyz * c.w) * rho;
 }
+vec3 deformedPoint(TubeCoords c) { return deformedPointAt(c, tubeArcLength(c)); }
 
 // Eq. 9 (default) or the exact flow-line tangent; unit, towards the light.
 vec3 lightDirection(TubeCoords c, vec3 Q, bool exact) {
-    vec3 P = chainPoint(c.segment, c.t);
-    vec3 d = chainDerivative(c.segment, c.t);
-    float R = chainRadius(c.segment, c.t);
-    float dR = chainRadiusDerivative(c.segment, c.t);
-    vec3 flow = d + (Q - P) * (dR / R);
-    if (exact) {
-        vec3 uHat = normalize(d);
-        flow -= uHat * dot(Q - P, unitTangentDerivative(c.segment, c.t));
-    }
+    vec3 flow = c.derivative.xyz + (Q - c.foot.xyz) * (c.derivative.w / c.foot.w);
+    if (exact) flow -= c.uHat * dot(Q - c.foot.xyz, segmentUnitTangentDerivative(c.g, c.t));
     return -normalize(flow);
 }
 

@@ -4,6 +4,15 @@
 
 const float PI = 3.14159265358979;
 
+// Lobes a G-buffer without any sheen or clear coat can leave out (see "Specialisation" in
+// common_uniforms.glsl).
+#ifndef SHADE_SHEEN
+#define SHADE_SHEEN true
+#endif
+#ifndef SHADE_COAT
+#define SHADE_COAT true
+#endif
+
 // GGX normal distribution, alpha = roughness^2 (glTF Appendix B.3.2).
 float distributionGGX(float NdotH, float alpha) {
     float a2 = alpha * alpha;
@@ -64,13 +73,13 @@ vec3 evaluateLayeredBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, vec4 brdf, vec4
     float NdotV = max(dot(N, V), 1e-4);
     vec3 H = normalize(L + V);
     float NdotH = max(dot(N, H), 0.0);
-    if (any(greaterThan(sheen.rgb, vec3(0.0)))) {
+    if (SHADE_SHEEN && any(greaterThan(sheen.rgb, vec3(0.0)))) {
         float sheenAlpha = max(sheen.a * sheen.a, 1e-3);
         vec3 fs = sheen.rgb * distributionCharlie(NdotH, sheenAlpha) * visibilityNeubelt(NdotL, NdotV);
         float scaling = 1.0 - max(max(sheen.r, sheen.g), sheen.b);
         base = base * scaling + fs * NdotL;
     }
-    if (coat.x > 0.0) {
+    if (SHADE_COAT && coat.x > 0.0) {
         float alpha = max(coat.y * coat.y, 1e-3);
         float VdotH = max(dot(V, H), 0.0);
         float Fc = 0.04 + 0.96 * pow(1.0 - VdotH, 5.0);

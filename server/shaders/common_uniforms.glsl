@@ -54,6 +54,34 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
     ivec4 sampleLayout;     // x = SAMPLE_ROW (width of the sample textures)
 } uView;
 
+// ---- Specialisation ----
+// llvmpipe (Mesa 22) runs every path of a shader under a lane mask, taken or not, even where the
+// condition is a uniform: a shader costs the sum of all its paths. So the engine compiles one
+// variant of each relight shader per light configuration (GlEngine::variant), defining these, and
+// the paths the light cannot take are compiled out. Without them (tests that build a shader
+// directly) the shaders decide from the uniforms at run time, with the same results.
+#ifndef SHADE_KIND
+#define SHADE_KIND int(uLight.lightPosition.w + 0.5) // 0 directional, 1 spot, 2 point
+#endif
+#ifndef SHADE_SHADOWED
+#define SHADE_SHADOWED (uLight.lightCone.z > 0.5)
+#endif
+#ifndef SHADE_PCF_RADIUS
+#define SHADE_PCF_RADIUS int(uLight.lightShadow.y + 0.5)
+#endif
+#ifndef SHADE_COOKIE
+#define SHADE_COOKIE (uLight.lightRight.w > 0.5)
+#endif
+#ifndef SHADE_DOORS
+#define SHADE_DOORS true // a spot with a door under 90 degrees
+#endif
+#ifndef SHADE_LINKED
+#define SHADE_LINKED (uLinked != 0)
+#endif
+#ifndef SHADE_OUTPUT
+#define SHADE_OUTPUT uOutput
+#endif
+
 ivec2 sampleTexel(uint s) { return ivec2(int(s) % uView.sampleLayout.x, int(s) / uView.sampleLayout.x); }
 
 vec3 viewVector(vec3 P) {
@@ -63,7 +91,7 @@ vec3 viewVector(vec3 P) {
 // Percentage-closer filter of radius uLight.lightShadow.y texels ((2r+1)^2 taps) on top of the
 // hardware's 2x2 bilinear comparison: the light's soft-shadow filter size.
 float filteredShadow(sampler2DShadow map, vec2 uv, float ref) {
-    int r = int(uLight.lightShadow.y + 0.5);
+    int r = SHADE_PCF_RADIUS;
     float texel = uLight.lightShadow.x;
     float sum = 0.0;
     for (int y = -r; y <= r; ++y)

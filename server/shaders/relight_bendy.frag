@@ -36,15 +36,14 @@ layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 // sample. Exact for straight chains; on bends it neglects the frame's turn over the bias length
 // (a fraction of a shadow-map texel), far below a texel.
 float bendyShadow(TubeCoords c, float s, vec3 Ng, float offset) {
-    vec3 uHat, vHat, wHat;
-    tubeFrame(c.segment, c.t, uHat, vHat, wHat);
-    float R = chainRadius(c.segment, c.t);
+    vec3 uHat = c.uHat, vHat = c.vHat, wHat = c.wHat;
+    float R = c.foot.w;
     vec3 d = Ng * offset;
     float du = dot(d, uHat);
     float s2 = max(s + du, 0.0);
     // The foot moves du along the chain, where the radius is R + R'(s) du (R' per arc length):
     // the receiver's offset from the chain, (v vHat + w wHat) R + the bias across, over it.
-    float R2 = max(R + chainRadiusDerivative(c.segment, c.t) / max(length(chainDerivative(c.segment, c.t)), 1e-12) * du, 1e-9);
+    float R2 = max(R + c.derivative.w / max(length(c.derivative.xyz), 1e-12) * du, 1e-9);
     float v2 = (c.v * R + dot(d, vHat)) / R2, w2 = (c.w * R + dot(d, wHat)) / R2;
     vec3 q = uBendy.bendyP[0].xyz + uBendy.bendyAxisU.xyz * s2 +
              (uBendy.bendyAxisV.xyz * v2 + uBendy.bendyAxisW.xyz * w2) * (s2 * uBendy.bendyAxisU.w);
@@ -57,45 +56,44 @@ float bendyShadow(TubeCoords c, float s, vec3 Ng, float offset) {
     return filteredShadow(shadowMap, uv, ref);
 }
 
-vec3 shadeSample(uint s) {
-    ivec2 t = sampleTexel(s);
+// t: the sample's texel in the sample textures.
+vec3 shadeSample(ivec2 t) {
     vec4 pA = texelFetch(gP, t, 0);
     if (pA.w <= 0.0) return vec3(0.0);
-    if (uLinked != 0 && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
+    if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 P = pA.xyz;
     TubeCoords c = inverseMapForShading(P);
     if (!c.valid) return vec3(0.0); // no foot: unlit
-    float arc = arcLength(c.segment, c.t);
-    float rho = arc * uBendy.bendyAxisU.w;
-    vec3 qd = uBendy.bendyP[0].xyz + uBendy.bendyAxisU.xyz * arc + (uBendy.bendyAxisV.xyz * c.v + uBendy.bendyAxisW.xyz * c.w) * rho;
+    float arc = tubeArcLength(c);
+    vec3 qd = deformedPointAt(c, arc);
     vec3 toSource = uBendy.bendyP[0].xyz - qd;
     float dist2 = max(dot(toSource, toSource), 1e-12);
     float dist = sqrt(dist2);
     float spot = smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-toSource / dist, uBendy.bendyAxisU.xyz));
     if (spot <= 0.0) return vec3(0.0);
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
-    vec3 Li = lightDirection(c, P, uBendy.bendyAxisW.w > 0.5);
+    vec3 Li = lightDirection(c, P, BENDY_EXACT);
     if (dot(N, Li) <= 0.0) return vec3(0.0);
     float vis = 1.0;
-    if (uLight.lightCone.z > 0.5) {
+    if (SHADE_SHADOWED) {
         vis = bendyShadow(c, arc, normalize(texelFetch(gNg, t, 0).xyz), uLight.lightCone.w * dist);
-        if (vis <= 0.0 && uOutput == 0) return vec3(0.0);
+        if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
-    if (uOutput == 1) return vec3(vis * pA.w, pA.w, 0.0);
+    if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
     vec3 f = evaluateLayeredBrdfCos(N, Li, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
                                     texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
-    return f * uLight.lightRadiance.rgb * chainColor(c.segment, c.t) * (spot * vis / dist2) * pA.w;
+    return f * uLight.lightRadiance.rgb * segmentColor(c.g, c.t) * (spot * vis / dist2) * pA.w;
 }
 
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
 #ifdef DFB_FLAT_SAMPLES
     // Flat buffer: one sample per pixel, stored at the pixel itself (no indirection, no loop).
-    oColor = vec4(shadeSample(uint(pixel.y) * uint(uView.sampleLayout.x) + uint(pixel.x)), 1.0);
+    oColor = vec4(shadeSample(pixel), 1.0);
 #else
     uvec2 range = texelFetch(gPixelSamples, pixel, 0).xy;
     vec3 sum = vec3(0.0);
-    for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(s);
+    for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(sampleTexel(s));
     oColor = vec4(sum, 1.0);
 #endif
 }

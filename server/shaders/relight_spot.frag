@@ -29,11 +29,11 @@ layout(location = 1) uniform int uLinked;
 layout(location = 2) uniform int uPixelStep;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
-const float KIND_DIRECTIONAL = 0.0, KIND_POINT = 2.0;
+const int KIND_DIRECTIONAL = 0, KIND_POINT = 2;
 
 float shadowVisibility(vec3 P, vec3 Ng, float dist) {
     vec3 biased = P + Ng * (uLight.lightCone.w * dist);
-    if (uLight.lightShadow.z > 0.5) {
+    if (SHADE_KIND == KIND_POINT) {
         // Point light: the cube face's projection depth of the biased point (its major axis is
         // the face's view depth), filtered across the direction like the 2D maps.
         vec3 d = biased - uLight.lightPosition.xyz;
@@ -44,7 +44,7 @@ float shadowVisibility(vec3 P, vec3 Ng, float dist) {
         vec3 t1 = normalize(cross(dn, abs(dn.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
         vec3 t2 = cross(dn, t1);
         float texel = 2.0 * major * uLight.lightShadow.x; // a face is 2 * major wide at its depth
-        int r = int(uLight.lightShadow.y + 0.5);
+        int r = SHADE_PCF_RADIUS;
         float sum = 0.0;
         for (int y = -r; y <= r; ++y)
             for (int x = -r; x <= r; ++x) sum += texture(shadowCube, vec4(d + (t1 * float(x) + t2 * float(y)) * texel, ref));
@@ -67,30 +67,33 @@ vec3 spotMask(vec3 fromLight) {
     float z = dot(fromLight, uLight.lightAxis.xyz);
     if (z <= 0.0) return vec3(0.0);
     float x = dot(fromLight, uLight.lightRight.xyz), y = dot(fromLight, uLight.lightUp.xyz);
-    float ax = atan(x, z), ay = atan(y, z);
-    const float edge = 0.00436332; // a quarter of a degree either side
-    vec4 d = uLight.lightDoors;
-    float doors = (1.0 - smoothstep(d.x - edge, d.x + edge, -ax)) * (1.0 - smoothstep(d.y - edge, d.y + edge, ax)) *
-                  (1.0 - smoothstep(d.z - edge, d.z + edge, ay)) * (1.0 - smoothstep(d.w - edge, d.w + edge, -ay));
+    float doors = 1.0;
+    if (SHADE_DOORS) {
+        float ax = atan(x, z), ay = atan(y, z);
+        const float edge = 0.00436332; // a quarter of a degree either side
+        vec4 d = uLight.lightDoors;
+        doors = (1.0 - smoothstep(d.x - edge, d.x + edge, -ax)) * (1.0 - smoothstep(d.y - edge, d.y + edge, ax)) *
+                (1.0 - smoothstep(d.z - edge, d.z + edge, ay)) * (1.0 - smoothstep(d.w - edge, d.w + edge, -ay));
+    }
     vec3 mask = vec3(doors);
-    if (uLight.lightRight.w > 0.5 && doors > 0.0) {
+    if (SHADE_COOKIE && doors > 0.0) {
         vec2 uv = 0.5 + 0.5 * vec2(x, y) / (z * uLight.lightUp.w);
         mask *= texture(cookie, uv).rgb; // uploaded with the image's top row at t = 1
     }
     return mask;
 }
 
-vec3 shadeSample(uint s) {
-    ivec2 t = sampleTexel(s);
+// t: the sample's texel in the sample textures.
+vec3 shadeSample(ivec2 t) {
     vec4 pA = texelFetch(gP, t, 0);
     if (pA.w <= 0.0) return vec3(0.0);
-    if (uLinked != 0 && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
+    if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 P = pA.xyz;
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
     vec3 L;
     float dist2, dist;
     vec3 spot = vec3(1.0);
-    if (uLight.lightPosition.w == KIND_DIRECTIONAL) {
+    if (SHADE_KIND == KIND_DIRECTIONAL) {
         // Directional (KHR_lights_punctual): parallel light, intensity in lux, no falloff.
         L = -uLight.lightAxis.xyz;
         dist2 = 1.0;
@@ -100,19 +103,19 @@ vec3 shadeSample(uint s) {
         dist2 = max(dot(toLight, toLight), 1e-12);
         dist = sqrt(dist2);
         L = toLight / dist;
-        if (uLight.lightPosition.w != KIND_POINT) {
+        if (SHADE_KIND != KIND_POINT) {
             // Cone falloff: smooth between the outer and inner cosines; then doors and cookie.
             spot = vec3(smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-L, uLight.lightAxis.xyz)));
-            if (spot.x > 0.0) spot *= spotMask(-L);
+            if ((SHADE_DOORS || SHADE_COOKIE) && spot.x > 0.0) spot *= spotMask(-L);
         }
     }
     if (max(spot.x, max(spot.y, spot.z)) <= 0.0 || dot(N, L) <= 0.0) return vec3(0.0);
     float vis = 1.0;
-    if (uLight.lightCone.z > 0.5) {
+    if (SHADE_SHADOWED) {
         vis = shadowVisibility(P, normalize(texelFetch(gNg, t, 0).xyz), dist);
-        if (vis <= 0.0 && uOutput == 0) return vec3(0.0);
+        if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
-    if (uOutput == 1) return vec3(vis * pA.w, pA.w, 0.0);
+    if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
     vec3 f = evaluateLayeredBrdfCos(N, L, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
                                     texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
     return f * uLight.lightRadiance.rgb * spot * (vis / dist2) * pA.w;
@@ -122,11 +125,11 @@ void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
 #ifdef DFB_FLAT_SAMPLES
     // Flat buffer: one sample per pixel, stored at the pixel itself (no indirection, no loop).
-    oColor = vec4(shadeSample(uint(pixel.y) * uint(uView.sampleLayout.x) + uint(pixel.x)), 1.0);
+    oColor = vec4(shadeSample(pixel), 1.0);
 #else
     uvec2 range = texelFetch(gPixelSamples, pixel, 0).xy;
     vec3 sum = vec3(0.0);
-    for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(s);
+    for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(sampleTexel(s));
     oColor = vec4(sum, 1.0);
 #endif
 }

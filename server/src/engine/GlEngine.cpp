@@ -79,6 +79,7 @@ struct LightCache {
     gl::Framebuffer contributionFb;
     glm::mat4 worldToLightClip{1.f};
     gl::Buffer bendyUbo; // BendyBlock of a BendyLight
+    int bendySegments = 0; // its chain's segments, as uploaded (the shader variants' BENDY_K)
     gl::Buffer linkMask; // light linking: one bit per object id
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
     glm::vec3 shadedRadiance{0.f}; // colour x intensity the contribution was shaded with
@@ -108,6 +109,9 @@ public:
 
 private:
     Result<gl::Program> program(const char* vert, const char* frag);
+    std::string specialise(std::string_view source, const std::string& defines) const;
+    Result<GLuint> variant(const std::vector<const char*>& stages, const std::string& defines);
+    std::string shadeDefines(const LightCache& c, int output, bool cookie, bool linked) const;
     glm::mat4 lightViewProj(const Light& l) const;
     void uploadBendy(LightCache& c);
     Status renderShadow(LightCache& c);
@@ -129,6 +133,10 @@ private:
     glm::vec3 mCameraPosition{0.f}, mCameraForward{0.f, 0.f, -1.f};
     bool mOrthographic = false;
     bool mFlat = false; // one sample per pixel, stored at the pixel: specialised shaders
+    bool mHasSheen = false, mHasCoat = false; // any sample with a sheen / clear-coat lobe
+    // Shader variants specialised per light configuration (common_uniforms.glsl,
+    // "Specialisation"), compiled on first use: by stage file names and defines.
+    std::map<std::string, gl::Program> mVariants;
     int mSampleRow = 0;
     glm::vec3 mSceneMin{0.f}, mSceneMax{0.f};
     glm::vec3 mReceiverMin{0.f}, mReceiverMax{0.f}; // bounds of the shot's covered samples
@@ -139,8 +147,8 @@ private:
     gl::VertexArray mCasterVao, mEmptyVao;
     GLsizei mCasterIndexCount = 0;
     gl::Buffer mLightUbo, mViewUbo;
-    gl::Program mShadowProgram, mSpotProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
-    gl::Program mBendyShadowProgram, mBendyProgram, mBendyDeformProgram, mBendyClassifyProgram, mBendyFlatProgram;
+    gl::Program mShadowProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
+    gl::Program mBendyClassifyProgram, mBendyFlatProgram;
     gl::Buffer mFlatIndices, mTessIndices, mIndirect; // triangle lists sorted by bendy_classify.comp
     gl::VertexArray mFlatVao, mTessVao;
     gl::Buffer mDeformed; // 2 vec4 per caster vertex (bendy_deform.comp)
@@ -158,18 +166,69 @@ private:
     std::string mStructure; // enabled light names the static sum was built for
 };
 
+// Inserts `defines` after the #version line; flat buffers also get DFB_FLAT_SAMPLES.
+std::string GlEngine::specialise(std::string_view source, const std::string& defines) const {
+    std::string out(source);
+    const size_t eol = out.find('\n');
+    out.insert(eol == std::string::npos ? out.size() : eol + 1, (mFlat ? "#define DFB_FLAT_SAMPLES 1\n" : "") + defines);
+    return out;
+}
+
 Result<gl::Program> GlEngine::program(const char* vert, const char* frag) {
-    // Flat buffers get shaders specialised by a define inserted after the #version line.
-    auto specialise = [this](std::string_view src) {
-        std::string out(src);
-        if (mFlat) {
-            const size_t eol = out.find('\n');
-            out.insert(eol == std::string::npos ? out.size() : eol + 1, "#define DFB_FLAT_SAMPLES 1\n");
-        }
-        return out;
-    };
-    const std::string v = specialise(shaders::serverShader(vert)), f = specialise(shaders::serverShader(frag));
-    return gl::buildProgram({{GL_VERTEX_SHADER, vert, v}, {GL_FRAGMENT_SHADER, frag, f}});
+    return gl::buildProgram({{GL_VERTEX_SHADER, vert, specialise(shaders::serverShader(vert), "")},
+                             {GL_FRAGMENT_SHADER, frag, specialise(shaders::serverShader(frag), "")}});
+}
+
+// A program of the given stage files (the stage from each name's extension) with `defines`,
+// built once and kept.
+Result<GLuint> GlEngine::variant(const std::vector<const char*>& stages, const std::string& defines) {
+    std::string key = defines;
+    for (const char* s : stages) key += std::string("|") + s;
+    if (auto it = mVariants.find(key); it != mVariants.end()) return it->second.id();
+    std::vector<std::string> texts; // ShaderSource holds views: keep the texts alive
+    texts.reserve(stages.size());
+    std::vector<gl::ShaderSource> sources;
+    for (const char* name : stages) {
+        const std::string_view n(name);
+        const GLenum stage = n.ends_with(".vert")   ? GL_VERTEX_SHADER
+                             : n.ends_with(".tesc") ? GL_TESS_CONTROL_SHADER
+                             : n.ends_with(".tese") ? GL_TESS_EVALUATION_SHADER
+                             : n.ends_with(".comp") ? GL_COMPUTE_SHADER
+                                                    : GL_FRAGMENT_SHADER;
+        texts.push_back(specialise(shaders::serverShader(name), defines));
+        sources.push_back({stage, name, texts.back()});
+    }
+    auto p = gl::buildProgram(sources);
+    if (!p) return p.error();
+    const GLuint id = p->id();
+    mVariants.emplace(std::move(key), std::move(p.value()));
+    return id;
+}
+
+// The relight shaders' specialisation for this light (see common_uniforms.glsl): every define
+// fixes a path the light takes or cannot take, so each variant computes what the generic shader
+// would, without the others' cost.
+std::string GlEngine::shadeDefines(const LightCache& c, int output, bool cookie, bool linked) const {
+    const Light& l = c.params;
+    std::string d;
+    auto def = [&d](const char* name, const std::string& value) { d += std::string("#define ") + name + " " + value + "\n"; };
+    auto flag = [&def](const char* name, bool on) { def(name, on ? "true" : "false"); };
+    def("SHADE_KIND", l.type == LightType::Directional ? "0" : l.type == LightType::Point ? "2" : "1");
+    flag("SHADE_SHADOWED", l.shadow);
+    def("SHADE_PCF_RADIUS", std::to_string(l.shadowFilter));
+    flag("SHADE_COOKIE", cookie);
+    bool doors = false;
+    for (float a : l.barnDoorsDeg) doors = doors || a < 90.f;
+    flag("SHADE_DOORS", l.type == LightType::Spot && doors);
+    flag("SHADE_LINKED", linked);
+    def("SHADE_OUTPUT", std::to_string(output));
+    flag("SHADE_SHEEN", mHasSheen);
+    flag("SHADE_COAT", mHasCoat);
+    if (l.type == LightType::Bendy) {
+        def("BENDY_K", std::to_string(c.bendySegments));
+        flag("BENDY_EXACT", l.exactDirection);
+    }
+    return d;
 }
 
 // Uploads one per-sample layer into a sample texture (see common_uniforms.glsl for the layout),
@@ -221,6 +280,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     if ((samples + size_t(mSampleRow) - 1) / size_t(mSampleRow) > size_t(MAX_SIDE)) mSampleRow = MAX_SIDE;
     const int rows = int((samples + size_t(mSampleRow) - 1) / size_t(mSampleRow));
     if (rows > MAX_SIDE) return makeError(ErrorCode::InvalidValue, "engine: too many samples for the GPU's textures");
+    mFlat = mFlat && mSampleRow == mWidth; // the flat shaders read sample (x, y) at pixel (x, y)
     mP = uploadLayer(GL_RGBA32F, mSampleRow, rows, g.P, 3, &g.A);
     mN = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.N, 3, nullptr);
     mNg = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.Ng, 3, nullptr);
@@ -229,6 +289,10 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mEmission = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.emission, 3, nullptr);
     mSheen = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.sheen, 4, nullptr);
     mCoat = uploadLayer(GL_RGBA16F, mSampleRow, rows, g.coat, 2, nullptr);
+    for (size_t i = 0; i < g.sampleCount() && !mHasSheen; ++i) {
+        mHasSheen = g.sheen[i * 4] > 0.f || g.sheen[i * 4 + 1] > 0.f || g.sheen[i * 4 + 2] > 0.f;
+    }
+    for (size_t i = 0; i < g.sampleCount() && !mHasCoat; ++i) mHasCoat = g.coat[i * 2] > 0.f;
     {
         std::vector<uint32_t> ids(size_t(mSampleRow) * size_t(rows), 0);
         for (size_t i = 0; i < g.sampleCount(); ++i) {
@@ -289,11 +353,9 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         const char* vert;
         const char* frag;
     } programs[] = {{&mShadowProgram, "shadow_depth.vert", "shadow_depth.frag"},
-                    {&mSpotProgram, "common_fullscreen.vert", "relight_spot.frag"},
                     {&mAddProgram, "common_fullscreen.vert", "composite_add.frag"},
                     {&mEmissionProgram, "common_fullscreen.vert", "composite_emission.frag"},
-                    {&mTonemapProgram, "common_fullscreen.vert", "composite_tonemap.frag"},
-                    {&mBendyProgram, "common_fullscreen.vert", "relight_bendy.frag"}};
+                    {&mTonemapProgram, "common_fullscreen.vert", "composite_tonemap.frag"}};
     for (P& p : programs) {
         auto r = program(p.vert, p.frag);
         if (!r) return r.error();
@@ -301,15 +363,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     }
 
     {
-        auto tess = gl::buildProgram({{GL_VERTEX_SHADER, "shadow_bendy.vert", shaders::serverShader("shadow_bendy.vert")},
-                                      {GL_TESS_CONTROL_SHADER, "shadow_bendy.tesc", shaders::serverShader("shadow_bendy.tesc")},
-                                      {GL_TESS_EVALUATION_SHADER, "shadow_bendy.tese", shaders::serverShader("shadow_bendy.tese")},
-                                      {GL_FRAGMENT_SHADER, "shadow_bendy.frag", shaders::serverShader("shadow_bendy.frag")}});
-        if (!tess) return tess.error();
-        mBendyShadowProgram = std::move(tess.value());
-        auto deform = gl::buildProgram({{GL_COMPUTE_SHADER, "bendy_deform.comp", shaders::serverShader("bendy_deform.comp")}});
-        if (!deform) return deform.error();
-        mBendyDeformProgram = std::move(deform.value());
+        // The deform and tessellation programs are variants per number of segments (renderShadow).
         mCasterVertexCount = GLuint(casters.positions.size());
         mDeformed = gl::makeBuffer(nullptr, std::max<size_t>(casters.positions.size(), 1) * 2 * sizeof(glm::vec4));
         auto classify = gl::buildProgram({{GL_COMPUTE_SHADER, "bendy_classify.comp", shaders::serverShader("bendy_classify.comp")}});
@@ -400,6 +454,7 @@ void GlEngine::uploadBendy(LightCache& c) {
     if (!c.bendyUbo) c.bendyUbo = gl::makeBuffer(nullptr, sizeof block, GL_DYNAMIC_STORAGE_BIT);
     glNamedBufferSubData(c.bendyUbo.id(), 0, sizeof block, &block);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, c.bendyUbo.id());
+    c.bendySegments = int(block.axisV.w + 0.5f);
 }
 
 // The side of the shadow map a light gets now: its own, or a quarter of it (at least 256) while a
@@ -450,8 +505,13 @@ Status GlEngine::renderShadow(LightCache& c) {
     if (l.type == LightType::Bendy) {
         // Deformed shadow map: casters subdivided and mapped Q -> Q' in the tessellation stages.
         uploadBendy(c);
+        const std::string segments = "#define BENDY_K " + std::to_string(c.bendySegments) + "\n";
+        auto deform = variant({"bendy_deform.comp"}, segments);
+        if (!deform) return deform.error();
+        auto tess = variant({"shadow_bendy.vert", "shadow_bendy.tesc", "shadow_bendy.tese", "shadow_bendy.frag"}, segments);
+        if (!tess) return tess.error();
         // Deform every caster vertex once, then draw patches that reuse it.
-        glUseProgram(mBendyDeformProgram.id());
+        glUseProgram(deform.value());
         glUniform1ui(0, mCasterVertexCount);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mCasterVbo.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mDeformed.id());
@@ -477,7 +537,7 @@ Status GlEngine::renderShadow(LightCache& c) {
         glUseProgram(mBendyFlatProgram.id());
         glBindVertexArray(mFlatVao.id());
         glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr);
-        glUseProgram(mBendyShadowProgram.id());
+        glUseProgram(tess.value());
         glBindVertexArray(mTessVao.id());
         glUniform1f(0, float(mSubdivisionLimit));
         glUniform1f(1, texelPerDistance);
@@ -628,13 +688,13 @@ Status GlEngine::shade(LightCache& c, int output) {
     block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
                                 shadowed ? 1.f : 0.f, normalOffset);
     block.lightShadow = glm::vec4(1.f / float(std::max(mapSize, 1)), float(l.shadowFilter), c.shadowIsCube ? 1.f : 0.f, 0.f);
+    GLuint cookie = 0;
     {
         // The spot's frame, as its shadow frustum's (lightViewProj): barn doors and cookie.
         const glm::vec3 axis = glm::normalize(toGlm(l.direction));
         glm::vec3 up(0, 1, 0);
         if (std::abs(glm::dot(up, axis)) > 0.99f) up = glm::vec3(1, 0, 0);
         const glm::vec3 right = glm::normalize(glm::cross(axis, up));
-        GLuint cookie = 0;
         if (l.type == LightType::Spot && !l.cookie.empty()) {
             auto t = cookieTexture(l);
             if (!t) return t.error();
@@ -658,16 +718,15 @@ Status GlEngine::shade(LightCache& c, int output) {
     glViewport(0, 0, (mWidth + step - 1) / step, (mHeight + step - 1) / step);
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);
-    if (l.type == LightType::Bendy) {
-        uploadBendy(c);
-        glUseProgram(mBendyProgram.id());
-    } else {
-        glUseProgram(mSpotProgram.id());
-    }
-    glUniform1i(0, output);
-    glUniform1i(2, step);
     // Light linking: a bit per object id, lit where set.
     const bool linked = !l.include.empty() || !l.exclude.empty();
+    if (l.type == LightType::Bendy) uploadBendy(c);
+    auto shader = variant({"common_fullscreen.vert", l.type == LightType::Bendy ? "relight_bendy.frag" : "relight_spot.frag"},
+                          shadeDefines(c, output, cookie != 0, linked));
+    if (!shader) return shader.error();
+    glUseProgram(shader.value());
+    glUniform1i(0, output);
+    glUniform1i(2, step);
     glUniform1i(1, linked ? 1 : 0);
     if (linked) {
         std::vector<uint32_t> mask((std::max(mMaxObjectId, 1u) + 32) / 32, l.include.empty() ? ~0u : 0u);
