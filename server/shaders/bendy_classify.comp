@@ -3,8 +3,10 @@
 // deformation bends by less than the tolerance at every edge go to a plain indexed draw of their
 // deformed vertices; the others to the tessellation pipeline. llvmpipe's tessellation stage costs
 // about a microsecond per patch even when it subdivides nothing, so most triangles skip it.
-// Triangles without any mapped vertex are dropped. Both lists are drawn with indirect commands
-// whose index counts this pass accumulates.
+// Triangles without any mapped vertex are dropped. Closed meshes' triangles (the first
+// uClosedTriangles) and the others go to separate halves of each list, drawn with and without
+// front-face culling (GlEngine::drawCasters); the four draws are indirect commands whose index
+// counts this pass accumulates and whose first indices the engine sets.
 #include "common_uniforms.glsl"
 #include "common_bendy.glsl"
 
@@ -13,12 +15,14 @@ layout(std430, binding = 1) readonly buffer Deformed { vec4 deformed[]; };
 layout(std430, binding = 2) readonly buffer Indices { uint indices[]; };
 layout(std430, binding = 3) writeonly buffer FlatIndices { uint flatIndices[]; };
 layout(std430, binding = 4) writeonly buffer TessIndices { uint tessIndices[]; };
-// Two DrawElementsIndirectCommand {count, instanceCount, firstIndex, baseVertex, baseInstance}.
-layout(std430, binding = 5) coherent buffer Commands { uint commands[10]; };
+// Four DrawElementsIndirectCommand {count, instanceCount, firstIndex, baseVertex, baseInstance}:
+// plain closed, plain open, tessellated closed, tessellated open.
+layout(std430, binding = 5) coherent buffer Commands { uint commands[20]; };
 
 layout(location = 0) uniform uint uTriangleCount;
 layout(location = 1) uniform float uMaxLevel;
 layout(location = 2) uniform float uTexelPerDistance;
+layout(location = 3) uniform uint uClosedTriangles;
 
 void main() {
     uint t = gl_GlobalInvocationID.x;
@@ -30,11 +34,12 @@ void main() {
     float level = max(bendyEdgeLevel(d1, d2, max(k1, k2), uTexelPerDistance, uMaxLevel),
                       max(bendyEdgeLevel(d2, d0, max(k2, k0), uTexelPerDistance, uMaxLevel),
                           bendyEdgeLevel(d0, d1, max(k0, k1), uTexelPerDistance, uMaxLevel)));
+    uint open = t < uClosedTriangles ? 0u : 1u;
     if (level <= 1.0) {
-        uint at = atomicAdd(commands[0], 3u);
+        uint at = commands[5u * open + 2u] + atomicAdd(commands[5u * open], 3u);
         flatIndices[at] = i0; flatIndices[at + 1u] = i1; flatIndices[at + 2u] = i2;
     } else {
-        uint at = atomicAdd(commands[5], 3u);
+        uint at = commands[5u * open + 12u] + atomicAdd(commands[5u * open + 10u], 3u);
         tessIndices[at] = i0; tessIndices[at + 1u] = i1; tessIndices[at + 2u] = i2;
     }
 }

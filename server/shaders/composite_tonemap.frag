@@ -4,6 +4,13 @@
 #include "common_uniforms.glsl"
 layout(binding = TEX_INPUT) uniform sampler2D uInput;
 layout(location = 0) out vec4 oColor;
+#ifdef TONEMAP_ADD_HOT
+// The usual frame of an edit in one pass (GlEngine::render): the static sum of every other light
+// (uInput) plus the edited light's contribution times its rescale, as composite_add.frag adds it.
+layout(binding = TEX_INPUT_HOT) uniform sampler2D uHot;
+layout(location = 0) uniform vec3 uScale;
+layout(location = 1) uniform int uPixelStep;
+#endif
 vec3 linearToSrgb(vec3 c) {
     c = clamp(c, 0.0, 1.0);
     return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
@@ -14,7 +21,11 @@ vec3 filmic(vec3 x) {
     return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
 }
 void main() {
-    vec3 c = texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb * uView.exposure.x;
+    vec3 c = texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb;
+#ifdef TONEMAP_ADD_HOT
+    c += texelFetch(uHot, ivec2(gl_FragCoord.xy) / max(uPixelStep, 1), 0).rgb * uScale;
+#endif
+    c *= uView.exposure.x;
     if (uView.exposure.y > 0.5) c = filmic(max(c, vec3(0.0)));
     oColor = vec4(linearToSrgb(c), 1.0);
 }

@@ -21,6 +21,8 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <string_view>
+#include <unordered_map>
 
 namespace dfb::shaders {
 std::string_view serverShader(std::string_view name);
@@ -116,10 +118,11 @@ private:
     void uploadBendy(LightCache& c);
     Status renderShadow(LightCache& c);
     Status renderCubeShadow(LightCache& c);
+    void drawCasters();
     Result<GLuint> cookieTexture(const Light& l);
     Status waitGpu(const char* stage);
     Status shade(LightCache& c, int output = 0);
-    Status renderAccumulation(const Rig& rig, FrameStats& st);
+    Status renderAccumulation(const Rig& rig, FrameStats& st, bool* fused = nullptr);
     Result<ImageF> readFloat(GLuint texture, const char* what, glm::vec3 scale = glm::vec3(1.f));
 
     std::unique_ptr<gl::Context> mContext;
@@ -146,6 +149,7 @@ private:
     gl::Buffer mCasterVbo, mCasterIbo;
     gl::VertexArray mCasterVao, mEmptyVao;
     GLsizei mCasterIndexCount = 0;
+    GLsizei mClosedIndexCount = 0; // indices[0, this) are closed meshes (ShadowGeometry)
     gl::Buffer mLightUbo, mViewUbo;
     gl::Program mShadowProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
     gl::Program mBendyClassifyProgram, mBendyFlatProgram;
@@ -340,6 +344,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mCasterIbo = casters.indices.empty() ? gl::makeBuffer(&dummyIndex, sizeof dummyIndex)
                                          : gl::makeBuffer(casters.indices.data(), casters.indices.size() * sizeof(uint32_t));
     mCasterIndexCount = GLsizei(casters.indices.size());
+    mClosedIndexCount = GLsizei(std::min(casters.closedIndexCount, casters.indices.size()) / 3 * 3);
     mCasterVao = positionVao(mCasterVbo, mCasterIbo);
     GLuint vao = 0;
     glCreateVertexArrays(1, &vao);
@@ -376,7 +381,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         const size_t indexBytes = std::max<size_t>(casters.indices.size(), 3) * sizeof(uint32_t);
         mFlatIndices = gl::makeBuffer(nullptr, indexBytes);
         mTessIndices = gl::makeBuffer(nullptr, indexBytes);
-        mIndirect = gl::makeBuffer(nullptr, 10 * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
+        mIndirect = gl::makeBuffer(nullptr, 20 * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
         GLuint v = 0;
         glCreateVertexArrays(1, &v);
         mFlatVao = gl::VertexArray(v); // positions come from the deformed buffer by index
@@ -520,13 +525,15 @@ Status GlEngine::renderShadow(LightCache& c) {
         const float fovy = 2.f * glm::radians(shadowHalfAngleDeg(l));
         const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(c.shadowSize);
         // Sort the triangles: plain draw where no edge needs subdividing, tessellation elsewhere.
-        const uint32_t commands[10] = {0, 1, 0, 0, 0, 0, 1, 0, 0, 0};
+        const auto closed = uint32_t(mClosedIndexCount);
+        const uint32_t commands[20] = {0, 1, 0, 0, 0, 0, 1, closed, 0, 0, 0, 1, 0, 0, 0, 0, 1, closed, 0, 0};
         glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, commands);
         glUseProgram(mBendyClassifyProgram.id());
         const GLuint triangles = GLuint(mCasterIndexCount / 3);
         glUniform1ui(0, triangles);
         glUniform1f(1, float(mSubdivisionLimit));
         glUniform1f(2, texelPerDistance);
+        glUniform1ui(3, closed / 3);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mCasterIbo.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, mFlatIndices.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, mTessIndices.id());
@@ -536,23 +543,48 @@ Status GlEngine::renderShadow(LightCache& c) {
         glBindBuffer(GL_DRAW_INDIRECT_BUFFER, mIndirect.id());
         glUseProgram(mBendyFlatProgram.id());
         glBindVertexArray(mFlatVao.id());
+        // Closed meshes front-face culled, as drawCasters (the deformation keeps the winding).
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_FRONT);
         glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr);
+        glDisable(GL_CULL_FACE);
+        glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(5 * sizeof(uint32_t)));
         glUseProgram(tess.value());
         glBindVertexArray(mTessVao.id());
         glUniform1f(0, float(mSubdivisionLimit));
         glUniform1f(1, texelPerDistance);
         glPatchParameteri(GL_PATCH_VERTICES, 3);
-        glDrawElementsIndirect(GL_PATCHES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(5 * sizeof(uint32_t)));
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_FRONT);
+        glDrawElementsIndirect(GL_PATCHES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(10 * sizeof(uint32_t)));
+        glDisable(GL_CULL_FACE);
+        glDrawElementsIndirect(GL_PATCHES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(15 * sizeof(uint32_t)));
         glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
         c.subdivisionLimit = mSubdivisionLimit;
     } else {
         glUseProgram(mShadowProgram.id());
-        if (mCasterIndexCount > 0) glDrawElements(GL_TRIANGLES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+        drawCasters();
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
     c.hasShadow = true;
     return okStatus();
+}
+
+// The undeformed casters into the bound depth target: closed meshes with the faces towards the
+// light culled (their far side casts the same shadow on everything else and on their own unlit
+// side; llvmpipe rasterises about half as much), the rest two-sided.
+void GlEngine::drawCasters() {
+    if (mClosedIndexCount > 0) {
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_FRONT);
+        glDrawElements(GL_TRIANGLES, mClosedIndexCount, GL_UNSIGNED_INT, nullptr);
+        glDisable(GL_CULL_FACE);
+    }
+    if (mCasterIndexCount > mClosedIndexCount) {
+        glDrawElements(GL_TRIANGLES, mCasterIndexCount - mClosedIndexCount, GL_UNSIGNED_INT,
+                       reinterpret_cast<const void*>(size_t(mClosedIndexCount) * sizeof(uint32_t)));
+    }
 }
 
 Status GlEngine::renderCubeShadow(LightCache& c) {
@@ -616,7 +648,7 @@ Status GlEngine::renderCubeShadow(LightCache& c) {
         block.worldToLightClip = proj * glm::lookAt(pos, pos + targets[face], ups[face]);
         glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
         glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
-        if (mCasterIndexCount > 0) glDrawElements(GL_TRIANGLES, mCasterIndexCount, GL_UNSIGNED_INT, nullptr);
+        drawCasters();
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -790,7 +822,10 @@ Status GlEngine::waitGpu(const char* stage) {
     return s;
 }
 
-Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
+// Shadow maps, shading and the sum of the contributions into mAccum. With `fused`, the usual case
+// of an edit (the static sum valid, one hot light) leaves the sum to the caller's view-transform
+// pass instead (*fused = true): one full-frame pass instead of three.
+Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st, bool* fused) {
     if (mFailure) return *mFailure;
     if (auto s = mContext->makeCurrent(); !s) return s;
     engine::ViewBlock view{};
@@ -900,8 +935,11 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st) {
         mHot.clear();
     }
     mStructure = structure;
+    if (fused) *fused = mStaticValid;
     glBindFramebuffer(GL_FRAMEBUFFER, mAccumFb.id());
-    if (mStaticValid) {
+    if (fused && *fused) {
+        // render() adds the hot light to the static sum in its view-transform pass.
+    } else if (mStaticValid) {
         // Frame = static + the hot light: two draws whatever the number of lights.
         glDisable(GL_BLEND);
         glUseProgram(mAddProgram.id());
@@ -933,11 +971,34 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     FrameStats local;
     FrameStats& st = stats ? *stats : local;
     st = FrameStats{};
-    if (auto s = renderAccumulation(rig, st); !s) return s.error();
+    bool fused = false;
+    if (auto s = renderAccumulation(rig, st, &fused); !s) return s.error();
     auto t = Clock::now();
     glBindFramebuffer(GL_FRAMEBUFFER, mLdrFb.id());
-    glUseProgram(mTonemapProgram.id());
-    glBindTextureUnit(engine::TEX_INPUT, mAccum.id());
+    glViewport(0, 0, mWidth, mHeight);
+    glDisable(GL_BLEND);
+    glBindVertexArray(mEmptyVao.id());
+    if (fused) {
+        // Static sum + the hot light, exposure and view transform in one pass.
+        auto program = variant({"common_fullscreen.vert", "composite_tonemap.frag"}, "#define TONEMAP_ADD_HOT 1\n");
+        if (!program) return program.error();
+        glUseProgram(program.value());
+        glBindTextureUnit(engine::TEX_INPUT, mStatic.id());
+        const auto hot = mLights.find(mHot);
+        const Light* hotLight = rig.find(mHot);
+        if (hot != mLights.end() && hotLight && hotLight->enabled && hot->second.contribution) {
+            glUniform3f(0, hot->second.scale.x, hot->second.scale.y, hot->second.scale.z);
+            glUniform1i(1, hot->second.previewShading ? 2 : 1);
+            glBindTextureUnit(engine::TEX_INPUT_HOT, hot->second.contribution.id());
+        } else {
+            glUniform3f(0, 0.f, 0.f, 0.f);
+            glUniform1i(1, 1);
+            glBindTextureUnit(engine::TEX_INPUT_HOT, mStatic.id());
+        }
+    } else {
+        glUseProgram(mTonemapProgram.id());
+        glBindTextureUnit(engine::TEX_INPUT, mAccum.id());
+    }
     glDrawArrays(GL_TRIANGLES, 0, 3);
     if (auto s = waitGpu("view transform"); !s) return s.error();
     st.compositeMs += msSince(t); // the view transform belongs to the composite stage
@@ -1039,13 +1100,46 @@ Result<ImageF> GlEngine::renderLinear(const Rig& rig) {
 
 } // namespace
 
+bool isClosedMesh(const std::vector<glm::vec3>& positions, const std::vector<uint32_t>& indices) {
+    if (indices.empty() || indices.size() % 3 != 0) return false;
+    // Weld by exact position: glTF splits vertices at UV seams and hard edges.
+    std::unordered_map<std::string_view, uint32_t> weld;
+    std::vector<uint32_t> id(positions.size());
+    for (size_t i = 0; i < positions.size(); ++i) {
+        const std::string_view key(reinterpret_cast<const char*>(&positions[i]), sizeof(glm::vec3));
+        id[i] = weld.try_emplace(key, uint32_t(weld.size())).first->second;
+    }
+    std::unordered_map<uint64_t, int> edges; // directed edge (a << 32 | b) -> uses
+    auto edge = [](uint32_t a, uint32_t b) { return uint64_t(a) << 32 | b; };
+    for (size_t t = 0; t < indices.size(); t += 3) {
+        uint32_t v[3];
+        for (int k = 0; k < 3; ++k) {
+            if (indices[t + size_t(k)] >= positions.size()) return false;
+            v[k] = id[indices[t + size_t(k)]];
+        }
+        if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;
+        for (int k = 0; k < 3; ++k) ++edges[edge(v[k], v[(k + 1) % 3])];
+    }
+    if (edges.empty()) return false;
+    for (const auto& [e, n] : edges) {
+        const auto partner = edges.find(edge(uint32_t(e & 0xffffffffu), uint32_t(e >> 32)));
+        if (n != 1 || partner == edges.end() || partner->second != 1) return false;
+    }
+    return true;
+}
+
 ShadowGeometry shadowCasters(const Scene& scene) {
     ShadowGeometry g;
-    for (const MeshPart& p : scene.parts) {
+    std::vector<const MeshPart*> closed, open;
+    for (const MeshPart& p : scene.parts) (isClosedMesh(p.positions, p.indices) ? closed : open).push_back(&p);
+    auto append = [&g](const MeshPart& p) {
         const auto base = uint32_t(g.positions.size());
         g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
         for (uint32_t i : p.indices) g.indices.push_back(base + i);
-    }
+    };
+    for (const MeshPart* p : closed) append(*p);
+    g.closedIndexCount = g.indices.size();
+    for (const MeshPart* p : open) append(*p);
     return g;
 }
 

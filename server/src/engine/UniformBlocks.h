@@ -20,6 +20,7 @@ enum TextureUnit : unsigned {
     TEX_GBUFFER_EMISSION = 5,
     TEX_SHADOW_MAP = 6,
     TEX_INPUT = 7,
+    TEX_INPUT_HOT = 14,
     TEX_PIXEL_SAMPLES = 8,
     TEX_GBUFFER_SHEEN = 9,
     TEX_GBUFFER_COAT = 10,

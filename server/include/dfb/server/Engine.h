@@ -43,9 +43,18 @@ struct NamedImageF {
 struct ShadowGeometry {
     std::vector<glm::vec3> positions;
     std::vector<uint32_t> indices;
+    /// indices[0, closedIndexCount) are meshes that are closed and consistently wound: their
+    /// shadow maps need only the faces turned away from the light (front faces are culled, about
+    /// half the rasterisation); the rest is drawn two-sided.
+    size_t closedIndexCount = 0;
 };
 
-/// Every triangle of a scene as one shadow-casting mesh.
+/// True when the triangles (3 indices each into `positions`) form closed surfaces wound
+/// consistently: vertices at equal positions are welded, and then every directed edge a->b has
+/// exactly one partner b->a. Degenerate triangles (two welded corners alike) are ignored.
+bool isClosedMesh(const std::vector<glm::vec3>& positions, const std::vector<uint32_t>& indices);
+
+/// Every triangle of a scene as one shadow-casting mesh, the closed mesh parts first.
 ShadowGeometry shadowCasters(const Scene& scene);
 
 /// Where the time of one render went, in milliseconds of wall time (GPU work is waited for at
