@@ -19,6 +19,8 @@ layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(binding = TEX_SHADOW_MAP) uniform sampler2DShadow shadowMap;
 
 layout(location = 0) out vec4 oColor;
+// Outside the light's footprint the depth test (relight_mask.frag) rejects pixels before shading.
+layout(early_fragment_tests) in;
 // 0: the light's radiance. 1: its shadow mask: r = coverage-weighted visibility of the samples the
 // light reaches (inside the cone, facing it), g = their coverage.
 layout(location = 0) uniform int uOutput;

@@ -20,6 +20,8 @@ layout(binding = TEX_SHADOW_CUBE) uniform samplerCubeShadow shadowCube;
 layout(binding = TEX_COOKIE) uniform sampler2D cookie;
 
 layout(location = 0) out vec4 oColor;
+// Outside the light's footprint the depth test (relight_mask.frag) rejects pixels before shading.
+layout(early_fragment_tests) in;
 // 0: the light's radiance. 1: its shadow mask: r = coverage-weighted visibility of the samples the
 // light reaches (inside the cone, facing it), g = their coverage.
 layout(location = 0) uniform int uOutput;

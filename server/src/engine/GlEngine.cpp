@@ -159,6 +159,7 @@ private:
     GLuint mCasterVertexCount = 0;
     int mSubdivisionLimit = 64;
     gl::Texture mAccum, mLdr;
+    gl::Texture mMaskDepth; // every contribution target's depth: the light's footprint (relight_mask.frag)
     gl::Framebuffer mAccumFb, mLdrFb;
     std::map<std::string, LightCache> mLights;
     // The sum of emission and every enabled light but the one being edited ("hot"), so that an
@@ -691,6 +692,8 @@ Status GlEngine::shade(LightCache& c, int output) {
         glCreateFramebuffers(1, &fb);
         c.contributionFb = gl::Framebuffer(fb);
         glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, c.contribution.id(), 0);
+        if (!mMaskDepth) mMaskDepth = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, mWidth, mHeight);
+        glNamedFramebufferTexture(fb, GL_DEPTH_ATTACHMENT, mMaskDepth.id(), 0);
         if (auto s = gl::checkFramebuffer(fb, ("contribution of light '" + l.name + "'").c_str()); !s) return s;
     }
     engine::LightBlock block{};
@@ -753,9 +756,33 @@ Status GlEngine::shade(LightCache& c, int output) {
     // Light linking: a bit per object id, lit where set.
     const bool linked = !l.include.empty() || !l.exclude.empty();
     if (l.type == LightType::Bendy) uploadBendy(c);
-    auto shader = variant({"common_fullscreen.vert", l.type == LightType::Bendy ? "relight_bendy.frag" : "relight_spot.frag"},
-                          shadeDefines(c, output, cookie != 0, linked));
+    const std::string defines = shadeDefines(c, output, cookie != 0, linked);
+    auto shader = variant({"common_fullscreen.vert", l.type == LightType::Bendy ? "relight_bendy.frag" : "relight_spot.frag"}, defines);
     if (!shader) return shader.error();
+    // Spots and BendyLights reach part of the frame: mark their footprint in the depth buffer
+    // first, and the shading pass's early depth test skips the rest (relight_mask.frag).
+    const bool footprint = l.type == LightType::Spot || l.type == LightType::Bendy;
+    if (footprint) {
+        auto mask = variant({"common_fullscreen.vert", "relight_mask.frag"},
+                            defines + (l.type == LightType::Bendy ? "#define SHADE_BENDY 1\n" : ""));
+        if (!mask) return mask.error();
+        const float zero[4] = {0.f, 0.f, 0.f, 0.f}, far = 1.f;
+        glClearNamedFramebufferfv(c.contributionFb.id(), GL_COLOR, 0, zero);
+        glClearNamedFramebufferfv(c.contributionFb.id(), GL_DEPTH, 0, &far);
+        glUseProgram(mask.value());
+        glUniform1i(2, step);
+        glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
+        glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
+        glBindVertexArray(mEmptyVao.id());
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_ALWAYS);
+        glDepthMask(GL_TRUE);
+        glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+        glDepthFunc(GL_EQUAL);
+        glDepthMask(GL_FALSE);
+    }
     glUseProgram(shader.value());
     glUniform1i(0, output);
     glUniform1i(2, step);
@@ -792,6 +819,9 @@ Status GlEngine::shade(LightCache& c, int output) {
     glBindTextureUnit(engine::TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube ? c.shadowMap.id() : 0);
     glBindVertexArray(mEmptyVao.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDisable(GL_DEPTH_TEST);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_LESS);
     c.hasContribution = true;
     if (output == 0) {
         c.previewShading = step != 1;

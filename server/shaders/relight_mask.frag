@@ -1,0 +1,60 @@
+#version 450 core
+// The light's footprint, before its shading pass (GlEngine::shade): keeps (writes the depth of)
+// the pixels with a sample the light may reach and discards the others, whose depth stays cleared
+// so that the shading pass's depth test rejects them. llvmpipe runs a fragment shader on every
+// pixel of a 4x4 block unless the early depth test rejects the whole block, so the costly shading
+// then runs only where the light can land. Conservative: a kept pixel may still shade to zero,
+// a rejected one would have (its contribution is cleared to zero).
+//   spot: inside the outer cone (barn doors and cookie only cut further);
+//   BendyLight: inside one segment's bounding sphere (as inverseMapForShading culls) or inside the
+//   tube around the extension past the last control point.
+#include "common_uniforms.glsl"
+#ifdef SHADE_BENDY
+#include "common_bendy.glsl"
+#endif
+
+layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
+layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
+layout(location = 2) uniform int uPixelStep;
+
+bool reachable(vec3 P) {
+#ifdef SHADE_BENDY
+    int K = bendySegments();
+    for (int k = 0; k < K; ++k) {
+        BendySegment g = bendySegment(k);
+        vec3 c = (g.p0.xyz + g.p1.xyz + g.p2.xyz) / 3.0;
+        // The same sphere as inverseMapForShading's, a little larger.
+        float reach = sqrt(max(max(dot(g.p0.xyz - c, g.p0.xyz - c), dot(g.p1.xyz - c, g.p1.xyz - c)), dot(g.p2.xyz - c, g.p2.xyz - c))) +
+                      1.1 * max(max(g.p0.w, g.p1.w), g.p2.w) + 1e-3;
+        if (dot(P - c, P - c) <= reach * reach) return true;
+    }
+    // The extension: foot t >= 0 on the line p + E t, within the radius R + R' t there (+ 1%).
+    vec4 p = uBendy.bendyP[2 * K];
+    vec4 E = uBendy.bendyEnd;
+    float t = dot(P - p.xyz, E.xyz) / max(dot(E.xyz, E.xyz), 1e-30);
+    vec3 d = P - p.xyz - E.xyz * t;
+    float R = (p.w + E.w * max(t, 0.0)) * 1.01 + 1e-3;
+    return t >= -1e-3 && dot(d, d) <= R * R;
+#else
+    vec3 toP = P - uLight.lightPosition.xyz;
+    float len = length(toP);
+    // cos of the angle to the axis above the outer cosine, with a little slack.
+    return dot(toP, uLight.lightAxis.xyz) >= (uLight.lightCone.x - 1e-4) * len;
+#endif
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
+#ifdef DFB_FLAT_SAMPLES
+    vec4 pA = texelFetch(gP, pixel, 0);
+    if (!(pA.w > 0.0 && reachable(pA.xyz))) discard;
+#else
+    uvec2 range = texelFetch(gPixelSamples, pixel, 0).xy;
+    bool any = false;
+    for (uint s = range.x; s < range.x + range.y; ++s) {
+        vec4 pA = texelFetch(gP, sampleTexel(s), 0);
+        any = any || (pA.w > 0.0 && reachable(pA.xyz));
+    }
+    if (!any) discard;
+#endif
+}
