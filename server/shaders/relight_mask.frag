@@ -6,7 +6,7 @@
 // then runs only where the light can land. Conservative: a kept pixel may still shade to zero,
 // a rejected one would have (its contribution is cleared to zero).
 //   spot: inside the outer cone (barn doors and cookie only cut further);
-//   BendyLight: inside one segment's bounding sphere (as inverseMapForShading culls) or inside the
+//   BendyLight: inside the capsule around one segment's chord that holds its tube, or inside the
 //   tube around the extension past the last control point.
 #include "common_uniforms.glsl"
 #ifdef SHADE_BENDY
@@ -21,12 +21,16 @@ bool reachable(vec3 P) {
 #ifdef SHADE_BENDY
     int K = bendySegments();
     for (int k = 0; k < K; ++k) {
+        // B(t) - chord(t) = t (1 - t) (2 p1 - p0 - p2): the curve stays within a quarter of
+        // |2 p1 - p0 - p2| of its chord p0 p2, and the tube within the largest control radius of
+        // the curve (a Bezier stays in its control values' hull): a capsule around the chord.
         BendySegment g = bendySegment(k);
-        vec3 c = (g.p0.xyz + g.p1.xyz + g.p2.xyz) / 3.0;
-        // The same sphere as inverseMapForShading's, a little larger.
-        float reach = sqrt(max(max(dot(g.p0.xyz - c, g.p0.xyz - c), dot(g.p1.xyz - c, g.p1.xyz - c)), dot(g.p2.xyz - c, g.p2.xyz - c))) +
-                      1.1 * max(max(g.p0.w, g.p1.w), g.p2.w) + 1e-3;
-        if (dot(P - c, P - c) <= reach * reach) return true;
+        vec3 chord = g.p2.xyz - g.p0.xyz;
+        float h = clamp(dot(P - g.p0.xyz, chord) / max(dot(chord, chord), 1e-30), 0.0, 1.0);
+        vec3 off = P - g.p0.xyz - chord * h;
+        float reach = 0.25 * length(2.0 * g.p1.xyz - g.p0.xyz - g.p2.xyz) + max(max(g.p0.w, g.p1.w), g.p2.w);
+        reach = reach * 1.01 + 1e-3;
+        if (dot(off, off) <= reach * reach) return true;
     }
     // The extension: foot t >= 0 on the line p + E t, within the radius R + R' t there (+ 1%).
     vec4 p = uBendy.bendyP[2 * K];
