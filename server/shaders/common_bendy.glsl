@@ -127,6 +127,8 @@ float arcLength(int k, float t) {
 // ---- Cubic solver (paper eq. 10 and section 4) ----
 float cbrtSigned(float x) { return sign(x) * pow(abs(x), 1.0 / 3.0); }
 
+// Roots land at fixed indices (no roots[n++]): an array index that differs between samples makes
+// llvmpipe store and load every lane apart, which cost more than all the arithmetic here.
 int solveCubic(float a3, float a2, float a1, float a0, out float roots[3]) {
     roots[0] = 0.0; roots[1] = 0.0; roots[2] = 0.0;
     float scale = max(max(abs(a3), abs(a2)), max(abs(a1), abs(a0)));
@@ -137,13 +139,18 @@ int solveCubic(float a3, float a2, float a1, float a0, out float roots[3]) {
     if (abs(a3) < tiny) {
         if (abs(a2) < tiny) {
             if (abs(a1) < tiny) return 0;
-            roots[n++] = -a0 / a1;
+            roots[0] = -a0 / a1;
+            n = 1;
         } else {
             float disc = a1 * a1 - 4.0 * a2 * a0;
             if (disc < 0.0) return 0;
             float q = -0.5 * (a1 + (a1 < 0.0 ? -1.0 : 1.0) * sqrt(disc));
-            roots[n++] = q / a2;
-            if (q != 0.0) roots[n++] = a0 / q;
+            roots[0] = q / a2;
+            n = 1;
+            if (q != 0.0) {
+                roots[1] = a0 / q;
+                n = 2;
+            }
         }
     } else {
         float b = a2 / a3, c = a1 / a3, d = a0 / a3;
@@ -154,17 +161,22 @@ int solveCubic(float a3, float a2, float a1, float a0, out float roots[3]) {
         if (disc > 0.0) {
             float A = -sign(q) * cbrtSigned(abs(q) / 2.0 + sqrt(disc));
             float B = A != 0.0 ? -p / (3.0 * A) : 0.0;
-            roots[n++] = A + B - shift;
+            roots[0] = A + B - shift;
+            n = 1;
         } else {
             float m = sqrt(max(-p / 3.0, 0.0));
             float arg = m > 0.0 ? (3.0 * q) / (2.0 * p * m) : 0.0;
             arg = clamp(arg, -1.0, 1.0);
             float phi = acos(arg) / 3.0;
             const float twoPiOver3 = 2.0943951023931954923;
-            for (int i = 0; i < 3; ++i) roots[n++] = 2.0 * m * cos(phi - twoPiOver3 * float(i)) - shift;
+            roots[0] = 2.0 * m * cos(phi) - shift;
+            roots[1] = 2.0 * m * cos(phi - twoPiOver3) - shift;
+            roots[2] = 2.0 * m * cos(phi - 2.0 * twoPiOver3) - shift;
+            n = 3;
         }
     }
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < 3; ++i) {
+        if (i >= n) break;
         float t = roots[i];
         for (int it = 0; it < 2; ++it) {
             float f = ((a3 * t + a2) * t + a1) * t + a0;
@@ -243,7 +255,8 @@ TubeCoords inverseMapImpl(vec3 Q, bool culled) {
             roots[1] = 0.0; roots[2] = 0.0;
             n = 1;
         }
-        for (int i = 0; i < n; ++i) {
+        for (int i = 0; i < 3; ++i) {
+            if (i >= n) break;
             float t = roots[i];
             float hi = k < K ? 1.0 + slack : 3.4e38;
             if (!(t >= -slack && t <= hi)) continue;
