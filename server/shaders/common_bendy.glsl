@@ -191,6 +191,20 @@ int solveCubic(float a3, float a2, float a1, float a0, out float roots[3]) {
     return n;
 }
 
+// ---- Footprint ----
+// Whether P can lie in the tube around segment g: a quadratic Bezier stays within a quarter of
+// |2 p1 - p0 - p2| of its chord p0 p2 (B(t) - chord(t) = t (1 - t) (2 p1 - p0 - p2)), and the tube
+// within the largest control radius of the curve (a Bezier stays in its control values' hull):
+// a capsule around the chord, grown by 1% against rounding.
+bool segmentCapsuleContains(BendySegment g, vec3 P) {
+    vec3 chord = g.p2.xyz - g.p0.xyz;
+    float h = clamp(dot(P - g.p0.xyz, chord) / max(dot(chord, chord), 1e-30), 0.0, 1.0);
+    vec3 off = P - g.p0.xyz - chord * h;
+    float reach = 0.25 * length(2.0 * g.p1.xyz - g.p0.xyz - g.p2.xyz) + max(max(g.p0.w, g.p1.w), g.p2.w);
+    reach = reach * 1.01 + 1e-3;
+    return dot(off, off) <= reach * reach;
+}
+
 // ---- Inverse mapping (eqs. 4-7) ----
 // The foot's segment (g) and what shading needs at the foot travel with the coordinates, so that
 // nothing is read or evaluated twice.
@@ -206,6 +220,20 @@ struct TubeCoords {
     vec4 derivative; // their derivatives at t
     vec3 uHat, vHat, wHat;
 };
+
+// bendySegment(k) for a k that differs between samples: with the number of segments fixed
+// (BENDY_K) a choice among constant reads instead of a gather per sample.
+BendySegment bendySegmentVarying(int k) {
+#ifdef BENDY_K
+    BendySegment g = bendySegment(0);
+    for (int i = 1; i <= BENDY_K; ++i) {
+        if (k == i) g = bendySegment(i);
+    }
+    return g;
+#else
+    return bendySegment(k);
+#endif
+}
 
 bool tubeCoordinates(vec3 Q, int k, float t, out TubeCoords c) {
     c.valid = false; c.inside = false; c.segment = k; c.t = t; c.v = 0.0; c.w = 0.0;
@@ -223,14 +251,28 @@ bool tubeCoordinates(vec3 Q, int k, float t, out TubeCoords c) {
     return true;
 }
 
+// BENDY_SINGLE (shading only; relight_mask.frag sorts the samples): the sample lies in the
+// capsule of at most one segment, so only that segment (found again by the capsule test) and the
+// extension can hold a tube around it: one cubic instead of K.
 TubeCoords inverseMapImpl(vec3 Q, bool culled) {
     bool found = false, bestInside = false;
     float bestR2 = 0.0, bestT = 0.0;
     int bestK = 0;
     const float slack = 1e-4;
     int K = bendySegments();
+#ifdef BENDY_SINGLE
+    int only = K; // none: the extension alone
+    for (int k = 0; k < K; ++k) {
+        if (segmentCapsuleContains(bendySegment(k), Q)) only = k;
+    }
+    for (int pass = 0; pass < 2; ++pass) {
+        int k = pass == 0 ? only : K;
+        if (pass == 0 && only == K) continue;
+        BendySegment g = bendySegmentVarying(k);
+#else
     for (int k = 0; k <= K; ++k) {
         BendySegment g = bendySegment(k);
+#endif
         float roots[3];
         int n;
         if (k < K) {

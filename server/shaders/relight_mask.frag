@@ -17,21 +17,19 @@ layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(location = 2) uniform int uPixelStep;
 
+// BendyLight samples in the capsules of two segments or more (relight_bendy.frag then solves all
+// segments); the others solve one (BENDY_SINGLE).
+bool multiple = false;
+
 bool reachable(vec3 P) {
 #ifdef SHADE_BENDY
     int K = bendySegments();
+    int segments = 0;
     for (int k = 0; k < K; ++k) {
-        // B(t) - chord(t) = t (1 - t) (2 p1 - p0 - p2): the curve stays within a quarter of
-        // |2 p1 - p0 - p2| of its chord p0 p2, and the tube within the largest control radius of
-        // the curve (a Bezier stays in its control values' hull): a capsule around the chord.
-        BendySegment g = bendySegment(k);
-        vec3 chord = g.p2.xyz - g.p0.xyz;
-        float h = clamp(dot(P - g.p0.xyz, chord) / max(dot(chord, chord), 1e-30), 0.0, 1.0);
-        vec3 off = P - g.p0.xyz - chord * h;
-        float reach = 0.25 * length(2.0 * g.p1.xyz - g.p0.xyz - g.p2.xyz) + max(max(g.p0.w, g.p1.w), g.p2.w);
-        reach = reach * 1.01 + 1e-3;
-        if (dot(off, off) <= reach * reach) return true;
+        if (segmentCapsuleContains(bendySegment(k), P)) ++segments;
     }
+    multiple = multiple || segments > 1;
+    if (segments > 0) return true;
     // The extension: foot t >= 0 on the line p + E t, within the radius R + R' t there (+ 1%).
     vec4 p = uBendy.bendyP[2 * K];
     vec4 E = uBendy.bendyEnd;
@@ -52,6 +50,9 @@ void main() {
 #ifdef DFB_FLAT_SAMPLES
     vec4 pA = texelFetch(gP, pixel, 0);
     if (!(pA.w > 0.0 && reachable(pA.xyz))) discard;
+#ifdef SHADE_BENDY
+    gl_FragDepth = multiple ? 0.75 : 0.25;
+#endif
 #else
     uvec2 range = texelFetch(gPixelSamples, pixel, 0).xy;
     bool any = false;
@@ -60,5 +61,8 @@ void main() {
         any = any || (pA.w > 0.0 && reachable(pA.xyz));
     }
     if (!any) discard;
+#ifdef SHADE_BENDY
+    gl_FragDepth = multiple ? 0.75 : 0.25;
+#endif
 #endif
 }

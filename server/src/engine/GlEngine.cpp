@@ -818,7 +818,23 @@ Status GlEngine::shade(LightCache& c, int output) {
     glBindTextureUnit(engine::TEX_SHADOW_MAP, c.shadowMap && !c.shadowIsCube ? c.shadowMap.id() : 0);
     glBindTextureUnit(engine::TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube ? c.shadowMap.id() : 0);
     glBindVertexArray(mEmptyVao.id());
-    glDrawArrays(GL_TRIANGLES, 0, 3);
+    if (l.type == LightType::Bendy) {
+        // Pixels whose samples lie in at most one segment's capsule (depth 0.25, relight_mask.frag)
+        // with the variant that solves one segment; the others (0.75) solve every segment.
+        auto single = variant({"common_fullscreen.vert", "relight_bendy.frag"}, defines + "#define BENDY_SINGLE 1\n");
+        if (!single) return single.error();
+        glDepthRange(0.75, 0.75);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glUseProgram(single.value());
+        glUniform1i(0, output);
+        glUniform1i(1, linked ? 1 : 0);
+        glUniform1i(2, step);
+        glDepthRange(0.25, 0.25);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glDepthRange(0.0, 1.0);
+    } else {
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
     glDisable(GL_DEPTH_TEST);
     glDepthMask(GL_TRUE);
     glDepthFunc(GL_LESS);
