@@ -1,6 +1,7 @@
 // The relight engine through real EGL: a Lambertian plane under a spot light matches the closed
 // form, shadows darken what is behind a blocker, and the cache re-renders only what changed.
 
+#include <dfb/gbuffer/Scene.h>
 #include <dfb/server/Engine.h>
 
 #include <gtest/gtest.h>
@@ -202,4 +203,56 @@ TEST(Engine, CacheRerendersOnlyWhatChanged) {
     ASSERT_TRUE(engine.value()->render(rig, &st).ok());
     EXPECT_EQ(st.shadowMapsRendered, 1);
     EXPECT_EQ(st.lightsShaded, 1);
+}
+
+// ---- Closed casters (shadow maps cull their front faces) ----
+
+namespace {
+// A unit cube: 8 corners, 12 counter-clockwise (outward) triangles.
+void cube(std::vector<glm::vec3>& p, std::vector<uint32_t>& idx) {
+    p.clear();
+    for (int i = 0; i < 8; ++i) p.emplace_back(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1));
+    idx = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+}
+} // namespace
+
+TEST(ShadowCasters, ClosedMeshesAreRecognisedAndOpenOrInconsistentOnesAreNot) {
+    std::vector<glm::vec3> p;
+    std::vector<uint32_t> idx;
+    cube(p, idx);
+    EXPECT_TRUE(isClosedMesh(p, idx));
+    // Split vertices (every triangle its own corners, as at UV seams) are welded by position.
+    std::vector<glm::vec3> split;
+    std::vector<uint32_t> splitIdx;
+    for (uint32_t i : idx) {
+        splitIdx.push_back(uint32_t(split.size()));
+        split.push_back(p[i]);
+    }
+    EXPECT_TRUE(isClosedMesh(split, splitIdx));
+    // A missing face leaves a hole.
+    std::vector<uint32_t> holed(idx.begin(), idx.end() - 6);
+    EXPECT_FALSE(isClosedMesh(p, holed));
+    // One triangle wound the other way: closed, but not consistently oriented.
+    std::vector<uint32_t> flipped = idx;
+    std::swap(flipped[1], flipped[2]);
+    EXPECT_FALSE(isClosedMesh(p, flipped));
+    // A single quad (a floor) is open; out-of-range indices are not a mesh.
+    EXPECT_FALSE(isClosedMesh(p, {0, 1, 2, 1, 3, 2}));
+    EXPECT_FALSE(isClosedMesh(p, {0, 1, 99}));
+}
+
+TEST(ShadowCasters, TheDefaultSceneSortsClosedPartsFirst) {
+    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
+    ASSERT_TRUE(scene.ok()) << scene.error().toString();
+    const ShadowGeometry g = shadowCasters(scene.value());
+    size_t closedParts = 0, closedIndices = 0;
+    for (const MeshPart& part : scene->parts) {
+        const bool closed = isClosedMesh(part.positions, part.indices);
+        std::printf("part object %u: %zu triangles, %s\n", part.objectId, part.indices.size() / 3, closed ? "closed" : "open");
+        closedParts += closed;
+        closedIndices += closed ? part.indices.size() : 0;
+    }
+    EXPECT_GT(closedParts, 0u);
+    EXPECT_EQ(g.closedIndexCount, closedIndices);
+    EXPECT_EQ(g.indices.size(), scene->triangleCount() * 3);
 }
