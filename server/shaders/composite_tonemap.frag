@@ -1,6 +1,7 @@
 #version 450 core
-// Exposure, the view transform (none, or the filmic curve), then the sRGB transfer function
-// (IEC 61966-2-1) to 8 bits.
+// Exposure and the view transform (none, or the filmic curve); the sRGB transfer function
+// (IEC 61966-2-1) to 8 bits is applied by the GL as it stores into the sRGB target
+// (GL_FRAMEBUFFER_SRGB, GlEngine::render).
 #include "common_uniforms.glsl"
 layout(binding = TEX_INPUT) uniform sampler2D uInput;
 layout(location = 0) out vec4 oColor;
@@ -11,10 +12,6 @@ layout(binding = TEX_INPUT_HOT) uniform sampler2D uHot;
 layout(location = 0) uniform vec3 uScale;
 layout(location = 1) uniform int uPixelStep;
 #endif
-vec3 linearToSrgb(vec3 c) {
-    c = clamp(c, 0.0, 1.0);
-    return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
-}
 // The ACES filmic curve fitted by K. Narkowicz ("ACES Filmic Tone Mapping Curve", 2016): a toe
 // and a shoulder that roll highlights off instead of clipping them. Mirror: Outputs.cpp.
 vec3 filmic(vec3 x) {
@@ -27,5 +24,5 @@ void main() {
 #endif
     c *= uView.exposure.x;
     if (uView.exposure.y > 0.5) c = filmic(max(c, vec3(0.0)));
-    oColor = vec4(linearToSrgb(c), 1.0);
+    oColor = vec4(clamp(c, 0.0, 1.0), 1.0); // sRGB-encoded on store (GL_FRAMEBUFFER_SRGB)
 }

@@ -391,7 +391,9 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     }
 
     mAccum = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
-    mLdr = gl::makeTexture2D(GL_RGBA8, mWidth, mHeight);
+    // sRGB-encoded: the GL applies the sRGB transfer function as it stores the view transform's
+    // linear output (GL_FRAMEBUFFER_SRGB), cheaper than the shader doing it.
+    mLdr = gl::makeTexture2D(GL_SRGB8_ALPHA8, mWidth, mHeight);
     mStatic = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
     {
         GLuint sfb = 0;
@@ -1045,7 +1047,9 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
         glUseProgram(mTonemapProgram.id());
         glBindTextureUnit(engine::TEX_INPUT, mAccum.id());
     }
+    glEnable(GL_FRAMEBUFFER_SRGB);
     glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDisable(GL_FRAMEBUFFER_SRGB); // and read back the stored (encoded) bytes unchanged
     if (auto s = waitGpu("view transform"); !s) return s.error();
     st.compositeMs += msSince(t); // the view transform belongs to the composite stage
 
