@@ -30,11 +30,22 @@ void main() {
     uint i0 = indices[3u * t], i1 = indices[3u * t + 1u], i2 = indices[3u * t + 2u];
     vec4 d0 = deformed[2u * i0], d1 = deformed[2u * i1], d2 = deformed[2u * i2];
     if (d0.w + d1.w + d2.w < 0.5) return; // nothing mapped: cannot occlude
+    bool closed = t < uClosedTriangles;
+    if (closed && d0.w * d1.w * d2.w > 0.5) {
+        // A closed mesh's face turned towards the light is culled by the draw anyway
+        // (GlEngine::drawCasters): dropping it here spares the draw its vertices and setup.
+        vec4 c0 = uLight.worldToLightClip * vec4(d0.xyz, 1.0), c1 = uLight.worldToLightClip * vec4(d1.xyz, 1.0),
+             c2 = uLight.worldToLightClip * vec4(d2.xyz, 1.0);
+        if (c0.w > 0.0 && c1.w > 0.0 && c2.w > 0.0) {
+            vec2 a = c0.xy / c0.w, b = c1.xy / c1.w, e = c2.xy / c2.w;
+            if ((b.x - a.x) * (e.y - a.y) - (e.x - a.x) * (b.y - a.y) > 0.0) return; // counter-clockwise: front
+        }
+    }
     float k0 = deformed[2u * i0 + 1u].x, k1 = deformed[2u * i1 + 1u].x, k2 = deformed[2u * i2 + 1u].x;
     float level = max(bendyEdgeLevel(d1, d2, max(k1, k2), uTexelPerDistance, uMaxLevel),
                       max(bendyEdgeLevel(d2, d0, max(k2, k0), uTexelPerDistance, uMaxLevel),
                           bendyEdgeLevel(d0, d1, max(k0, k1), uTexelPerDistance, uMaxLevel)));
-    uint open = t < uClosedTriangles ? 0u : 1u;
+    uint open = closed ? 0u : 1u;
     if (level <= 1.0) {
         uint at = commands[5u * open + 2u] + atomicAdd(commands[5u * open], 3u);
         flatIndices[at] = i0; flatIndices[at + 1u] = i1; flatIndices[at + 2u] = i2;
