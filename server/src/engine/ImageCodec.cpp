@@ -4,18 +4,22 @@
 #include <OpenImageIO/imageio.h>
 #include <turbojpeg.h>
 
+#include <algorithm>
 #include <cmath>
+#include <thread>
 
 namespace dfb {
 
-Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality) {
-    if (image.width <= 0 || image.height <= 0) return makeError(ErrorCode::InvalidValue, "encodeJpeg: empty image");
+namespace {
+
+// One JPEG of `rows` rows of `image` from row `first` (libjpeg-turbo: 4:2:0, fast integer DCT).
+Result<std::vector<uint8_t>> compressRows(const Image8& image, int first, int rows, int quality) {
     tjhandle tj = tjInitCompress();
     if (!tj) return makeError(ErrorCode::IoError, std::string("tjInitCompress: ") + tjGetErrorStr());
     unsigned char* out = nullptr;
     unsigned long size = 0;
-    const int rc = tjCompress2(tj, image.rgba.data(), image.width, image.width * 4, image.height, TJPF_RGBA, &out,
-                               &size, TJSAMP_420, std::clamp(quality, 1, 100), TJFLAG_FASTDCT);
+    const int rc = tjCompress2(tj, image.rgba.data() + size_t(first) * size_t(image.width) * 4, image.width, image.width * 4,
+                               rows, TJPF_RGBA, &out, &size, TJSAMP_420, std::clamp(quality, 1, 100), TJFLAG_FASTDCT);
     if (rc != 0) {
         std::string msg = tjGetErrorStr2(tj);
         tjDestroy(tj);
@@ -26,6 +30,85 @@ Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality) {
     tjFree(out);
     tjDestroy(tj);
     return bytes;
+}
+
+// Offset of the first byte after the marker segment `code` (0xFFcode, big-endian length), or 0.
+size_t segmentEnd(const std::vector<uint8_t>& j, uint8_t code, size_t* start = nullptr) {
+    for (size_t i = 2; i + 4 <= j.size();) {
+        if (j[i] != 0xFF) return 0;
+        const size_t len = size_t(j[i + 2]) << 8 | j[i + 3];
+        if (j[i + 1] == code) {
+            if (start) *start = i;
+            return i + 2 + len;
+        }
+        if (j[i + 1] == 0xDA) return 0; // scan data follows: no more headers
+        i += 2 + len;
+    }
+    return 0;
+}
+
+} // namespace
+
+// Large images are cut into strips of whole MCU rows (16 rows at 4:2:0) that are encoded on
+// several threads and joined into one baseline JPEG with restart markers (ITU-T T.81, B.2.4.4):
+// every strip is encoded alone with the same tables, so its entropy-coded data starts with the DC
+// predictions reset and ends byte-aligned, exactly what follows a restart marker. The file takes
+// strip 0's headers with the full height and a restart interval of one strip's MCUs (DRI), then the
+// strips' scan data separated by RST0..RST7, then EOI. Every 8x8 block is coded as in a
+// single-threaded encoding, so the decoded pixels are the same.
+Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality, int threadCount) {
+    if (image.width <= 0 || image.height <= 0) return makeError(ErrorCode::InvalidValue, "encodeJpeg: empty image");
+    const int mcuColumns = (image.width + 15) / 16;
+    const int threads = threadCount > 0 ? threadCount : int(std::min<unsigned>(std::max(1u, std::thread::hardware_concurrency()), 8u));
+    // Strips of at least 64 rows, and a restart interval within the 16-bit DRI field.
+    int stripMcuRows = std::max(4, ((image.height + 15) / 16 + threads - 1) / threads);
+    stripMcuRows = std::min(stripMcuRows, 65535 / mcuColumns);
+    const int stripRows = stripMcuRows * 16;
+    const int strips = (image.height + stripRows - 1) / stripRows;
+    if (strips <= 1 || stripMcuRows < 1) return compressRows(image, 0, image.height, quality);
+
+    std::vector<Result<std::vector<uint8_t>>> parts(size_t(strips), std::vector<uint8_t>{});
+    {
+        std::vector<std::thread> pool;
+        for (int i = 1; i < strips; ++i) {
+            pool.emplace_back([&, i] {
+                parts[size_t(i)] = compressRows(image, i * stripRows, std::min(stripRows, image.height - i * stripRows), quality);
+            });
+        }
+        parts[0] = compressRows(image, 0, stripRows, quality);
+        for (std::thread& t : pool) t.join();
+    }
+    for (const auto& p : parts)
+        if (!p) return p.error();
+
+    const std::vector<uint8_t>& head = parts[0].value();
+    size_t sofStart = 0;
+    const size_t sofEnd = segmentEnd(head, 0xC0, &sofStart); // baseline SOF0
+    size_t sosStart = 0;
+    const size_t headerEnd = segmentEnd(head, 0xDA, &sosStart);
+    if (!sofEnd || !headerEnd) return compressRows(image, 0, image.height, quality); // unexpected layout: no strips
+    std::vector<uint8_t> out(head.begin(), head.begin() + std::ptrdiff_t(sosStart));
+    out[sofStart + 5] = uint8_t(image.height >> 8); // SOF0: P, Y (height), X, ...
+    out[sofStart + 6] = uint8_t(image.height & 0xFF);
+    const int interval = mcuColumns * stripMcuRows;
+    const uint8_t dri[6] = {0xFF, 0xDD, 0x00, 0x04, uint8_t(interval >> 8), uint8_t(interval & 0xFF)};
+    out.insert(out.end(), dri, dri + 6);
+    out.insert(out.end(), head.begin() + std::ptrdiff_t(sosStart), head.begin() + std::ptrdiff_t(headerEnd));
+    for (int i = 0; i < strips; ++i) {
+        const std::vector<uint8_t>& j = parts[size_t(i)].value();
+        const size_t dataStart = segmentEnd(j, 0xDA);
+        if (!dataStart || j.size() < dataStart + 2 || j[j.size() - 2] != 0xFF || j[j.size() - 1] != 0xD9) {
+            return makeError(ErrorCode::IoError, "JPEG encoding: unexpected strip layout");
+        }
+        out.insert(out.end(), j.begin() + std::ptrdiff_t(dataStart), j.end() - 2);
+        if (i + 1 < strips) {
+            out.push_back(0xFF);
+            out.push_back(uint8_t(0xD0 + i % 8));
+        }
+    }
+    out.push_back(0xFF);
+    out.push_back(0xD9);
+    return out;
 }
 
 Result<std::vector<uint8_t>> encodePng(const Image8& image) {
