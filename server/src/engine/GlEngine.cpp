@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -140,6 +141,9 @@ private:
     // Shader variants specialised per light configuration (common_uniforms.glsl,
     // "Specialisation"), compiled on first use: by stage file names and defines.
     std::map<std::string, gl::Program> mVariants;
+    // DFB_GENERIC_SHADERS=1: no variants, no footprint pre-pass (a diagnostic, and the reference
+    // the specialised path is tested against).
+    bool mGeneric = false;
     int mSampleRow = 0;
     glm::vec3 mSceneMin{0.f}, mSceneMax{0.f};
     glm::vec3 mReceiverMin{0.f}, mReceiverMax{0.f}; // bounds of the shot's covered samples
@@ -214,6 +218,7 @@ Result<GLuint> GlEngine::variant(const std::vector<const char*>& stages, const s
 // fixes a path the light takes or cannot take, so each variant computes what the generic shader
 // would, without the others' cost.
 std::string GlEngine::shadeDefines(const LightCache& c, int output, bool cookie, bool linked) const {
+    if (mGeneric) return "";
     const Light& l = c.params;
     std::string d;
     auto def = [&d](const char* name, const std::string& value) { d += std::string("#define ") + name + " " + value + "\n"; };
@@ -276,6 +281,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mCameraForward = g.camera.forward();
     mOrthographic = g.camera.orthographic;
     mFlat = g.isFlat();
+    if (const char* generic = std::getenv("DFB_GENERIC_SHADERS")) mGeneric = *generic && std::string_view(generic) != "0";
 
     // Sample textures: as wide as the image (so a flat buffer's sample texture is the image), or
     // wider when a deep buffer's rows would exceed GL's minimum maximum texture size.
@@ -513,7 +519,7 @@ Status GlEngine::renderShadow(LightCache& c) {
     if (l.type == LightType::Bendy) {
         // Deformed shadow map: casters subdivided and mapped Q -> Q' in the tessellation stages.
         uploadBendy(c);
-        const std::string segments = "#define BENDY_K " + std::to_string(c.bendySegments) + "\n";
+        const std::string segments = mGeneric ? "" : "#define BENDY_K " + std::to_string(c.bendySegments) + "\n";
         auto deform = variant({"bendy_deform.comp"}, segments);
         if (!deform) return deform.error();
         auto tess = variant({"shadow_bendy.vert", "shadow_bendy.tesc", "shadow_bendy.tese", "shadow_bendy.frag"}, segments);
@@ -763,7 +769,7 @@ Status GlEngine::shade(LightCache& c, int output) {
     if (!shader) return shader.error();
     // Spots and BendyLights reach part of the frame: mark their footprint in the depth buffer
     // first, and the shading pass's early depth test skips the rest (relight_mask.frag).
-    const bool footprint = l.type == LightType::Spot || l.type == LightType::Bendy;
+    const bool footprint = !mGeneric && (l.type == LightType::Spot || l.type == LightType::Bendy);
     if (footprint) {
         auto mask = variant({"common_fullscreen.vert", "relight_mask.frag"},
                             defines + (l.type == LightType::Bendy ? "#define SHADE_BENDY 1\n" : ""));
@@ -820,7 +826,7 @@ Status GlEngine::shade(LightCache& c, int output) {
     glBindTextureUnit(engine::TEX_SHADOW_MAP, c.shadowMap && !c.shadowIsCube ? c.shadowMap.id() : 0);
     glBindTextureUnit(engine::TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube ? c.shadowMap.id() : 0);
     glBindVertexArray(mEmptyVao.id());
-    if (l.type == LightType::Bendy) {
+    if (footprint && l.type == LightType::Bendy) {
         // Pixels whose samples lie in at most one segment's capsule (depth 0.25, relight_mask.frag)
         // with the variant that solves one segment; the others (0.75) solve every segment.
         auto single = variant({"common_fullscreen.vert", "relight_bendy.frag"}, defines + "#define BENDY_SINGLE 1\n");
