@@ -22,7 +22,9 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <cstring>
 #include <string_view>
+#include <thread>
 #include <unordered_map>
 
 namespace dfb::shaders {
@@ -163,6 +165,11 @@ private:
     GLuint mCasterVertexCount = 0;
     int mSubdivisionLimit = 64;
     gl::Texture mAccum, mLdr;
+    // The frame's read-back target: a persistently mapped buffer in client memory, so the pixels
+    // arrive by DMA and leave by a parallel copy (glReadPixels to client memory would copy them
+    // on one thread inside the driver).
+    gl::Buffer mReadback;
+    const uint8_t* mReadbackPixels = nullptr;
     gl::Texture mMaskDepth; // every contribution target's depth: the light's footprint (relight_mask.frag)
     gl::Framebuffer mAccumFb, mLdrFb;
     std::map<std::string, LightCache> mLights;
@@ -1063,10 +1070,32 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     Image8 img;
     img.width = mWidth;
     img.height = mHeight;
-    img.rgba.resize(size_t(mWidth) * size_t(mHeight) * 4);
+    const size_t bytes = size_t(mWidth) * size_t(mHeight) * 4;
+    img.rgba.resize(bytes);
+    if (!mReadback) {
+        const GLbitfield map = GL_MAP_READ_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
+        mReadback = gl::makeBuffer(nullptr, bytes, map | GL_CLIENT_STORAGE_BIT);
+        mReadbackPixels = static_cast<const uint8_t*>(glMapNamedBufferRange(mReadback.id(), 0, GLsizeiptr(bytes), map));
+        if (!mReadbackPixels) return makeError(ErrorCode::GpuError, "cannot map the frame's read-back buffer");
+    }
     glBindFramebuffer(GL_READ_FRAMEBUFFER, mLdrFb.id());
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glReadPixels(0, 0, mWidth, mHeight, GL_RGBA, GL_UNSIGNED_BYTE, img.rgba.data());
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, mReadback.id());
+    glReadPixels(0, 0, mWidth, mHeight, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    if (auto s = waitGpu("read-back"); !s) return s.error();
+    {
+        // Several threads copy: one memcpy of a 1080p frame takes longer than its transfer.
+        const size_t parts = std::clamp<size_t>(bytes / (1u << 20), 1, std::max(1u, std::min(std::thread::hardware_concurrency(), 8u)));
+        const size_t chunk = (bytes + parts - 1) / parts;
+        std::vector<std::thread> copies;
+        for (size_t i = 1; i < parts; ++i) {
+            const size_t at = std::min(bytes, i * chunk), n = std::min(chunk, bytes - at);
+            copies.emplace_back([&img, this, at, n] { std::memcpy(img.rgba.data() + at, mReadbackPixels + at, n); });
+        }
+        std::memcpy(img.rgba.data(), mReadbackPixels, std::min(chunk, bytes));
+        for (std::thread& c : copies) c.join();
+    }
     st.readbackMs = msSince(t);
     if (auto s = mContext->check("relight frame"); !s) return s.error();
     return img;

@@ -59,7 +59,7 @@ size_t segmentEnd(const std::vector<uint8_t>& j, uint8_t code, size_t* start = n
 Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality, int threadCount) {
     if (image.width <= 0 || image.height <= 0) return makeError(ErrorCode::InvalidValue, "encodeJpeg: empty image");
     const int mcuColumns = (image.width + 15) / 16;
-    const int threads = threadCount > 0 ? threadCount : int(std::min<unsigned>(std::max(1u, std::thread::hardware_concurrency()), 8u));
+    const int threads = threadCount > 0 ? threadCount : int(std::min<unsigned>(std::max(1u, std::thread::hardware_concurrency()), 16u));
     // Strips of at least 64 rows, and a restart interval within the 16-bit DRI field.
     int stripMcuRows = std::max(4, ((image.height + 15) / 16 + threads - 1) / threads);
     stripMcuRows = std::min(stripMcuRows, 65535 / mcuColumns);

@@ -13,7 +13,7 @@ namespace dfb {
 
 /// JPEG of the RGB channels, quality 1..100, 4:2:0 chroma subsampling. Thread-safe. Tall images
 /// are encoded in strips on several threads, joined with restart markers (same decoded pixels).
-/// `threads`: at most this many strips (0: one per hardware thread, up to 8).
+/// `threads`: at most this many strips (0: one per hardware thread, up to 16).
 Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality = 90, int threads = 0);
 
 /// 8-bit RGB PNG. Thread-safe.
