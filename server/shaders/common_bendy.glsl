@@ -17,6 +17,8 @@ layout(std140, binding = UBO_BENDY) uniform BendyBlock {
     vec4 bendyAxisV;                          // xyz vL, w number of segments K
     vec4 bendyAxisW;                          // xyz wL, w 1 = exact light direction
     vec4 bendyEnd;                            // xyz P'(K) (extension direction), w R'(K)
+    vec4 bendyCapsuleStart[BENDY_MAX_SEGMENTS]; // per segment: xyz p0, w reach^2 (toBendyBlock)
+    vec4 bendyCapsuleChord[BENDY_MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
 } uBendy;
 
 // Specialised variants fix the number of segments (the segment loops unroll, the control points
@@ -192,17 +194,17 @@ int solveCubic(float a3, float a2, float a1, float a0, out float roots[3]) {
 }
 
 // ---- Footprint ----
-// Whether P can lie in the tube around segment g: a quadratic Bezier stays within a quarter of
+// Whether P can lie in the tube around segment k: a quadratic Bezier stays within a quarter of
 // |2 p1 - p0 - p2| of its chord p0 p2 (B(t) - chord(t) = t (1 - t) (2 p1 - p0 - p2)), and the tube
 // within the largest control radius of the curve (a Bezier stays in its control values' hull):
-// a capsule around the chord, grown by 1% against rounding.
-bool segmentCapsuleContains(BendySegment g, vec3 P) {
-    vec3 chord = g.p2.xyz - g.p0.xyz;
-    float h = clamp(dot(P - g.p0.xyz, chord) / max(dot(chord, chord), 1e-30), 0.0, 1.0);
-    vec3 off = P - g.p0.xyz - chord * h;
-    float reach = 0.25 * length(2.0 * g.p1.xyz - g.p0.xyz - g.p2.xyz) + max(max(g.p0.w, g.p1.w), g.p2.w);
-    reach = reach * 1.01 + 1e-3;
-    return dot(off, off) <= reach * reach;
+// a capsule around the chord, grown by 1% against rounding; its numbers come with the block
+// (engine::toBendyBlock).
+bool segmentCapsuleContains(int k, vec3 P) {
+    vec4 start = uBendy.bendyCapsuleStart[k], chord = uBendy.bendyCapsuleChord[k];
+    vec3 d = P - start.xyz;
+    float h = clamp(dot(d, chord.xyz) * chord.w, 0.0, 1.0);
+    vec3 off = d - chord.xyz * h;
+    return dot(off, off) <= start.w;
 }
 
 // ---- Inverse mapping (eqs. 4-7) ----
@@ -263,7 +265,7 @@ TubeCoords inverseMapImpl(vec3 Q, bool culled) {
 #ifdef BENDY_SINGLE
     int only = K; // none: the extension alone
     for (int k = 0; k < K; ++k) {
-        if (segmentCapsuleContains(bendySegment(k), Q)) only = k;
+        if (segmentCapsuleContains(k, Q)) only = k;
     }
     for (int pass = 0; pass < 2; ++pass) {
         int k = pass == 0 ? only : K;

@@ -26,7 +26,7 @@ bool reachable(vec3 P) {
     int K = bendySegments();
     int segments = 0;
     for (int k = 0; k < K; ++k) {
-        if (segmentCapsuleContains(bendySegment(k), P)) ++segments;
+        if (segmentCapsuleContains(k, P)) ++segments;
     }
     multiple = multiple || segments > 1;
     if (segments > 0) return true;

@@ -6,6 +6,7 @@
 
 #include <glm/glm.hpp>
 
+#include <algorithm>
 #include <cstddef>
 
 namespace dfb::engine {
@@ -75,6 +76,9 @@ struct BendyBlock {
     glm::vec4 axisV;                                 // w number of segments
     glm::vec4 axisW;                                 // w 1 = exact light direction
     glm::vec4 end;                                   // xyz end tangent, w end radius slope
+    // Per segment, the capsule around its chord that holds its tube (segmentCapsuleContains):
+    glm::vec4 capsuleStart[lightmath::MAX_SEGMENTS]; // xyz p0, w reach^2
+    glm::vec4 capsuleChord[lightmath::MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
 };
 static_assert(lightmath::MAX_CONTROL_POINTS == 17 && lightmath::MAX_SEGMENTS == 8,
               "BENDY_MAX_POINTS / BENDY_MAX_SEGMENTS in common_bendy.glsl must follow");
@@ -82,7 +86,8 @@ static_assert(offsetof(BendyBlock, c) == 17 * 16);
 static_assert(offsetof(BendyBlock, frameV) == 34 * 16);
 static_assert(offsetof(BendyBlock, axisU) == 43 * 16);
 static_assert(offsetof(BendyBlock, end) == 46 * 16);
-static_assert(sizeof(BendyBlock) == 47 * 16);
+static_assert(offsetof(BendyBlock, capsuleStart) == 47 * 16);
+static_assert(sizeof(BendyBlock) == 63 * 16);
 
 inline BendyBlock toBendyBlock(const lightmath::Chain<float>& ch, bool exactDirection) {
     BendyBlock b{};
@@ -95,6 +100,16 @@ inline BendyBlock toBendyBlock(const lightmath::Chain<float>& ch, bool exactDire
     b.axisV = glm::vec4(ch.axisV, float(ch.segments));
     b.axisW = glm::vec4(ch.axisW, exactDirection ? 1.f : 0.f);
     b.end = glm::vec4(ch.endTangent, ch.endRadiusSlope);
+    for (int k = 0; k < ch.segments; ++k) {
+        // A quadratic Bezier stays within |2 p1 - p0 - p2| / 4 of its chord (B(t) - chord(t) =
+        // t (1 - t) (2 p1 - p0 - p2)); the tube within the largest control radius of the curve
+        // (convex hull); grown by 1% against rounding.
+        const glm::vec3 p0 = ch.p[2 * k], p1 = ch.p[2 * k + 1], p2 = ch.p[2 * k + 2];
+        const float reach = (0.25f * glm::length(2.f * p1 - p0 - p2) + std::max({ch.r[2 * k], ch.r[2 * k + 1], ch.r[2 * k + 2]})) * 1.01f + 1e-3f;
+        const glm::vec3 chord = p2 - p0;
+        b.capsuleStart[k] = glm::vec4(p0, reach * reach);
+        b.capsuleChord[k] = glm::vec4(chord, 1.f / std::max(glm::dot(chord, chord), 1e-30f));
+    }
     return b;
 }
 
