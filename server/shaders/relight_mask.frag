@@ -6,8 +6,11 @@
 // then runs only where the light can land. Conservative: a kept pixel may still shade to zero,
 // a rejected one would have (its contribution is cleared to zero).
 //   spot: inside the outer cone (barn doors and cookie only cut further);
-//   BendyLight: inside the capsule around one segment's chord that holds its tube, or inside the
-//   tube around the extension past the last control point.
+//   BendyLight: inside the capsule around one segment's chord that holds its tube
+//   (segmentCapsuleContains), or inside the tube around the extension past the last control
+//   point. Its kept pixels get depth 0.75 where a sample lies in two segments' capsules or more,
+//   0.25 elsewhere: GlEngine::shade shades the latter with a variant that solves one segment
+//   (BENDY_SINGLE).
 #include "common_uniforms.glsl"
 #ifdef SHADE_BENDY
 #include "common_bendy.glsl"
