@@ -774,9 +774,10 @@ Status GlEngine::shade(LightCache& c, int output) {
     const std::string defines = shadeDefines(c, output, cookie != 0, linked);
     auto shader = variant({"common_fullscreen.vert", l.type == LightType::Bendy ? "relight_bendy.frag" : "relight_spot.frag"}, defines);
     if (!shader) return shader.error();
-    // Spots and BendyLights reach part of the frame: mark their footprint in the depth buffer
-    // first, and the shading pass's early depth test skips the rest (relight_mask.frag).
-    const bool footprint = !mGeneric && (l.type == LightType::Spot || l.type == LightType::Bendy);
+    // A light reaches part of the frame (the surfaces facing it; a spot's cone; a BendyLight's
+    // tubes): mark that footprint in the depth buffer first, and the shading pass's early depth
+    // test skips the rest (relight_mask.frag).
+    const bool footprint = !mGeneric;
     if (footprint) {
         auto mask = variant({"common_fullscreen.vert", "relight_mask.frag"},
                             defines + (l.type == LightType::Bendy ? "#define SHADE_BENDY 1\n" : ""));
@@ -787,6 +788,7 @@ Status GlEngine::shade(LightCache& c, int output) {
         glUseProgram(mask.value());
         glUniform1i(2, step);
         glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
+        glBindTextureUnit(engine::TEX_GBUFFER_N, mN.id());
         glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
         glBindVertexArray(mEmptyVao.id());
         glEnable(GL_DEPTH_TEST);
