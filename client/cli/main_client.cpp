@@ -445,14 +445,17 @@ int main(int argc, char** argv) {
             uint64_t lastVersion = 0;
             while ((watchCount == 0 || frames < watchCount) && (watchSeconds == 0 || std::chrono::steady_clock::now() < end)) {
                 auto wait = cl.timeout();
+                bool untilDeadline = false; // this receive waits no longer than --duration has left
                 if (watchSeconds > 0) {
                     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
+                    untilDeadline = left <= wait;
                     wait = std::max(std::chrono::milliseconds(1), std::min(wait, left));
                 }
                 auto m = conn->receive(wait);
                 if (!m) {
-                    // The deadline of --duration is reached as a receive timeout at the latest.
-                    if (watchSeconds > 0 && std::chrono::steady_clock::now() >= end) break;
+                    // The deadline of --duration is reached as a receive timeout at the latest (the
+                    // timer may fire a little before the steady clock says the deadline passed).
+                    if (untilDeadline || (watchSeconds > 0 && std::chrono::steady_clock::now() >= end)) break;
                     cl.fail(m.error());
                 }
                 if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
