@@ -257,3 +257,63 @@ TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
         EXPECT_LT(relativeDifference(g.value(), a.value()), 2e-2);
     }
 }
+
+// Open planar casters (the table) are left out of the shadow maps of lights on the receivers'
+// side: every light's image is the same as with them drawn.
+TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
+    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
+    ASSERT_TRUE(scene.ok()) << scene.error().toString();
+    const ShadowGeometry casters = shadowCasters(scene.value());
+    ASSERT_EQ(casters.planes.size(), 1u); // the table
+    EXPECT_LT(casters.planarIndexStart, casters.indices.size());
+    ShadowGeometry allDrawn = casters;
+    allDrawn.planarIndexStart = allDrawn.indices.size();
+    allDrawn.planes.clear();
+    const Bounds& b = scene->bounds;
+    Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+    Light bendy = rig.lights[0];
+    bendy.name = "bendy";
+    makeStraightChain(bendy, 3.f, 2);
+    bendy.controlPoints[3][2] += 0.6f;
+    rig.lights.push_back(bendy);
+    Light bulb = rig.lights[1];
+    bulb.name = "bulb";
+    bulb.type = LightType::Point;
+    bulb.position = {1.f, 1.5f, 1.f};
+    bulb.intensityCd = 4.f;
+    bulb.shadow = true;
+    bulb.shadowMapSize = 512;
+    rig.lights.push_back(bulb);
+    Light sun = rig.lights[1];
+    sun.name = "sun";
+    sun.type = LightType::Directional;
+    sun.direction = {0.3f, -1.f, 0.2f};
+    sun.intensityCd = 2.f;
+    sun.shadow = true;
+    sun.shadowMapSize = 1024;
+    rig.lights.push_back(sun);
+    rig.lights[1].shadow = true;
+    BakeOptions o;
+    o.width = 160;
+    o.height = 90;
+    auto shot = bake(scene.value(), o);
+    ASSERT_TRUE(shot.ok()) << shot.error().toString();
+    auto fewer = Engine::create(shot.value(), casters);
+    auto all = Engine::create(shot.value(), allDrawn);
+    ASSERT_TRUE(fewer.ok() && all.ok());
+    for (const Light& l : rig.lights) {
+        auto a = fewer.value()->renderLightLinear(rig, l.name);
+        auto g = all.value()->renderLightLinear(rig, l.name);
+        ASSERT_TRUE(a.ok() && g.ok());
+        size_t lit = 0, off = 0;
+        for (size_t i = 0; i < a->rgba.size(); i += 4)
+            for (int k = 0; k < 3; ++k) {
+                const float x = a->rgba[i + size_t(k)], y = g->rgba[i + size_t(k)];
+                lit += y > 0.f;
+                off += std::abs(x - y) > 1e-3f * std::max(std::abs(y), 1e-3f);
+            }
+        std::printf("light %-6s: %zu lit values, %zu differ by more than 0.1%% without the table in its map\n", l.name.c_str(), lit, off);
+        EXPECT_GT(lit, 100u) << l.name;
+        EXPECT_LE(double(off), 0.002 * double(lit)) << l.name;
+    }
+}

@@ -121,7 +121,8 @@ private:
     void uploadBendy(LightCache& c);
     Status renderShadow(LightCache& c);
     Status renderCubeShadow(LightCache& c);
-    void drawCasters();
+    void drawCasters(GLsizei count);
+    GLsizei casterIndices(const Light& l) const;
     Result<GLuint> cookieTexture(const Light& l);
     Status waitGpu(const char* stage);
     Status shade(LightCache& c, int output = 0);
@@ -156,6 +157,9 @@ private:
     gl::VertexArray mCasterVao, mEmptyVao;
     GLsizei mCasterIndexCount = 0;
     GLsizei mClosedIndexCount = 0; // indices[0, this) are closed meshes (ShadowGeometry)
+    GLsizei mPlanarStart = 0;      // indices[this, end) are open planar meshes, with these planes:
+    std::vector<glm::vec4> mPlanes; // oriented so that every receiver is on the positive side
+    bool mPlanesSkippable = false;  // ... which holds for all of them (else never left out)
     gl::Buffer mLightUbo, mViewUbo;
     gl::Program mShadowProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
     gl::Program mBendyClassifyProgram, mBendyFlatProgram;
@@ -359,6 +363,25 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
                                          : gl::makeBuffer(casters.indices.data(), casters.indices.size() * sizeof(uint32_t));
     mCasterIndexCount = GLsizei(casters.indices.size());
     mClosedIndexCount = GLsizei(std::min(casters.closedIndexCount, casters.indices.size()) / 3 * 3);
+    mPlanarStart = GLsizei(std::clamp(casters.planarIndexStart, size_t(mClosedIndexCount), casters.indices.size()) / 3 * 3);
+    mPlanes = casters.planes;
+    mPlanesSkippable = !mPlanes.empty() && mPlanarStart < mCasterIndexCount;
+    {
+        // Orient each plane towards the receivers; a plane with receivers on both sides is never
+        // left out.
+        const float eps = 1e-4f * glm::length(mSceneMax - mSceneMin);
+        for (glm::vec4& plane : mPlanes) {
+            float lo = 1e30f, hi = -1e30f;
+            for (size_t i = 0; i < g.sampleCount(); ++i) {
+                if (g.A[i] <= 0.f) continue;
+                const float d = plane.x * g.P[i * 3] + plane.y * g.P[i * 3 + 1] + plane.z * g.P[i * 3 + 2] - plane.w;
+                lo = std::min(lo, d);
+                hi = std::max(hi, d);
+            }
+            if (hi <= eps && lo < -eps) plane = -plane;
+            else if (lo < -eps) mPlanesSkippable = false;
+        }
+    }
     mCasterVao = positionVao(mCasterVbo, mCasterIbo);
     GLuint vao = 0;
     glCreateVertexArrays(1, &vao);
@@ -545,7 +568,7 @@ Status GlEngine::renderShadow(LightCache& c) {
         const uint32_t commands[20] = {0, 1, 0, 0, 0, 0, 1, closed, 0, 0, 0, 1, 0, 0, 0, 0, 1, closed, 0, 0};
         glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, commands);
         glUseProgram(mBendyClassifyProgram.id());
-        const GLuint triangles = GLuint(mCasterIndexCount / 3);
+        const GLuint triangles = GLuint(casterIndices(l) / 3);
         glUniform1ui(0, triangles);
         glUniform1f(1, float(mSubdivisionLimit));
         glUniform1f(2, texelPerDistance);
@@ -579,7 +602,7 @@ Status GlEngine::renderShadow(LightCache& c) {
         c.subdivisionLimit = mSubdivisionLimit;
     } else {
         glUseProgram(mShadowProgram.id());
-        drawCasters();
+        drawCasters(casterIndices(l));
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -587,18 +610,52 @@ Status GlEngine::renderShadow(LightCache& c) {
     return okStatus();
 }
 
+// How many caster indices a light's shadow map needs: all, or all but the open planar meshes
+// when the light is on the receivers' side of every one of them. Such a plane cannot occlude
+// anything then: a spot's, point light's or sun's rays from a receiver to the light stay on that
+// side (half-spaces are convex), and a BendyLight's tubes (segment capsules, the extension's
+// widening tube) stay clear of it, so it meets no tube and cannot occlude in the deformed map.
+GLsizei GlEngine::casterIndices(const Light& l) const {
+    if (!mPlanesSkippable) return mCasterIndexCount;
+    const float eps = 1e-4f * glm::length(mSceneMax - mSceneMin);
+    const glm::vec3 pos = toGlm(l.position), axis = glm::normalize(toGlm(l.direction));
+    std::optional<engine::BendyBlock> chain;
+    if (l.type == LightType::Bendy) chain = engine::toBendyBlock(chainFromLight<float>(l), l.exactDirection);
+    for (const glm::vec4& plane : mPlanes) {
+        const glm::vec3 n(plane);
+        auto dist = [&](const glm::vec3& p) { return glm::dot(n, p) - plane.w; };
+        bool clear = false;
+        if (l.type == LightType::Directional) {
+            clear = glm::dot(n, -axis) > 1e-6f;
+        } else if (l.type == LightType::Bendy) {
+            const int K = int(chain->axisV.w + 0.5f);
+            clear = true;
+            for (int k = 0; k < K; ++k) {
+                const glm::vec3 p0(chain->capsuleStart[k]), p2 = p0 + glm::vec3(chain->capsuleChord[k]);
+                clear = clear && std::min(dist(p0), dist(p2)) - std::sqrt(chain->capsuleStart[k].w) > eps;
+            }
+            const glm::vec4 end = chain->p[2 * K], e = chain->end;
+            clear = clear && dist(glm::vec3(end)) - end.w * 1.01f > eps && glm::dot(n, glm::vec3(e)) - e.w >= 0.f;
+        } else {
+            clear = dist(pos) > eps;
+        }
+        if (!clear) return mCasterIndexCount;
+    }
+    return mPlanarStart;
+}
+
 // The undeformed casters into the bound depth target: closed meshes with the faces towards the
 // light culled (their far side casts the same shadow on everything else and on their own unlit
-// side; llvmpipe rasterises about half as much), the rest two-sided.
-void GlEngine::drawCasters() {
+// side; llvmpipe rasterises about half as much), the rest two-sided, up to index `count`.
+void GlEngine::drawCasters(GLsizei count) {
     if (mClosedIndexCount > 0) {
         glEnable(GL_CULL_FACE);
         glCullFace(GL_FRONT);
         glDrawElements(GL_TRIANGLES, mClosedIndexCount, GL_UNSIGNED_INT, nullptr);
         glDisable(GL_CULL_FACE);
     }
-    if (mCasterIndexCount > mClosedIndexCount) {
-        glDrawElements(GL_TRIANGLES, mCasterIndexCount - mClosedIndexCount, GL_UNSIGNED_INT,
+    if (count > mClosedIndexCount) {
+        glDrawElements(GL_TRIANGLES, count - mClosedIndexCount, GL_UNSIGNED_INT,
                        reinterpret_cast<const void*>(size_t(mClosedIndexCount) * sizeof(uint32_t)));
     }
 }
@@ -664,7 +721,7 @@ Status GlEngine::renderCubeShadow(LightCache& c) {
         block.worldToLightClip = proj * glm::lookAt(pos, pos + targets[face], ups[face]);
         glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
         glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
-        drawCasters();
+        drawCasters(casterIndices(l));
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -1215,10 +1272,41 @@ bool isClosedMesh(const std::vector<glm::vec3>& positions, const std::vector<uin
     return true;
 }
 
+std::optional<glm::vec4> meshPlane(const std::vector<glm::vec3>& positions, const std::vector<uint32_t>& indices) {
+    if (positions.empty() || indices.size() < 3) return std::nullopt;
+    glm::vec3 lo(1e30f), hi(-1e30f);
+    for (const glm::vec3& p : positions) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    const float extent = glm::length(hi - lo);
+    glm::vec3 n(0.f);
+    for (size_t t = 0; t + 2 < indices.size() && glm::length(n) == 0.f; t += 3) {
+        if (indices[t] >= positions.size() || indices[t + 1] >= positions.size() || indices[t + 2] >= positions.size()) return std::nullopt;
+        const glm::vec3 c = glm::cross(positions[indices[t + 1]] - positions[indices[t]], positions[indices[t + 2]] - positions[indices[t]]);
+        if (glm::length(c) > 1e-6f * extent * extent) n = glm::normalize(c);
+    }
+    if (glm::length(n) == 0.f) return std::nullopt;
+    const float d = glm::dot(n, positions[indices[0]]);
+    for (const glm::vec3& p : positions)
+        if (std::abs(glm::dot(n, p) - d) > 1e-5f * extent) return std::nullopt;
+    return glm::vec4(n, d);
+}
+
 ShadowGeometry shadowCasters(const Scene& scene) {
     ShadowGeometry g;
-    std::vector<const MeshPart*> closed, open;
-    for (const MeshPart& p : scene.parts) (isClosedMesh(p.positions, p.indices) ? closed : open).push_back(&p);
+    std::vector<const MeshPart*> closed, open, planar;
+    std::vector<glm::vec4> planes;
+    for (const MeshPart& p : scene.parts) {
+        if (isClosedMesh(p.positions, p.indices)) {
+            closed.push_back(&p);
+        } else if (auto plane = meshPlane(p.positions, p.indices)) {
+            planar.push_back(&p);
+            planes.push_back(*plane);
+        } else {
+            open.push_back(&p);
+        }
+    }
     auto append = [&g](const MeshPart& p) {
         const auto base = uint32_t(g.positions.size());
         g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
@@ -1227,6 +1315,9 @@ ShadowGeometry shadowCasters(const Scene& scene) {
     for (const MeshPart* p : closed) append(*p);
     g.closedIndexCount = g.indices.size();
     for (const MeshPart* p : open) append(*p);
+    g.planarIndexStart = g.indices.size();
+    for (const MeshPart* p : planar) append(*p);
+    g.planes = planes;
     return g;
 }
 

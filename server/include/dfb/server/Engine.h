@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <optional>
 #include <vector>
 
 namespace dfb {
@@ -47,7 +48,17 @@ struct ShadowGeometry {
     /// shadow maps need only the faces turned away from the light (front faces are culled, about
     /// half the rasterisation); the rest is drawn two-sided.
     size_t closedIndexCount = 0;
+    /// indices[planarIndexStart, end) are open planar meshes (a ground plane, a wall), the plane of
+    /// each in `planes` (xyz unit normal n, w = d: n . x = d). A light on the receivers' side of
+    /// all of them leaves them out of its shadow map: they cannot occlude anything (see
+    /// docs/lighting.md). Default: none.
+    size_t planarIndexStart = ~size_t(0);
+    std::vector<glm::vec4> planes;
 };
+
+/// The plane (n, d) of a mesh whose vertices all lie within 1e-5 of its extent of one plane, or
+/// nothing.
+std::optional<glm::vec4> meshPlane(const std::vector<glm::vec3>& positions, const std::vector<uint32_t>& indices);
 
 /// True when the triangles (3 indices each into `positions`) form closed surfaces wound
 /// consistently: vertices at equal positions are welded, and then every directed edge a->b has
