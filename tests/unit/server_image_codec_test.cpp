@@ -10,7 +10,9 @@
 #include <turbojpeg.h>
 
 #include <cmath>
+#include <atomic>
 #include <random>
+#include <thread>
 
 using namespace dfb;
 
@@ -98,4 +100,24 @@ TEST(JpegStrips, JoinedStripsDecodeToTheSinglyEncodedPixels) {
         for (size_t i = 0; i < pixels.size(); ++i) worst = std::max(worst, std::abs(int(pixels[i]) - int(want[i])));
         EXPECT_LE(worst, 2); // its decoder may use another IDCT / upsampling
     }
+}
+
+// Several threads encoding at once share the strip workers: every result is still right.
+TEST(JpegStrips, ConcurrentEncodingsShareTheWorkers) {
+    const Image8 img = testImage(640, 720);
+    int w0 = 0, h0 = 0;
+    const auto want = decode(singleThreaded(img, 80), w0, h0);
+    std::vector<std::thread> threads;
+    std::atomic<int> wrong{0};
+    for (int t = 0; t < 4; ++t) {
+        threads.emplace_back([&] {
+            for (int k = 0; k < 5; ++k) {
+                auto j = encodeJpeg(img, 80, 6);
+                int w = 0, h = 0;
+                if (!j || decode(j.value(), w, h) != want) ++wrong;
+            }
+        });
+    }
+    for (std::thread& t : threads) t.join();
+    EXPECT_EQ(wrong.load(), 0);
 }
