@@ -27,6 +27,41 @@ double relativeDifference(const ImageF& a, const ImageF& b) {
     return worst;
 }
 
+// A shadowed point light and a shadowed directional light made from `base`, so that a rig has
+// every light type.
+Light bulbLight(Light l, int mapSize) {
+    l.name = "bulb";
+    l.type = LightType::Point;
+    l.position = {1.f, 1.5f, 1.f};
+    l.intensityCd = 4.f;
+    l.shadow = true;
+    l.shadowMapSize = mapSize;
+    l.exclude.clear();
+    return l;
+}
+Light sunLight(Light l, int mapSize) {
+    l.name = "sun";
+    l.type = LightType::Directional;
+    l.direction = {0.3f, -1.f, 0.2f};
+    l.intensityCd = 2.f;
+    l.shadow = true;
+    l.shadowMapSize = mapSize;
+    l.exclude.clear();
+    return l;
+}
+
+// Values (per channel) lit in `want`, and values of `got` differing from it by more than 0.1%.
+std::pair<size_t, size_t> litAndDiffering(const ImageF& got, const ImageF& want) {
+    size_t lit = 0, off = 0;
+    for (size_t i = 0; i < got.rgba.size(); i += 4)
+        for (int k = 0; k < 3; ++k) {
+            const float x = got.rgba[i + size_t(k)], y = want.rgba[i + size_t(k)];
+            lit += y > 0.f;
+            off += std::abs(x - y) > 1e-3f * std::max(std::abs(y), 1e-3f);
+        }
+    return {lit, off};
+}
+
 } // namespace
 
 TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
@@ -56,14 +91,7 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
     rim.shadow = true;
     rim.shadowMapSize = 512;
     rig.lights.push_back(rim);
-    Light bulb = rig.lights[1];
-    bulb.name = "bulb";
-    bulb.type = LightType::Point;
-    bulb.position = {1.f, 1.5f, 1.f};
-    bulb.intensityCd = 4.f;
-    bulb.shadow = true;
-    bulb.shadowMapSize = 256;
-    rig.lights.push_back(bulb);
+    rig.lights.push_back(bulbLight(rig.lights[1], 256));
 
     std::mt19937 rng(12345);
     std::uniform_real_distribution<float> u(-1.f, 1.f);
@@ -200,24 +228,8 @@ TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
     bendy3.controlPoints[5][2] -= 0.7f;
     bendy3.exactDirection = true;
     rig.lights.push_back(bendy3);
-    Light bulb = rig.lights[1];
-    bulb.name = "bulb";
-    bulb.type = LightType::Point;
-    bulb.position = {1.f, 1.5f, 1.f};
-    bulb.intensityCd = 4.f;
-    bulb.shadow = true;
-    bulb.shadowMapSize = 256;
-    bulb.exclude.clear();
-    rig.lights.push_back(bulb);
-    Light sun = rig.lights[1];
-    sun.name = "sun";
-    sun.type = LightType::Directional;
-    sun.direction = {0.3f, -1.f, 0.2f};
-    sun.intensityCd = 2.f;
-    sun.shadow = true;
-    sun.shadowMapSize = 512;
-    sun.exclude.clear();
-    rig.lights.push_back(sun);
+    rig.lights.push_back(bulbLight(rig.lights[1], 256));
+    rig.lights.push_back(sunLight(rig.lights[1], 512));
 
     for (int samples : {1, 4}) {
         SCOPED_TRACE(std::to_string(samples) + " samples per pixel");
@@ -236,13 +248,7 @@ TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
             auto a = special.value()->renderLightLinear(rig, l.name);
             auto g = generic.value()->renderLightLinear(rig, l.name);
             ASSERT_TRUE(a.ok() && g.ok());
-            size_t lit = 0, off = 0;
-            for (size_t i = 0; i < a->rgba.size(); i += 4)
-                for (int k = 0; k < 3; ++k) {
-                    const float x = a->rgba[i + size_t(k)], y = g->rgba[i + size_t(k)];
-                    lit += y > 0.f;
-                    off += std::abs(x - y) > 1e-3f * std::max(std::abs(y), 1e-3f);
-                }
+            const auto [lit, off] = litAndDiffering(a.value(), g.value());
             const double d = relativeDifference(g.value(), a.value());
             std::printf("%d spp, light %-7s: %zu lit values, %zu differ by more than 0.1%%, worst %.2e relative\n", samples,
                         l.name.c_str(), lit, off, d);
@@ -276,22 +282,8 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
     makeStraightChain(bendy, 3.f, 2);
     bendy.controlPoints[3][2] += 0.6f;
     rig.lights.push_back(bendy);
-    Light bulb = rig.lights[1];
-    bulb.name = "bulb";
-    bulb.type = LightType::Point;
-    bulb.position = {1.f, 1.5f, 1.f};
-    bulb.intensityCd = 4.f;
-    bulb.shadow = true;
-    bulb.shadowMapSize = 512;
-    rig.lights.push_back(bulb);
-    Light sun = rig.lights[1];
-    sun.name = "sun";
-    sun.type = LightType::Directional;
-    sun.direction = {0.3f, -1.f, 0.2f};
-    sun.intensityCd = 2.f;
-    sun.shadow = true;
-    sun.shadowMapSize = 1024;
-    rig.lights.push_back(sun);
+    rig.lights.push_back(bulbLight(rig.lights[1], 512));
+    rig.lights.push_back(sunLight(rig.lights[1], 1024));
     rig.lights[1].shadow = true;
     BakeOptions o;
     o.width = 160;
@@ -305,13 +297,7 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
         auto a = fewer.value()->renderLightLinear(rig, l.name);
         auto g = all.value()->renderLightLinear(rig, l.name);
         ASSERT_TRUE(a.ok() && g.ok());
-        size_t lit = 0, off = 0;
-        for (size_t i = 0; i < a->rgba.size(); i += 4)
-            for (int k = 0; k < 3; ++k) {
-                const float x = a->rgba[i + size_t(k)], y = g->rgba[i + size_t(k)];
-                lit += y > 0.f;
-                off += std::abs(x - y) > 1e-3f * std::max(std::abs(y), 1e-3f);
-            }
+        const auto [lit, off] = litAndDiffering(a.value(), g.value());
         std::printf("light %-6s: %zu lit values, %zu differ by more than 0.1%% without the table in its map\n", l.name.c_str(), lit, off);
         EXPECT_GT(lit, 100u) << l.name;
         EXPECT_LE(double(off), 0.002 * double(lit)) << l.name;

@@ -5,6 +5,7 @@
 #include <dfb/server/Engine.h>
 
 #include "UniformBlocks.h"
+#include "WorkerPool.h"
 
 #include <dfb/server/BendyChain.h>
 
@@ -24,7 +25,6 @@
 #include <optional>
 #include <cstring>
 #include <string_view>
-#include <thread>
 #include <unordered_map>
 
 namespace dfb::shaders {
@@ -84,7 +84,8 @@ struct LightCache {
     gl::Framebuffer contributionFb;
     glm::mat4 worldToLightClip{1.f};
     gl::Buffer bendyUbo; // BendyBlock of a BendyLight
-    int bendySegments = 0; // its chain's segments, as uploaded (the shader variants' BENDY_K)
+    engine::BendyBlock bendy{}; // its chain as last uploaded (segments: the variants' BENDY_K)
+    int bendySegments() const { return int(bendy.axisV.w + 0.5f); }
     gl::Buffer linkMask; // light linking: one bit per object id
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
     glm::vec3 shadedRadiance{0.f}; // colour x intensity the contribution was shaded with
@@ -122,7 +123,7 @@ private:
     Status renderShadow(LightCache& c);
     Status renderCubeShadow(LightCache& c);
     void drawCasters(GLsizei count);
-    GLsizei casterIndices(const Light& l) const;
+    GLsizei casterIndices(const LightCache& c) const;
     Result<GLuint> cookieTexture(const Light& l);
     Status waitGpu(const char* stage);
     Status shade(LightCache& c, int output = 0);
@@ -246,7 +247,7 @@ std::string GlEngine::shadeDefines(const LightCache& c, int output, bool cookie,
     flag("SHADE_SHEEN", mHasSheen);
     flag("SHADE_COAT", mHasCoat);
     if (l.type == LightType::Bendy) {
-        def("BENDY_K", std::to_string(c.bendySegments));
+        def("BENDY_K", std::to_string(c.bendySegments()));
         flag("BENDY_EXACT", l.exactDirection);
     }
     return d;
@@ -494,11 +495,10 @@ glm::mat4 GlEngine::lightViewProj(const Light& l) const {
 }
 
 void GlEngine::uploadBendy(LightCache& c) {
-    const engine::BendyBlock block = engine::toBendyBlock(chainFromLight<float>(c.params), c.params.exactDirection);
-    if (!c.bendyUbo) c.bendyUbo = gl::makeBuffer(nullptr, sizeof block, GL_DYNAMIC_STORAGE_BIT);
-    glNamedBufferSubData(c.bendyUbo.id(), 0, sizeof block, &block);
+    c.bendy = engine::toBendyBlock(chainFromLight<float>(c.params), c.params.exactDirection);
+    if (!c.bendyUbo) c.bendyUbo = gl::makeBuffer(nullptr, sizeof c.bendy, GL_DYNAMIC_STORAGE_BIT);
+    glNamedBufferSubData(c.bendyUbo.id(), 0, sizeof c.bendy, &c.bendy);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, c.bendyUbo.id());
-    c.bendySegments = int(block.axisV.w + 0.5f);
 }
 
 // The side of the shadow map a light gets now: its own, or a quarter of it (at least 256) while a
@@ -549,7 +549,7 @@ Status GlEngine::renderShadow(LightCache& c) {
     if (l.type == LightType::Bendy) {
         // Deformed shadow map: casters subdivided and mapped Q -> Q' in the tessellation stages.
         uploadBendy(c);
-        const std::string segments = mGeneric ? "" : "#define BENDY_K " + std::to_string(c.bendySegments) + "\n";
+        const std::string segments = mGeneric ? "" : "#define BENDY_K " + std::to_string(c.bendySegments()) + "\n";
         auto deform = variant({"bendy_deform.comp"}, segments);
         if (!deform) return deform.error();
         auto tess = variant({"shadow_bendy.vert", "shadow_bendy.tesc", "shadow_bendy.tese", "shadow_bendy.frag"}, segments);
@@ -568,7 +568,7 @@ Status GlEngine::renderShadow(LightCache& c) {
         const uint32_t commands[20] = {0, 1, 0, 0, 0, 0, 1, closed, 0, 0, 0, 1, 0, 0, 0, 0, 1, closed, 0, 0};
         glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, commands);
         glUseProgram(mBendyClassifyProgram.id());
-        const GLuint triangles = GLuint(casterIndices(l) / 3);
+        const GLuint triangles = GLuint(casterIndices(c) / 3);
         glUniform1ui(0, triangles);
         glUniform1f(1, float(mSubdivisionLimit));
         glUniform1f(2, texelPerDistance);
@@ -602,7 +602,7 @@ Status GlEngine::renderShadow(LightCache& c) {
         c.subdivisionLimit = mSubdivisionLimit;
     } else {
         glUseProgram(mShadowProgram.id());
-        drawCasters(casterIndices(l));
+        drawCasters(casterIndices(c));
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -615,12 +615,12 @@ Status GlEngine::renderShadow(LightCache& c) {
 // anything then: a spot's, point light's or sun's rays from a receiver to the light stay on that
 // side (half-spaces are convex), and a BendyLight's tubes (segment capsules, the extension's
 // widening tube) stay clear of it, so it meets no tube and cannot occlude in the deformed map.
-GLsizei GlEngine::casterIndices(const Light& l) const {
+GLsizei GlEngine::casterIndices(const LightCache& c) const {
     if (!mPlanesSkippable) return mCasterIndexCount;
+    const Light& l = c.params;
     const float eps = 1e-4f * glm::length(mSceneMax - mSceneMin);
     const glm::vec3 pos = toGlm(l.position), axis = glm::normalize(toGlm(l.direction));
-    std::optional<engine::BendyBlock> chain;
-    if (l.type == LightType::Bendy) chain = engine::toBendyBlock(chainFromLight<float>(l), l.exactDirection);
+    const engine::BendyBlock* chain = &c.bendy; // uploaded by renderShadow before this is asked
     for (const glm::vec4& plane : mPlanes) {
         const glm::vec3 n(plane);
         auto dist = [&](const glm::vec3& p) { return glm::dot(n, p) - plane.w; };
@@ -721,7 +721,7 @@ Status GlEngine::renderCubeShadow(LightCache& c) {
         block.worldToLightClip = proj * glm::lookAt(pos, pos + targets[face], ups[face]);
         glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
         glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
-        drawCasters(casterIndices(l));
+        drawCasters(casterIndices(c));
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -1143,18 +1143,13 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
     glReadPixels(0, 0, mWidth, mHeight, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
     glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
     if (auto s = waitGpu("read-back"); !s) return s.error();
-    {
-        // Several threads copy: one memcpy of a 1080p frame takes longer than its transfer.
-        const size_t parts = std::clamp<size_t>(bytes / (1u << 20), 1, std::max(1u, std::min(std::thread::hardware_concurrency(), 8u)));
-        const size_t chunk = (bytes + parts - 1) / parts;
-        std::vector<std::thread> copies;
-        for (size_t i = 1; i < parts; ++i) {
-            const size_t at = std::min(bytes, i * chunk), n = std::min(chunk, bytes - at);
-            copies.emplace_back([&img, this, at, n] { std::memcpy(img.rgba.data() + at, mReadbackPixels + at, n); });
-        }
-        std::memcpy(img.rgba.data(), mReadbackPixels, std::min(chunk, bytes));
-        for (std::thread& c : copies) c.join();
-    }
+    // Several threads copy: one memcpy of a 1080p frame takes longer than its transfer.
+    const size_t parts = std::clamp<size_t>(bytes / (1u << 20), 1, 8);
+    const size_t chunk = (bytes + parts - 1) / parts;
+    WorkerPool::shared().run(int(parts), [&](int i) {
+        const size_t at = std::min(bytes, size_t(i) * chunk);
+        std::memcpy(img.rgba.data() + at, mReadbackPixels + at, std::min(chunk, bytes - at));
+    });
     st.readbackMs = msSince(t);
     if (auto s = mContext->check("relight frame"); !s) return s.error();
     return img;

@@ -4,13 +4,10 @@
 #include <OpenImageIO/imageio.h>
 #include <turbojpeg.h>
 
+#include "WorkerPool.h"
+
 #include <algorithm>
 #include <cmath>
-#include <atomic>
-#include <condition_variable>
-#include <deque>
-#include <functional>
-#include <mutex>
 #include <thread>
 
 namespace dfb {
@@ -52,79 +49,6 @@ size_t segmentEnd(const std::vector<uint8_t>& j, uint8_t code, size_t* start = n
     return 0;
 }
 
-// Worker threads for the strips, started once (starting a thread per strip per frame cost as much
-// as encoding a strip). run() may be called from several threads at once; the caller runs tasks
-// too while it waits, so a call always progresses even when every worker is busy.
-class StripPool {
-public:
-    static StripPool& instance() {
-        static StripPool pool;
-        return pool;
-    }
-    // f(i) for every i in [0, n), on the workers and the caller; returns when all have run.
-    void run(int n, const std::function<void(int)>& f) {
-        std::atomic<int> left{n - 1};
-        {
-            std::lock_guard<std::mutex> lock(mMutex);
-            for (int i = 1; i < n; ++i) {
-                mTasks.push_back([&f, &left, i, this] {
-                    f(i);
-                    if (left.fetch_sub(1) == 1) {
-                        std::lock_guard<std::mutex> done(mMutex);
-                        mDone.notify_all();
-                    }
-                });
-            }
-        }
-        mWork.notify_all();
-        f(0);
-        std::unique_lock<std::mutex> lock(mMutex);
-        while (left.load() > 0) {
-            if (!mTasks.empty()) {
-                auto task = std::move(mTasks.front());
-                mTasks.pop_front();
-                lock.unlock();
-                task();
-                lock.lock();
-            } else {
-                mDone.wait(lock);
-            }
-        }
-    }
-
-private:
-    StripPool() {
-        const unsigned n = std::min(std::max(2u, std::thread::hardware_concurrency()), 16u) - 1;
-        for (unsigned i = 0; i < n; ++i) {
-            mWorkers.emplace_back([this] {
-                std::unique_lock<std::mutex> lock(mMutex);
-                for (;;) {
-                    mWork.wait(lock, [this] { return mStop || !mTasks.empty(); });
-                    if (mStop) return;
-                    auto task = std::move(mTasks.front());
-                    mTasks.pop_front();
-                    lock.unlock();
-                    task();
-                    lock.lock();
-                }
-            });
-        }
-    }
-    ~StripPool() {
-        {
-            std::lock_guard<std::mutex> lock(mMutex);
-            mStop = true;
-        }
-        mWork.notify_all();
-        for (std::thread& t : mWorkers) t.join();
-    }
-    std::mutex mMutex;
-    std::condition_variable mWork, mDone;
-    std::deque<std::function<void()>> mTasks;
-    std::vector<std::thread> mWorkers;
-    bool mStop = false;
-};
-
 } // namespace
 
 // Large images are cut into strips of whole MCU rows (16 rows at 4:2:0) that are encoded on
@@ -146,7 +70,7 @@ Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality, int th
     if (strips <= 1 || stripMcuRows < 1) return compressRows(image, 0, image.height, quality);
 
     std::vector<Result<std::vector<uint8_t>>> parts(size_t(strips), std::vector<uint8_t>{});
-    StripPool::instance().run(strips, [&](int i) {
+    WorkerPool::shared().run(strips, [&](int i) {
         parts[size_t(i)] = compressRows(image, i * stripRows, std::min(stripRows, image.height - i * stripRows), quality);
     });
     for (const auto& p : parts)
