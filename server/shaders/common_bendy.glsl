@@ -237,9 +237,10 @@ BendySegment bendySegmentVarying(int k) {
 #endif
 }
 
-bool tubeCoordinates(vec3 Q, int k, float t, out TubeCoords c) {
+// Tube coordinates of Q at the foot t of segment k, whose data `g` the caller has read.
+bool segmentTubeCoordinates(vec3 Q, BendySegment g, int k, float t, out TubeCoords c) {
     c.valid = false; c.inside = false; c.segment = k; c.t = t; c.v = 0.0; c.w = 0.0;
-    c.g = bendySegment(k);
+    c.g = g;
     c.foot = segmentPoint(c.g, t);
     c.derivative = segmentDerivative(c.g, t);
     float R = c.foot.w;
@@ -252,76 +253,91 @@ bool tubeCoordinates(vec3 Q, int k, float t, out TubeCoords c) {
     c.inside = c.v * c.v + c.w * c.w <= 1.0;
     return true;
 }
+bool tubeCoordinates(vec3 Q, int k, float t, out TubeCoords c) { return segmentTubeCoordinates(Q, bendySegment(k), k, t, c); }
+
+// The best foot so far of the search in inverseMapImpl, with its segment's data (kept by
+// selection: reading it again by a per-sample index would be a gather per sample).
+struct FootSearch {
+    bool found, inside;
+    float r2, t;
+    int k;
+    BendySegment g;
+};
+
+// Whether segment g's foot candidate t of Q beats the best so far (inside any tube first, then
+// the smaller (v^2 + w^2); the first found on ties), and keeps it if so.
+void considerFoot(inout FootSearch s, vec3 Q, BendySegment g, int k, float t, float hi) {
+    const float slack = 1e-4;
+    if (!(t >= -slack && t <= hi)) return;
+    vec4 P = segmentPoint(g, t);
+    float R = P.w;
+    if (!(R > 0.0)) return;
+    // At a foot v^2 + w^2 = |Q - P|^2 / R^2: rank without frames (see the C++).
+    vec3 d = Q - P.xyz;
+    float r2 = dot(d, d) / (R * R);
+    bool inside = r2 <= 1.0;
+    if (!s.found || (inside && !s.inside) || (inside == s.inside && r2 < s.r2)) {
+        s.found = true;
+        s.inside = inside;
+        s.r2 = r2;
+        s.k = k;
+        s.t = t;
+        s.g = g;
+    }
+}
+
+// The feet of Q on segment g (k < K): the roots of (B(t) - Q) . B'(t) = 0 in [0, 1] (eq. 4). With
+// `culled`, none where the segment's tube cannot hold Q: the tube lies in the sphere around the
+// control points' centroid that holds them all, grown by the largest radius (a quadratic Bezier
+// stays in its control polygon's hull; its radius between its control radii). Skipping the solve
+// outside it only changes points that are inside no tube: unlit anyway.
+void segmentFeet(inout FootSearch s, vec3 Q, BendySegment g, int k, bool culled) {
+    if (culled) {
+        vec3 c = (g.p0.xyz + g.p1.xyz + g.p2.xyz) / 3.0;
+        float reach = sqrt(max(max(dot(g.p0.xyz - c, g.p0.xyz - c), dot(g.p1.xyz - c, g.p1.xyz - c)),
+                               dot(g.p2.xyz - c, g.p2.xyz - c))) +
+                      1.1 * max(max(g.p0.w, g.p1.w), g.p2.w) + 1e-4;
+        if (dot(Q - c, Q - c) > reach * reach) return;
+    }
+    vec3 A = g.p0.xyz - g.p1.xyz * 2.0 + g.p2.xyz;
+    vec3 B = (g.p1.xyz - g.p0.xyz) * 2.0;
+    vec3 D = Q - g.p0.xyz;
+    float roots[3];
+    int n = solveCubic(2.0 * dot(A, A), 3.0 * dot(A, B), dot(B, B) - 2.0 * dot(A, D), -dot(B, D), roots);
+    for (int i = 0; i < 3; ++i) {
+        if (i < n) considerFoot(s, Q, g, k, roots[i], 1.0 + 1e-4);
+    }
+}
+
+// The foot of Q on the extension past the last control point (a straight line: one foot).
+void extensionFoot(inout FootSearch s, vec3 Q) {
+    BendySegment g = bendySegment(bendySegments());
+    vec3 dir = uBendy.bendyEnd.xyz;
+    considerFoot(s, Q, g, bendySegments(), dot(Q - g.p0.xyz, dir) / dot(dir, dir), 3.4e38);
+}
 
 // BENDY_SINGLE (shading only; relight_mask.frag sorts the samples): the sample lies in the
 // capsule of at most one segment, so only that segment (found again by the capsule test) and the
-// extension can hold a tube around it: one cubic instead of K.
+// extension can hold a tube around it: one cubic instead of K. Written without a loop over the
+// two (llvmpipe runs every path of a loop body: both the cubic and the extension's projection
+// each time round).
 TubeCoords inverseMapImpl(vec3 Q, bool culled) {
-    bool found = false, bestInside = false;
-    float bestR2 = 0.0, bestT = 0.0;
-    int bestK = 0;
-    const float slack = 1e-4;
+    FootSearch s;
+    s.found = false; s.inside = false; s.r2 = 0.0; s.t = 0.0; s.k = 0;
+    s.g = bendySegment(0);
     int K = bendySegments();
 #ifdef BENDY_SINGLE
     int only = K; // none: the extension alone
     for (int k = 0; k < K; ++k) {
         if (segmentCapsuleContains(k, Q)) only = k;
     }
-    for (int pass = 0; pass < 2; ++pass) {
-        int k = pass == 0 ? only : K;
-        if (pass == 0 && only == K) continue;
-        BendySegment g = bendySegmentVarying(k);
+    if (only < K) segmentFeet(s, Q, bendySegmentVarying(only), only, culled);
 #else
-    for (int k = 0; k <= K; ++k) {
-        BendySegment g = bendySegment(k);
+    for (int k = 0; k < K; ++k) segmentFeet(s, Q, bendySegment(k), k, culled);
 #endif
-        float roots[3];
-        int n;
-        if (k < K) {
-            if (culled) {
-                // The tube around segment k lies in the sphere around its control points' centroid
-                // that holds them all, grown by the largest radius (a quadratic Bezier stays in its
-                // control polygon's hull; its radius between its control radii). Skipping the
-                // solve outside it only changes points that are inside no tube: unlit anyway.
-                vec3 c = (g.p0.xyz + g.p1.xyz + g.p2.xyz) / 3.0;
-                float reach = sqrt(max(max(dot(g.p0.xyz - c, g.p0.xyz - c), dot(g.p1.xyz - c, g.p1.xyz - c)),
-                                       dot(g.p2.xyz - c, g.p2.xyz - c))) +
-                              1.1 * max(max(g.p0.w, g.p1.w), g.p2.w) + 1e-4;
-                if (dot(Q - c, Q - c) > reach * reach) continue;
-            }
-            vec3 A = g.p0.xyz - g.p1.xyz * 2.0 + g.p2.xyz;
-            vec3 B = (g.p1.xyz - g.p0.xyz) * 2.0;
-            vec3 D = Q - g.p0.xyz;
-            n = solveCubic(2.0 * dot(A, A), 3.0 * dot(A, B), dot(B, B) - 2.0 * dot(A, D), -dot(B, D), roots);
-        } else {
-            vec3 dir = uBendy.bendyEnd.xyz;
-            roots[0] = dot(Q - g.p0.xyz, dir) / dot(dir, dir);
-            roots[1] = 0.0; roots[2] = 0.0;
-            n = 1;
-        }
-        for (int i = 0; i < 3; ++i) {
-            if (i >= n) break;
-            float t = roots[i];
-            float hi = k < K ? 1.0 + slack : 3.4e38;
-            if (!(t >= -slack && t <= hi)) continue;
-            vec4 P = segmentPoint(g, t);
-            float R = P.w;
-            if (!(R > 0.0)) continue;
-            // At a foot v^2 + w^2 = |Q - P|^2 / R^2: rank without frames (see the C++).
-            vec3 d = Q - P.xyz;
-            float r2 = dot(d, d) / (R * R);
-            bool inside = r2 <= 1.0;
-            if (!found || (inside && !bestInside) || (inside == bestInside && r2 < bestR2)) {
-                found = true;
-                bestInside = inside;
-                bestR2 = r2;
-                bestK = k;
-                bestT = t;
-            }
-        }
-    }
+    extensionFoot(s, Q);
     TubeCoords best;
-    if (!tubeCoordinates(Q, bestK, bestT, best) || !found) best.valid = false;
+    if (!segmentTubeCoordinates(Q, s.g, s.k, s.t, best) || !s.found) best.valid = false;
     return best;
 }
 
