@@ -84,7 +84,8 @@ struct LightCache {
     gl::Framebuffer contributionFb;
     glm::mat4 worldToLightClip{1.f};
     gl::Buffer bendyUbo; // BendyBlock of a BendyLight
-    engine::BendyBlock bendy{}; // its chain as last uploaded (segments: the variants' BENDY_K)
+    lightmath::Chain<float> chain; // its chain as last uploaded,
+    engine::BendyBlock bendy{};    // and as the shaders see it (segments: the variants' BENDY_K)
     int bendySegments() const { return int(bendy.axisV.w + 0.5f); }
     gl::Buffer linkMask; // light linking: one bit per object id
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
@@ -495,7 +496,8 @@ glm::mat4 GlEngine::lightViewProj(const Light& l) const {
 }
 
 void GlEngine::uploadBendy(LightCache& c) {
-    c.bendy = engine::toBendyBlock(chainFromLight<float>(c.params), c.params.exactDirection);
+    c.chain = chainFromLight<float>(c.params);
+    c.bendy = engine::toBendyBlock(c.chain, c.params.exactDirection);
     if (!c.bendyUbo) c.bendyUbo = gl::makeBuffer(nullptr, sizeof c.bendy, GL_DYNAMIC_STORAGE_BIT);
     glNamedBufferSubData(c.bendyUbo.id(), 0, sizeof c.bendy, &c.bendy);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, c.bendyUbo.id());
@@ -613,14 +615,13 @@ Status GlEngine::renderShadow(LightCache& c) {
 // How many caster indices a light's shadow map needs: all, or all but the open planar meshes
 // when the light is on the receivers' side of every one of them. Such a plane cannot occlude
 // anything then: a spot's, point light's or sun's rays from a receiver to the light stay on that
-// side (half-spaces are convex), and a BendyLight's tubes (segment capsules, the extension's
-// widening tube) stay clear of it, so it meets no tube and cannot occlude in the deformed map.
+// side (half-spaces are convex); a BendyLight's light travels along its flow lines, which must
+// not reach the plane (lightmath::flowLinesMissPlane: tubes clear of it, or descending towards it).
 GLsizei GlEngine::casterIndices(const LightCache& c) const {
     if (!mPlanesSkippable) return mCasterIndexCount;
     const Light& l = c.params;
     const float eps = 1e-4f * glm::length(mSceneMax - mSceneMin);
     const glm::vec3 pos = toGlm(l.position), axis = glm::normalize(toGlm(l.direction));
-    const engine::BendyBlock* chain = &c.bendy; // uploaded by renderShadow before this is asked
     for (const glm::vec4& plane : mPlanes) {
         const glm::vec3 n(plane);
         auto dist = [&](const glm::vec3& p) { return glm::dot(n, p) - plane.w; };
@@ -628,14 +629,8 @@ GLsizei GlEngine::casterIndices(const LightCache& c) const {
         if (l.type == LightType::Directional) {
             clear = glm::dot(n, -axis) > 1e-6f;
         } else if (l.type == LightType::Bendy) {
-            const int K = int(chain->axisV.w + 0.5f);
-            clear = true;
-            for (int k = 0; k < K; ++k) {
-                const glm::vec3 p0(chain->capsuleStart[k]), p2 = p0 + glm::vec3(chain->capsuleChord[k]);
-                clear = clear && std::min(dist(p0), dist(p2)) - std::sqrt(chain->capsuleStart[k].w) > eps;
-            }
-            const glm::vec4 end = chain->p[2 * K], e = chain->end;
-            clear = clear && dist(glm::vec3(end)) - end.w * 1.01f > eps && glm::dot(n, glm::vec3(e)) - e.w >= 0.f;
+            // c.chain: uploaded by renderShadow before this is asked.
+            clear = lightmath::flowLinesMissPlane(c.chain, n, plane.w, eps);
         } else {
             clear = dist(pos) > eps;
         }
@@ -972,6 +967,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st, bool* fused)
             c.hasContribution = false;
             if (auto s = renderShadow(c); !s) return s;
             ++st.shadowMapsRendered;
+            st.shadowCasterTriangles += casterIndices(c) / 3;
         } else if (!l.shadow && !sameShadowInputs(c.params, l)) {
             c.worldToLightClip = lightViewProj(l);
             c.hasShadow = false;

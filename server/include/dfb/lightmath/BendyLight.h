@@ -13,6 +13,7 @@
 
 #include <glm/glm.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -329,6 +330,74 @@ template <typename T> vec3<T> lightDirection(const Chain<T>& ch, const TubeCoord
         flow -= uHat * glm::dot(Q - P, unitTangentDerivative(ch, c.segment, c.t));
     }
     return -glm::normalize(flow);
+}
+
+// ---- Occlusion by a plane ---------------------------------------------------------------------
+
+/// Whether the chain's light cannot meet the plane n . x = d (n unit) on its way to any point on
+/// the plane's positive side (n . x >= d), so that the plane can be left out of the deformed
+/// shadow map when every receiver lies on that side (GlEngine::casterIndices). Conservative: true
+/// only when proven. The light reaches a point at tube coordinates (s, v, w) along its flow line,
+/// the points (s' < s, v, w): the deformed map's ray from the source to its Q' (eq. 7). With
+/// h = n . x - d along a flow line X(t) = P(t) + R(t) (v v_hat + w w_hat), v^2 + w^2 <= rho^2:
+///  - a segment whose tube (its capsule, as engine::toBendyBlock) lies at h > eps keeps h > 0;
+///  - after the first segment that does not, every piece must keep h non-increasing, so that each
+///    earlier point of a flow line is at least as high as the receiver: h' = n . P' + R' (v n.v_hat
+///    + w n.w_hat) - R (n . u_hat) (v u_hat'.v_hat + w u_hat'.w_hat) (the rotation-minimising
+///    frame turns only about the tangent: v_hat' = -(u_hat' . v_hat) u_hat), at most
+///    n . P' + rho (|R'| |n_perp| + R |n . u_hat| |u_hat'|), |n_perp| = sqrt(1 - (n . u_hat)^2),
+///    |u_hat'| = |P' x P''| / |P'|^2, bounded on 16 pieces of t (P' and R' are linear in t: the
+///    extremes of n . P', |R'| and |P' x P''| lie at a piece's ends, of |P'| at its ends or its
+///    closest point to 0);
+///  - the extension's flow lines are straight (constant frame), h linear along them: with the
+///    chain clear so far, positive at its start and non-negative at the receiver means positive in
+///    between; after a piece that was not clear it must descend,
+///    n . E + rho |R'_E| sqrt(1 - (n . E_hat)^2) <= 0.
+/// A kink (a join whose tangents differ) after the first piece that is not clear moves flow lines
+/// sideways: not proven.
+template <typename T> bool flowLinesMissPlane(const Chain<T>& ch, const vec3<T>& n, T d, T eps) {
+    const T rho = T(1.01); // the capsules' growth; PCF reads a texel or two past the tube's edge
+    auto h = [&](const vec3<T>& x) { return glm::dot(n, x) - d; };
+    bool touched = false;
+    for (int k = 0; k < ch.segments; ++k) {
+        const vec3<T> p0 = ch.p[2 * k], p1 = ch.p[2 * k + 1], p2 = ch.p[2 * k + 2];
+        const T rMax = std::max(std::max(ch.r[2 * k], ch.r[2 * k + 1]), ch.r[2 * k + 2]);
+        const T reach = (T(0.25) * glm::length(p1 * T(2) - p0 - p2) + rMax) * rho;
+        if (!touched && std::min(h(p0), h(p2)) - reach > eps) continue;
+        if (touched && k > 0) {
+            const vec3<T> before = glm::normalize(chainDerivative(ch, k - 1, T(1)));
+            if (glm::dot(before, glm::normalize(chainDerivative(ch, k, T(0)))) < T(1) - T(1e-6)) return false;
+        }
+        touched = true;
+        const vec3<T> dd = chainSecondDerivative(ch, k);
+        const int PIECES = 16;
+        for (int i = 0; i < PIECES; ++i) {
+            const T ta = T(i) / T(PIECES), tb = T(i + 1) / T(PIECES);
+            const vec3<T> da = chainDerivative(ch, k, ta), db = chainDerivative(ch, k, tb);
+            const T descent = std::max(glm::dot(n, da), glm::dot(n, db));
+            const T radiusSlope = std::max(std::abs(chainRadiusDerivative(ch, k, ta)), std::abs(chainRadiusDerivative(ch, k, tb)));
+            const T bend = std::max(glm::length(glm::cross(da, dd)), glm::length(glm::cross(db, dd)));
+            // The least |P'| on the piece: P' runs along the line from da to db.
+            const vec3<T> e = db - da;
+            const T along = glm::dot(e, e) > T(0) ? saturate(-glm::dot(da, e) / glm::dot(e, e)) : T(0);
+            const T slow = glm::length(da + e * along), fast = std::max(glm::length(da), glm::length(db));
+            if (!(slow > T(0))) return false;
+            // The range of n . u_hat = n . P' / |P'| on the piece, for |n . u_hat| and |n_perp|.
+            const T nLo = std::min(glm::dot(n, da), glm::dot(n, db));
+            const T cosLo = std::max(T(-1), std::min(nLo / slow, nLo / fast));
+            const T cosHi = std::min(T(1), std::max(descent / slow, descent / fast));
+            const T cosMax = std::max(std::abs(cosLo), std::abs(cosHi));
+            const T cosMin = cosLo <= T(0) && cosHi >= T(0) ? T(0) : std::min(std::abs(cosLo), std::abs(cosHi));
+            const T across = std::sqrt(std::max(T(0), T(1) - cosMin * cosMin));
+            if (descent + rho * (radiusSlope * across + rMax * cosMax * bend / (slow * slow)) > T(0)) return false;
+        }
+    }
+    if (!touched) return true;
+    const vec3<T> E = ch.endTangent;
+    const T len = glm::length(E);
+    if (!(len > T(0))) return false;
+    const T across = std::sqrt(std::max(T(0), T(1) - glm::dot(n, E) * glm::dot(n, E) / (len * len)));
+    return glm::dot(n, E) + rho * std::abs(ch.endRadiusSlope) * across <= T(0);
 }
 
 } // namespace dfb::lightmath

@@ -76,6 +76,10 @@ struct FrameStats {
     double compositeMs = 0;
     double readbackMs = 0;
     int shadowMapsRendered = 0;
+    /// Caster triangles those maps were rendered from, summed over the maps (open planar meshes
+    /// that cannot occlude a light are left out of its map; a BendyLight's sort on the GPU may
+    /// drop more).
+    long shadowCasterTriangles = 0;
     int lightsShaded = 0;
 };
 
