@@ -22,6 +22,13 @@ Texture makeTexture2D(GLenum internalFormat, int width, int height) {
     return Texture(id);
 }
 
+Texture makeBufferTexture(GLenum internalFormat, const Buffer& buffer) {
+    GLuint id = 0;
+    glCreateTextures(GL_TEXTURE_BUFFER, 1, &id);
+    glTextureBuffer(id, internalFormat, buffer.id());
+    return Texture(id);
+}
+
 Buffer makeBuffer(const void* data, size_t bytes, GLbitfield flags) {
     GLuint id = 0;
     glCreateBuffers(1, &id);

@@ -11,14 +11,16 @@
 #include "common_bendy.glsl"
 
 layout(local_size_x = 64) in;
-layout(std430, binding = 1) readonly buffer Deformed { vec4 deformed[]; };
-layout(std430, binding = 2) readonly buffer Indices { uint indices[]; };
 layout(std430, binding = 3) writeonly buffer FlatIndices { uint flatIndices[]; };
 layout(std430, binding = 4) writeonly buffer TessIndices { uint tessIndices[]; };
 // Four DrawElementsIndirectCommand {count, instanceCount, firstIndex, baseVertex, baseInstance}:
 // plain closed, plain open, tessellated closed, tessellated open.
 layout(std430, binding = 5) coherent buffer Commands { uint commands[20]; };
 
+// Read as buffer textures (one gather per read on llvmpipe; a storage-buffer read at a per-lane
+// index loops over the lanes).
+layout(binding = TEX_DEFORMED) uniform samplerBuffer tDeformed;
+layout(binding = TEX_CASTER_INDICES) uniform usamplerBuffer tIndices;
 layout(location = 0) uniform uint uTriangleCount;
 layout(location = 1) uniform float uMaxLevel;
 layout(location = 2) uniform float uTexelPerDistance;
@@ -27,8 +29,9 @@ layout(location = 3) uniform uint uClosedTriangles;
 void main() {
     uint t = gl_GlobalInvocationID.x;
     if (t >= uTriangleCount) return;
-    uint i0 = indices[3u * t], i1 = indices[3u * t + 1u], i2 = indices[3u * t + 2u];
-    vec4 d0 = deformed[2u * i0], d1 = deformed[2u * i1], d2 = deformed[2u * i2];
+    int b = int(3u * t);
+    uint i0 = texelFetch(tIndices, b).x, i1 = texelFetch(tIndices, b + 1).x, i2 = texelFetch(tIndices, b + 2).x;
+    vec4 d0 = texelFetch(tDeformed, int(2u * i0)), d1 = texelFetch(tDeformed, int(2u * i1)), d2 = texelFetch(tDeformed, int(2u * i2));
     if (d0.w + d1.w + d2.w < 0.5) return; // nothing mapped: cannot occlude
     bool closed = t < uClosedTriangles;
     if (closed && d0.w * d1.w * d2.w > 0.5) {
@@ -41,7 +44,7 @@ void main() {
             if ((b.x - a.x) * (e.y - a.y) - (e.x - a.x) * (b.y - a.y) > 0.0) return; // counter-clockwise: front
         }
     }
-    float k0 = deformed[2u * i0 + 1u].x, k1 = deformed[2u * i1 + 1u].x, k2 = deformed[2u * i2 + 1u].x;
+    float k0 = texelFetch(tDeformed, int(2u * i0 + 1u)).x, k1 = texelFetch(tDeformed, int(2u * i1 + 1u)).x, k2 = texelFetch(tDeformed, int(2u * i2 + 1u)).x;
     float level = max(bendyEdgeLevel(d1, d2, max(k1, k2), uTexelPerDistance, uMaxLevel),
                       max(bendyEdgeLevel(d2, d0, max(k2, k0), uTexelPerDistance, uMaxLevel),
                           bendyEdgeLevel(d0, d1, max(k0, k1), uTexelPerDistance, uMaxLevel)));

@@ -20,6 +20,8 @@
 #define TEX_SHADOW_CUBE 12    // DEPTH32F cube map with compare mode (point lights)
 #define TEX_COOKIE 13         // RGBA16F: a spot light's cookie image
 #define TEX_INPUT_HOT 14      // composite_tonemap.frag's second input (the edited light)
+#define TEX_DEFORMED 15       // buffer texture RGBA32F: bendy_deform.comp's output, 2 texels per caster vertex
+#define TEX_CASTER_INDICES 16 // buffer texture R32UI: the caster triangles' vertex indices
 #define SSBO_LINK_MASK 6      // per light: bit (id % 32) of word (id / 32) set = the object is lit
 
 layout(std430, binding = SSBO_LINK_MASK) readonly buffer LinkMask { uint linkMask[]; };

@@ -168,6 +168,7 @@ private:
     gl::Buffer mFlatIndices, mTessIndices, mIndirect; // triangle lists sorted by bendy_classify.comp
     gl::VertexArray mFlatVao, mTessVao;
     gl::Buffer mDeformed; // 2 vec4 per caster vertex (bendy_deform.comp)
+    gl::Texture mDeformedTexture, mCasterIndexTexture; // buffer textures of mDeformed and mCasterIbo
     GLuint mCasterVertexCount = 0;
     int mSubdivisionLimit = 64;
     gl::Texture mAccum, mLdr;
@@ -410,6 +411,8 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         // The deform and tessellation programs are variants per number of segments (renderShadow).
         mCasterVertexCount = GLuint(casters.positions.size());
         mDeformed = gl::makeBuffer(nullptr, std::max<size_t>(casters.positions.size(), 1) * 2 * sizeof(glm::vec4));
+        mDeformedTexture = gl::makeBufferTexture(GL_RGBA32F, mDeformed);
+        mCasterIndexTexture = gl::makeBufferTexture(GL_R32UI, mCasterIbo);
         auto classify = gl::buildProgram({{GL_COMPUTE_SHADER, "bendy_classify.comp", shaders::serverShader("bendy_classify.comp")}});
         if (!classify) return classify.error();
         mBendyClassifyProgram = std::move(classify.value());
@@ -575,7 +578,8 @@ Status GlEngine::renderShadow(LightCache& c) {
         glUniform1f(1, float(mSubdivisionLimit));
         glUniform1f(2, texelPerDistance);
         glUniform1ui(3, closed / 3);
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mCasterIbo.id());
+        glBindTextureUnit(engine::TEX_DEFORMED, mDeformedTexture.id());
+        glBindTextureUnit(engine::TEX_CASTER_INDICES, mCasterIndexTexture.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, mFlatIndices.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, mTessIndices.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, mIndirect.id());

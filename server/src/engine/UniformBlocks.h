@@ -28,6 +28,8 @@ enum TextureUnit : unsigned {
     TEX_GBUFFER_ID = 11,
     TEX_SHADOW_CUBE = 12,
     TEX_COOKIE = 13,
+    TEX_DEFORMED = 15,
+    TEX_CASTER_INDICES = 16,
 };
 enum StorageBinding : unsigned { SSBO_LINK_MASK = 6 };
 enum UniformBinding : unsigned { UBO_LIGHT = 0, UBO_VIEW = 1, UBO_BENDY = 2 };

@@ -56,6 +56,10 @@ using Query = Handle<deleteQuery>;
 /// An immutable 2D texture (glTextureStorage2D) with nearest filtering and clamp-to-edge.
 Texture makeTexture2D(GLenum internalFormat, int width, int height);
 Buffer makeBuffer(const void* data, size_t bytes, GLbitfield flags = 0);
+/// A buffer texture over `buffer` (texelFetch from a samplerBuffer). On llvmpipe a shader's
+/// texelFetch is one vector gather where a storage-buffer read at a per-lane index is a loop over
+/// the lanes.
+Texture makeBufferTexture(GLenum internalFormat, const Buffer& buffer);
 
 /// One shader stage's source. `name` is the file name used in error messages.
 struct ShaderSource {
