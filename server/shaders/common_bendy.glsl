@@ -17,8 +17,9 @@ layout(std140, binding = UBO_BENDY) uniform BendyBlock {
     vec4 bendyAxisV;                          // xyz vL, w number of segments K
     vec4 bendyAxisW;                          // xyz wL, w 1 = exact light direction
     vec4 bendyEnd;                            // xyz P'(K) (extension direction), w R'(K)
-    vec4 bendyCapsuleStart[BENDY_MAX_SEGMENTS]; // per segment: xyz p0, w reach^2 (toBendyBlock)
-    vec4 bendyCapsuleChord[BENDY_MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
+    vec4 bendyConeStart[BENDY_MAX_SEGMENTS]; // per segment: xyz p0, w reach^2 (toBendyBlock)
+    vec4 bendyConeChord[BENDY_MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
+    vec4 bendyConeRadius[BENDY_MAX_SEGMENTS];  // x radius change along the chord, y slope term m
 } uBendy;
 
 // Specialised variants fix the number of segments (the segment loops unroll, the control points
@@ -194,17 +195,21 @@ int solveCubic(float a3, float a2, float a1, float a0, out float roots[3]) {
 }
 
 // ---- Footprint ----
-// Whether P can lie in the tube around segment k: a quadratic Bezier stays within a quarter of
-// |2 p1 - p0 - p2| of its chord p0 p2 (B(t) - chord(t) = t (1 - t) (2 p1 - p0 - p2)), and the tube
-// within the largest control radius of the curve (a Bezier stays in its control values' hull):
-// a capsule around the chord, grown by 1% against rounding; its numbers come with the block
-// (engine::toBendyBlock).
-bool segmentCapsuleContains(int k, vec3 P) {
-    vec4 start = uBendy.bendyCapsuleStart[k], chord = uBendy.bendyCapsuleChord[k];
+// Whether P can lie in the tube around segment k: inside the round cone along the segment's chord
+// p0 p2 whose radius grows linearly from p0 to p2 (B(t) - chord(t) = t (1 - t) (2 p1 - p0 - p2),
+// and the radius likewise: engine::toBendyBlock derives it and brings its numbers). The distance
+// from P to the cone's axis point at h, less the radius there, is convex in h; its least lies at
+// h* = along + m |off| (along: P's projection onto the chord, off: P's offset from it), clamped.
+bool segmentFootprintContains(int k, vec3 P) {
+    vec4 start = uBendy.bendyConeStart[k], chord = uBendy.bendyConeChord[k];
+    vec2 cone = uBendy.bendyConeRadius[k].xy;
     vec3 d = P - start.xyz;
-    float h = clamp(dot(d, chord.xyz) * chord.w, 0.0, 1.0);
-    vec3 off = d - chord.xyz * h;
-    return dot(off, off) <= start.w;
+    float along = dot(d, chord.xyz) * chord.w;
+    vec3 off = d - chord.xyz * along;
+    float h = clamp(along + cone.y * sqrt(dot(off, off)), 0.0, 1.0);
+    vec3 e = d - chord.xyz * h;
+    float r = start.w + cone.x * h;
+    return dot(e, e) <= r * r;
 }
 
 // ---- Inverse mapping (eqs. 4-7) ----
@@ -317,7 +322,7 @@ void extensionFoot(inout FootSearch s, vec3 Q) {
 }
 
 // BENDY_SINGLE (shading only; relight_mask.frag sorts the samples): the sample lies in the
-// capsule of at most one segment, so only that segment (found again by the capsule test) and the
+// round cone of at most one segment, so only that segment (found again by the cone test) and the
 // extension can hold a tube around it: one cubic instead of K. Written without a loop over the
 // two (llvmpipe runs every path of a loop body: both the cubic and the extension's projection
 // each time round).
@@ -329,7 +334,7 @@ TubeCoords inverseMapImpl(vec3 Q, bool culled) {
 #ifdef BENDY_SINGLE
     int only = K; // none: the extension alone
     for (int k = 0; k < K; ++k) {
-        if (segmentCapsuleContains(k, Q)) only = k;
+        if (segmentFootprintContains(k, Q)) only = k;
     }
     if (only < K) segmentFeet(s, Q, bendySegmentVarying(only), only, culled);
 #else

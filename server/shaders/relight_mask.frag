@@ -7,9 +7,9 @@
 // a rejected one would have (its contribution is cleared to zero).
 //   point and directional lights: a surface that faces the light (N . L > 0);
 //   spot: inside the outer cone (barn doors and cookie only cut further);
-//   BendyLight: inside the capsule around one segment's chord that holds its tube
-//   (segmentCapsuleContains), or inside the tube around the extension past the last control
-//   point. Its kept pixels get depth 0.75 where a sample lies in two segments' capsules or more,
+//   BendyLight: inside the round cone around one segment's chord that holds its tube
+//   (segmentFootprintContains), or inside the tube around the extension past the last control
+//   point. Its kept pixels get depth 0.75 where a sample lies in two segments' cones or more,
 //   0.25 elsewhere: GlEngine::shade shades the latter with a variant that solves one segment
 //   (BENDY_SINGLE).
 #include "common_uniforms.glsl"
@@ -22,7 +22,7 @@ layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(location = 2) uniform int uPixelStep;
 
-// BendyLight samples in the capsules of two segments or more (relight_bendy.frag then solves all
+// BendyLight samples in the round cones of two segments or more (relight_bendy.frag then solves all
 // segments); the others solve one (BENDY_SINGLE).
 bool multiple = false;
 
@@ -42,7 +42,7 @@ bool reachable(vec3 P, vec3 N) {
     int K = bendySegments();
     int segments = 0;
     for (int k = 0; k < K; ++k) {
-        if (segmentCapsuleContains(k, P)) ++segments;
+        if (segmentFootprintContains(k, P)) ++segments;
     }
     multiple = multiple || segments > 1;
     if (segments > 0) return true;

@@ -176,3 +176,101 @@ TEST(BendyParity, GlslAgreesWithCppOnRandomPointsAndChains) {
     EXPECT_LT(worstLiX, 0.05);
     EXPECT_LT(worstVW, 1e-3);
 }
+
+namespace {
+
+const char* FOOTPRINT_KERNEL = R"(
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Points { vec4 points[]; };
+layout(std430, binding = 1) writeonly buffer Results { uint results[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= uint(points.length())) return;
+    uint mask = 0u;
+    for (int k = 0; k < bendySegments(); ++k) {
+        if (segmentFootprintContains(k, points[i].xyz)) mask |= 1u << uint(k);
+    }
+    results[i] = mask;
+}
+)";
+
+} // namespace
+
+// The footprint pre-pass and the single-segment shading (relight_mask.frag, BENDY_SINGLE) rest on
+// segmentFootprintContains: the round cone around segment k's chord must hold every point of the
+// tube around segment k (else pixels the light reaches would go dark), and it should hold fewer
+// other points than the capsule of the largest radius it replaced (measured, printed).
+TEST(BendyParity, SegmentRoundConesHoldTheirTubes) {
+    auto ctx = gl::Context::create();
+    ASSERT_TRUE(ctx.ok()) << ctx.error().toString();
+    const std::string src = "#version 450 core\n" + std::string(shaders::serverShader("common_bendy.glsl")) + FOOTPRINT_KERNEL;
+    auto program = gl::buildProgram({{GL_COMPUTE_SHADER, "bendy_footprint.comp", src}});
+    ASSERT_TRUE(program.ok()) << program.error().toString();
+    std::mt19937_64 rng(977);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const int CHAINS = 48, POINTS = 4096;
+    long tubePoints = 0, missed = 0, boxPoints = 0, inCone = 0, inCapsule = 0;
+    gl::Buffer ubo = gl::makeBuffer(nullptr, sizeof(engine::BendyBlock), GL_DYNAMIC_STORAGE_BIT);
+    for (int c = 0; c < CHAINS; ++c) {
+        const Chain<float> chf = randomChain<float>(rng, 1 + c % 4);
+        const Chain<double> chd = convert<double>(chf);
+        glm::dvec3 lo(1e30), hi(-1e30);
+        for (int i = 0; i <= 2 * chd.segments; ++i) {
+            lo = glm::min(lo, chd.p[i] - glm::dvec3(chd.r[i]));
+            hi = glm::max(hi, chd.p[i] + glm::dvec3(chd.r[i]));
+        }
+        // Half the points on or in a segment's tube (the rim included), half anywhere in the box.
+        std::vector<glm::vec4> pts(POINTS);
+        std::vector<int> segment(POINTS, -1);
+        for (int i = 0; i < POINTS; ++i) {
+            if (i % 2 == 0) {
+                const int k = int(u(rng) * chd.segments) % chd.segments;
+                const double t = u(rng), a = 6.283185307 * u(rng), r = i % 8 == 0 ? 1.0 : std::sqrt(u(rng));
+                glm::dvec3 uh, vh, wh;
+                tubeFrame(chd, k, t, uh, vh, wh);
+                const glm::dvec3 P = chainPoint(chd, k, t) + chainRadius(chd, k, t) * r * (std::cos(a) * vh + std::sin(a) * wh);
+                pts[size_t(i)] = glm::vec4(glm::vec3(P), 1.f);
+                segment[size_t(i)] = k;
+            } else {
+                pts[size_t(i)] = glm::vec4(glm::vec3(lo + (hi - lo) * glm::dvec3(u(rng), u(rng), u(rng))), 1.f);
+            }
+        }
+        const engine::BendyBlock block = engine::toBendyBlock(chf, false);
+        glNamedBufferSubData(ubo.id(), 0, sizeof block, &block);
+        gl::Buffer in = gl::makeBuffer(pts.data(), pts.size() * sizeof(glm::vec4));
+        gl::Buffer out = gl::makeBuffer(nullptr, pts.size() * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
+        glUseProgram(program->id());
+        glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, ubo.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
+        glDispatchCompute(GLuint((POINTS + 63) / 64), 1, 1);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        std::vector<uint32_t> mask(pts.size());
+        glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(mask.size() * sizeof(uint32_t)), mask.data());
+        ASSERT_TRUE(ctx.value()->check("footprint dispatch").ok());
+        for (int i = 0; i < POINTS; ++i) {
+            const int k = segment[size_t(i)];
+            if (k >= 0) {
+                ++tubePoints;
+                if (!(mask[size_t(i)] & (1u << k))) ++missed;
+                continue;
+            }
+            // The capsule of the largest radius around the chord (the footprint before the cones).
+            const glm::dvec3 P(pts[size_t(i)]);
+            for (int s = 0; s < chd.segments; ++s) {
+                ++boxPoints;
+                inCone += (mask[size_t(i)] >> s) & 1u;
+                const glm::dvec3 p0 = chd.p[2 * s], p1 = chd.p[2 * s + 1], p2 = chd.p[2 * s + 2];
+                const double reach = (0.25 * glm::length(2.0 * p1 - p0 - p2) + std::max({chd.r[2 * s], chd.r[2 * s + 1], chd.r[2 * s + 2]})) * 1.01 + 1e-3;
+                const double h = glm::clamp(glm::dot(P - p0, p2 - p0) / glm::dot(p2 - p0, p2 - p0), 0.0, 1.0);
+                inCapsule += glm::length(P - p0 - (p2 - p0) * h) <= reach ? 1 : 0;
+            }
+        }
+    }
+    std::printf("%ld tube points, %ld outside their segment's round cone; of %ld (point, segment) pairs in the box, "
+                "%ld in the round cone, %ld in the capsule of the largest radius\n",
+                tubePoints, missed, boxPoints, inCone, inCapsule);
+    EXPECT_EQ(missed, 0);
+    EXPECT_GT(tubePoints, CHAINS * POINTS / 2 - 1);
+    EXPECT_LT(inCone, inCapsule);
+}

@@ -892,7 +892,7 @@ Status GlEngine::shade(LightCache& c, int output) {
     glBindTextureUnit(engine::TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube ? c.shadowMap.id() : 0);
     glBindVertexArray(mEmptyVao.id());
     if (footprint && l.type == LightType::Bendy) {
-        // Pixels whose samples lie in at most one segment's capsule (depth 0.25, relight_mask.frag)
+        // Pixels whose samples lie in at most one segment's round cone (depth 0.25, relight_mask.frag)
         // with the variant that solves one segment; the others (0.75) solve every segment.
         auto single = variant({"common_fullscreen.vert", "relight_bendy.frag"}, defines + "#define BENDY_SINGLE 1\n");
         if (!single) return single.error();

@@ -78,9 +78,10 @@ struct BendyBlock {
     glm::vec4 axisV;                                 // w number of segments
     glm::vec4 axisW;                                 // w 1 = exact light direction
     glm::vec4 end;                                   // xyz end tangent, w end radius slope
-    // Per segment, the capsule around its chord that holds its tube (segmentCapsuleContains):
-    glm::vec4 capsuleStart[lightmath::MAX_SEGMENTS]; // xyz p0, w reach^2
-    glm::vec4 capsuleChord[lightmath::MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
+    // Per segment, the round cone around its chord that holds its tube (segmentFootprintContains):
+    glm::vec4 coneStart[lightmath::MAX_SEGMENTS]; // xyz p0, w radius at p0
+    glm::vec4 coneChord[lightmath::MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
+    glm::vec4 coneRadius[lightmath::MAX_SEGMENTS];  // x radius at p2 - radius at p0, y slope term m
 };
 static_assert(lightmath::MAX_CONTROL_POINTS == 17 && lightmath::MAX_SEGMENTS == 8,
               "BENDY_MAX_POINTS / BENDY_MAX_SEGMENTS in common_bendy.glsl must follow");
@@ -88,8 +89,9 @@ static_assert(offsetof(BendyBlock, c) == 17 * 16);
 static_assert(offsetof(BendyBlock, frameV) == 34 * 16);
 static_assert(offsetof(BendyBlock, axisU) == 43 * 16);
 static_assert(offsetof(BendyBlock, end) == 46 * 16);
-static_assert(offsetof(BendyBlock, capsuleStart) == 47 * 16);
-static_assert(sizeof(BendyBlock) == 63 * 16);
+static_assert(offsetof(BendyBlock, coneStart) == 47 * 16);
+static_assert(offsetof(BendyBlock, coneRadius) == 63 * 16);
+static_assert(sizeof(BendyBlock) == 71 * 16);
 
 inline BendyBlock toBendyBlock(const lightmath::Chain<float>& ch, bool exactDirection) {
     BendyBlock b{};
@@ -103,14 +105,24 @@ inline BendyBlock toBendyBlock(const lightmath::Chain<float>& ch, bool exactDire
     b.axisW = glm::vec4(ch.axisW, exactDirection ? 1.f : 0.f);
     b.end = glm::vec4(ch.endTangent, ch.endRadiusSlope);
     for (int k = 0; k < ch.segments; ++k) {
-        // A quadratic Bezier stays within |2 p1 - p0 - p2| / 4 of its chord (B(t) - chord(t) =
-        // t (1 - t) (2 p1 - p0 - p2)); the tube within the largest control radius of the curve
-        // (convex hull); grown by 1% against rounding.
+        // The tube around segment k lies in the round cone along its chord p0 p2 (the balls of
+        // radius (1 - t) r0' + t r2' around chord(t), t in [0, 1]): B(t) = chord(t) + t (1 - t) W,
+        // R(t) = (1 - t) r0 + t r2 + t (1 - t) (2 r1 - r0 - r2), W = 2 p1 - p0 - p2, so a point
+        // within R(t) of B(t) is within (1 - t) r0 + t r2 + max(0, 2 r1 - r0 - r2 + |W|) / 4 of
+        // chord(t); grown by 1% against rounding. Its least distance over t is convex in t: the
+        // shader clamps the stationary point h* = along + m |off| (m below; L = |p2 - p0|,
+        // dr = r2' - r0') to [0, 1]; where |dr| >= L the least lies at an end (m = +-inf).
         const glm::vec3 p0 = ch.p[2 * k], p1 = ch.p[2 * k + 1], p2 = ch.p[2 * k + 2];
-        const float reach = (0.25f * glm::length(2.f * p1 - p0 - p2) + std::max({ch.r[2 * k], ch.r[2 * k + 1], ch.r[2 * k + 2]})) * 1.01f + 1e-3f;
+        const float r0 = ch.r[2 * k], r1 = ch.r[2 * k + 1], r2 = ch.r[2 * k + 2];
+        const float bulge = 0.25f * std::max(0.f, 2.f * r1 - r0 - r2 + glm::length(2.f * p1 - p0 - p2));
+        const float ra = (r0 + bulge) * 1.01f + 1e-3f, rb = (r2 + bulge) * 1.01f + 1e-3f;
         const glm::vec3 chord = p2 - p0;
-        b.capsuleStart[k] = glm::vec4(p0, reach * reach);
-        b.capsuleChord[k] = glm::vec4(chord, 1.f / std::max(glm::dot(chord, chord), 1e-30f));
+        const float L2 = glm::dot(chord, chord), dr = rb - ra;
+        const float m = L2 - dr * dr > 1e-12f * std::max(L2, 1e-30f) ? dr / (std::sqrt(L2) * std::sqrt(L2 - dr * dr))
+                                                                    : (dr >= 0.f ? 1e30f : -1e30f);
+        b.coneStart[k] = glm::vec4(p0, ra);
+        b.coneChord[k] = glm::vec4(chord, 1.f / std::max(L2, 1e-30f));
+        b.coneRadius[k] = glm::vec4(dr, m, 0.f, 0.f);
     }
     return b;
 }

@@ -340,7 +340,8 @@ template <typename T> vec3<T> lightDirection(const Chain<T>& ch, const TubeCoord
 /// only when proven. The light reaches a point at tube coordinates (s, v, w) along its flow line,
 /// the points (s' < s, v, w): the deformed map's ray from the source to its Q' (eq. 7). With
 /// h = n . x - d along a flow line X(t) = P(t) + R(t) (v v_hat + w w_hat), v^2 + w^2 <= rho^2:
-///  - a segment whose tube (its capsule, as engine::toBendyBlock) lies at h > eps keeps h > 0;
+///  - a segment whose tube lies at h > eps keeps h > 0 (bounded by the capsule around its chord of
+///    radius |2 p1 - p0 - p2| / 4 + its largest radius, grown by rho);
 ///  - after the first segment that does not, every piece must keep h non-increasing, so that each
 ///    earlier point of a flow line is at least as high as the receiver: h' = n . P' + R' (v n.v_hat
 ///    + w n.w_hat) - R (n . u_hat) (v u_hat'.v_hat + w u_hat'.w_hat) (the rotation-minimising
@@ -356,7 +357,7 @@ template <typename T> vec3<T> lightDirection(const Chain<T>& ch, const TubeCoord
 /// A kink (a join whose tangents differ) after the first piece that is not clear moves flow lines
 /// sideways: not proven.
 template <typename T> bool flowLinesMissPlane(const Chain<T>& ch, const vec3<T>& n, T d, T eps) {
-    const T rho = T(1.01); // the capsules' growth; PCF reads a texel or two past the tube's edge
+    const T rho = T(1.01); // as the footprint's growth; PCF reads a texel or two past the tube's edge
     auto h = [&](const vec3<T>& x) { return glm::dot(n, x) - d; };
     bool touched = false;
     for (int k = 0; k < ch.segments; ++k) {
