@@ -17,7 +17,7 @@ layout(std140, binding = UBO_BENDY) uniform BendyBlock {
     vec4 bendyAxisV;                          // xyz vL, w number of segments K
     vec4 bendyAxisW;                          // xyz wL, w 1 = exact light direction
     vec4 bendyEnd;                            // xyz P'(K) (extension direction), w R'(K)
-    vec4 bendyConeStart[BENDY_MAX_SEGMENTS]; // per segment: xyz p0, w reach^2 (toBendyBlock)
+    vec4 bendyConeStart[BENDY_MAX_SEGMENTS]; // per segment: xyz p0, w radius there (toBendyBlock)
     vec4 bendyConeChord[BENDY_MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
     vec4 bendyConeRadius[BENDY_MAX_SEGMENTS];  // x radius change along the chord, y slope term m
 } uBendy;
