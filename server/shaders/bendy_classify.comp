@@ -3,7 +3,7 @@
 // deformation bends by less than the tolerance at every edge go to a plain indexed draw of their
 // deformed vertices; the others to the tessellation pipeline. llvmpipe's tessellation stage costs
 // about a microsecond per patch even when it subdivides nothing, so most triangles skip it.
-// Triangles without any mapped vertex are dropped. Closed meshes' triangles (the first
+// Triangles without any mapped vertex are dropped, and plain ones with any unmapped vertex. Closed meshes' triangles (the first
 // uClosedTriangles) and the others go to separate halves of each list, drawn with and without
 // front-face culling (GlEngine::drawCasters); the four draws are indirect commands whose index
 // counts this pass accumulates and whose first indices the engine sets.
@@ -50,6 +50,10 @@ void main() {
                           bendyEdgeLevel(d0, d1, max(k0, k1), uTexelPerDistance, uMaxLevel)));
     uint open = closed ? 0u : 1u;
     if (level <= 1.0) {
+        // The plain draw has no fragment stage (llvmpipe then skips the per-pixel shader): a
+        // triangle with an unmapped vertex, whose fragments shadow_bendy.frag would discard all
+        // but within 1e-4 of its mapped corners, is dropped here instead.
+        if (d0.w * d1.w * d2.w < 0.5) return;
         uint at = commands[5u * open + 2u] + atomicAdd(commands[5u * open], 3u);
         flatIndices[at] = i0; flatIndices[at + 1u] = i1; flatIndices[at + 2u] = i2;
     } else {

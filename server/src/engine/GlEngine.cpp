@@ -417,7 +417,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         if (!classify) return classify.error();
         mBendyClassifyProgram = std::move(classify.value());
         auto flat = gl::buildProgram({{GL_VERTEX_SHADER, "shadow_bendy_flat.vert", shaders::serverShader("shadow_bendy_flat.vert")},
-                                      {GL_FRAGMENT_SHADER, "shadow_bendy.frag", shaders::serverShader("shadow_bendy.frag")}});
+                                      {GL_FRAGMENT_SHADER, "shadow_depth.frag", shaders::serverShader("shadow_depth.frag")}});
         if (!flat) return flat.error();
         mBendyFlatProgram = std::move(flat.value());
         const size_t indexBytes = std::max<size_t>(casters.indices.size(), 3) * sizeof(uint32_t);
