@@ -80,6 +80,35 @@ template <typename To, typename From> Chain<To> convert(const Chain<From>& a) {
     return b;
 }
 
+// Runs a kernel over `points` (storage binding 0) with `block` as the BendyBlock; returns its
+// `perPoint` results of type R per point (storage binding 1).
+template <typename R>
+std::vector<R> runKernel(GLuint program, const gl::Buffer& ubo, const engine::BendyBlock& block,
+                         const std::vector<glm::vec4>& points, size_t perPoint) {
+    glNamedBufferSubData(ubo.id(), 0, sizeof block, &block);
+    gl::Buffer in = gl::makeBuffer(points.data(), points.size() * sizeof(glm::vec4));
+    std::vector<R> results(points.size() * perPoint);
+    gl::Buffer out = gl::makeBuffer(nullptr, results.size() * sizeof(R), GL_DYNAMIC_STORAGE_BIT);
+    glUseProgram(program);
+    glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, ubo.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
+    glDispatchCompute(GLuint((points.size() + 63) / 64), 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(results.size() * sizeof(R)), results.data());
+    return results;
+}
+
+// The box around a chain's control points grown by their radii.
+void chainBox(const Chain<double>& ch, glm::dvec3& lo, glm::dvec3& hi) {
+    lo = glm::dvec3(1e30);
+    hi = glm::dvec3(-1e30);
+    for (int i = 0; i <= 2 * ch.segments; ++i) {
+        lo = glm::min(lo, ch.p[i] - glm::dvec3(ch.r[i]));
+        hi = glm::max(hi, ch.p[i] + glm::dvec3(ch.r[i]));
+    }
+}
+
 double angleDeg(const glm::dvec3& a, const glm::dvec3& b) {
     return glm::degrees(std::acos(glm::clamp(glm::dot(glm::normalize(a), glm::normalize(b)), -1.0, 1.0)));
 }
@@ -102,25 +131,11 @@ TEST(BendyParity, GlslAgreesWithCppOnRandomPointsAndChains) {
     for (int c = 0; c < CHAINS; ++c) {
         const Chain<float> chf = randomChain<float>(rng, 1 + c % 4);
         const Chain<double> chd = convert<double>(chf); // the same chain, derived in double
-        glm::dvec3 lo(1e30), hi(-1e30);
-        for (int i = 0; i <= 2 * chd.segments; ++i) {
-            lo = glm::min(lo, chd.p[i] - glm::dvec3(chd.r[i]));
-            hi = glm::max(hi, chd.p[i] + glm::dvec3(chd.r[i]));
-        }
+        glm::dvec3 lo, hi;
+        chainBox(chd, lo, hi);
         std::vector<glm::vec4> pts(POINTS);
         for (auto& p : pts) p = glm::vec4(glm::vec3(lo + (hi - lo) * glm::dvec3(u(rng), u(rng), u(rng))), 1.f);
-        const engine::BendyBlock block = engine::toBendyBlock(chf, false);
-        glNamedBufferSubData(ubo.id(), 0, sizeof block, &block);
-        gl::Buffer in = gl::makeBuffer(pts.data(), pts.size() * sizeof(glm::vec4));
-        gl::Buffer out = gl::makeBuffer(nullptr, pts.size() * 4 * sizeof(glm::vec4), GL_DYNAMIC_STORAGE_BIT);
-        glUseProgram(program->id());
-        glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, ubo.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
-        glDispatchCompute(GLuint((POINTS + 63) / 64), 1, 1);
-        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-        std::vector<glm::vec4> res(pts.size() * 4);
-        glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(res.size() * sizeof(glm::vec4)), res.data());
+        const auto res = runKernel<glm::vec4>(program->id(), ubo, engine::toBendyBlock(chf, false), pts, 4);
         ASSERT_TRUE(ctx.value()->check("parity dispatch").ok());
 
         const double scale = glm::length(hi - lo);
@@ -214,11 +229,8 @@ TEST(BendyParity, SegmentRoundConesHoldTheirTubes) {
     for (int c = 0; c < CHAINS; ++c) {
         const Chain<float> chf = randomChain<float>(rng, 1 + c % 4);
         const Chain<double> chd = convert<double>(chf);
-        glm::dvec3 lo(1e30), hi(-1e30);
-        for (int i = 0; i <= 2 * chd.segments; ++i) {
-            lo = glm::min(lo, chd.p[i] - glm::dvec3(chd.r[i]));
-            hi = glm::max(hi, chd.p[i] + glm::dvec3(chd.r[i]));
-        }
+        glm::dvec3 lo, hi;
+        chainBox(chd, lo, hi);
         // Half the points on or in a segment's tube (the rim included), half anywhere in the box.
         std::vector<glm::vec4> pts(POINTS);
         std::vector<int> segment(POINTS, -1);
@@ -235,18 +247,7 @@ TEST(BendyParity, SegmentRoundConesHoldTheirTubes) {
                 pts[size_t(i)] = glm::vec4(glm::vec3(lo + (hi - lo) * glm::dvec3(u(rng), u(rng), u(rng))), 1.f);
             }
         }
-        const engine::BendyBlock block = engine::toBendyBlock(chf, false);
-        glNamedBufferSubData(ubo.id(), 0, sizeof block, &block);
-        gl::Buffer in = gl::makeBuffer(pts.data(), pts.size() * sizeof(glm::vec4));
-        gl::Buffer out = gl::makeBuffer(nullptr, pts.size() * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
-        glUseProgram(program->id());
-        glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, ubo.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
-        glDispatchCompute(GLuint((POINTS + 63) / 64), 1, 1);
-        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-        std::vector<uint32_t> mask(pts.size());
-        glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(mask.size() * sizeof(uint32_t)), mask.data());
+        const auto mask = runKernel<uint32_t>(program->id(), ubo, engine::toBendyBlock(chf, false), pts, 1);
         ASSERT_TRUE(ctx.value()->check("footprint dispatch").ok());
         for (int i = 0; i < POINTS; ++i) {
             const int k = segment[size_t(i)];
