@@ -3,7 +3,7 @@
 
 // Texture units of the G-buffer and the per-pass inputs.
 // G-buffer samples live in 2D "sample textures" of width SAMPLE_ROW (uView.sampleLayout.x):
-// sample s is the texel (s % SAMPLE_ROW, s / SAMPLE_ROW). TEX_PIXEL_SAMPLES holds, per pixel,
+// sample s is the texel (s % SAMPLE_ROW, s / SAMPLE_ROW) (sampleTexel). TEX_PIXEL_SAMPLES holds, per pixel,
 // the first sample and the sample count.
 #define TEX_GBUFFER_P 0       // RGBA32F: world position xyz, coverage A in w
 #define TEX_GBUFFER_N 1       // RGBA16F: shading normal xyz
@@ -54,7 +54,7 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
     vec4 cameraPosition;    // xyz world position of the shot camera, w = 1 if orthographic
     vec4 cameraForward;     // xyz unit view direction (orthographic views use it as -V)
     vec4 exposure;          // x = 2^stops, y = 1 for the filmic view transform
-    ivec4 sampleLayout;     // x = SAMPLE_ROW (width of the sample textures)
+    ivec4 sampleLayout;     // x = SAMPLE_ROW (width of the sample textures), y = log2 of it (deep buffers)
 } uView;
 
 // ---- Specialisation ----
@@ -85,7 +85,13 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
 #define SHADE_OUTPUT uOutput
 #endif
 
-ivec2 sampleTexel(uint s) { return ivec2(int(s) % uView.sampleLayout.x, int(s) / uView.sampleLayout.x); }
+// Deep buffers' sample textures are a power of two wide (GlEngine): a mask and a shift, as integer
+// division costs llvmpipe a loop over the lanes. (Flat buffers read samples at their pixels.)
+ivec2 sampleTexel(uint s) { return ivec2(int(s) & (uView.sampleLayout.x - 1), int(s) >> uView.sampleLayout.y); }
+
+// The texel of a contribution shaded with pixel step `step` (1, or 2 for a half-size preview)
+// that covers `pixel`: a shift, not a division (see sampleTexel).
+ivec2 previewTexel(ivec2 pixel, int step) { return pixel >> (step >> 1); }
 
 vec3 viewVector(vec3 P) {
     return uView.cameraPosition.w > 0.5 ? -uView.cameraForward.xyz : normalize(uView.cameraPosition.xyz - P);

@@ -9,4 +9,4 @@ layout(location = 0) uniform vec3 uScale;
 // pixel); 1 otherwise.
 layout(location = 1) uniform int uPixelStep;
 layout(location = 0) out vec4 oColor;
-void main() { oColor = vec4(texelFetch(uInput, ivec2(gl_FragCoord.xy) / max(uPixelStep, 1), 0).rgb * uScale, 0.0); }
+void main() { oColor = vec4(texelFetch(uInput, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb * uScale, 0.0); }

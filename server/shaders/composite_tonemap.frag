@@ -20,7 +20,7 @@ vec3 filmic(vec3 x) {
 void main() {
     vec3 c = texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb;
 #ifdef TONEMAP_ADD_HOT
-    c += texelFetch(uHot, ivec2(gl_FragCoord.xy) / max(uPixelStep, 1), 0).rgb * uScale;
+    c += texelFetch(uHot, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb * uScale;
 #endif
     c *= uView.exposure.x;
     if (uView.exposure.y > 0.5) c = filmic(max(c, vec3(0.0)));

@@ -319,3 +319,59 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
         EXPECT_LE(double(off), 0.002 * double(lit)) << l.name;
     }
 }
+
+// A deep shot whose every pixel holds its flat sample twice, at half coverage each, renders as the
+// flat shot: the deep paths (the pixel -> samples table, sampleTexel's power-of-two row layout at
+// a width that is not one) address the right samples.
+TEST(EngineDeep, EachSampleSplitInTwoRendersAsTheFlatShot) {
+    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
+    ASSERT_TRUE(scene.ok()) << scene.error().toString();
+    BakeOptions o;
+    o.width = 150; // sample textures 256 wide
+    o.height = 84;
+    auto flat = bake(scene.value(), o);
+    ASSERT_TRUE(flat.ok()) << flat.error().toString();
+    const DeepBuffer& f = flat.value();
+    ASSERT_TRUE(f.isFlat());
+    DeepBuffer d = f;
+    d.samplesPerPixel = 2;
+    d.allocateSamples(f.width, f.height, std::vector<uint32_t>(f.pixelCount(), 2));
+    auto split = [&](std::vector<float>& to, const std::vector<float>& from, size_t n) {
+        for (size_t p = 0; p < f.pixelCount(); ++p)
+            for (size_t s = 0; s < 2; ++s) std::copy_n(from.begin() + long(p * n), n, to.begin() + long((2 * p + s) * n));
+    };
+    split(d.P, f.P, 3), split(d.N, f.N, 3), split(d.Ng, f.Ng, 3), split(d.T, f.T, 4), split(d.Z, f.Z, 1);
+    split(d.albedo, f.albedo, 3), split(d.brdf, f.brdf, 4), split(d.sheen, f.sheen, 4), split(d.coat, f.coat, 2);
+    split(d.emission, f.emission, 3), split(d.A, f.A, 1);
+    for (float& a : d.A) a *= 0.5f;
+    for (size_t p = 0; p < f.pixelCount(); ++p) {
+        d.objectId[2 * p] = d.objectId[2 * p + 1] = f.objectId[p];
+        d.materialId[2 * p] = d.materialId[2 * p + 1] = f.materialId[p];
+    }
+    ASSERT_FALSE(d.isFlat());
+    const ShadowGeometry casters = shadowCasters(scene.value());
+    auto flatEngine = Engine::create(f, casters);
+    auto deepEngine = Engine::create(d, casters);
+    ASSERT_TRUE(flatEngine.ok() && deepEngine.ok());
+    const Bounds& b = scene->bounds;
+    Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+    Light bendy = rig.lights[0];
+    bendy.name = "bendy";
+    makeStraightChain(bendy, 3.f, 2);
+    bendy.controlPoints[3][2] += 0.6f;
+    rig.lights.push_back(bendy);
+    rig.lights.push_back(bulbLight(rig.lights[1], 256));
+    auto a = flatEngine.value()->renderLinear(rig);
+    auto g = deepEngine.value()->renderLinear(rig);
+    ASSERT_TRUE(a.ok() && g.ok());
+    const double diff = relativeDifference(g.value(), a.value());
+    std::printf("deep (2 half samples per pixel) vs flat: relative difference %.2e\n", diff);
+    EXPECT_LT(diff, 1e-5);
+    // The 8-bit frame too (the composite reads the contributions by pixel).
+    auto a8 = flatEngine.value()->render(rig);
+    auto g8 = deepEngine.value()->render(rig);
+    ASSERT_TRUE(a8.ok() && g8.ok());
+    int worst = 0;
+    for (size_t i = 0; i < a8->rgba.size(); ++i) worst = std::max(worst, std::abs(int(a8->rgba[i]) - int(g8->rgba[i])));
+    EXPECT_LE(worst, 1);
+}

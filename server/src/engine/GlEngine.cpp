@@ -17,6 +17,7 @@
 #include <dfb/server/ImageCodec.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -297,11 +298,12 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mFlat = g.isFlat();
     if (const char* generic = std::getenv("DFB_GENERIC_SHADERS")) mGeneric = *generic && std::string_view(generic) != "0";
 
-    // Sample textures: as wide as the image (so a flat buffer's sample texture is the image), or
-    // wider when a deep buffer's rows would exceed GL's minimum maximum texture size.
+    // Sample textures: as wide as the image (so a flat buffer's sample texture is the image); a
+    // deep buffer's are a power of two wide (sampleTexel: a mask and a shift), wider still when
+    // its rows would exceed GL's minimum maximum texture size.
     constexpr int MAX_SIDE = 16384;
     const size_t samples = std::max<size_t>(g.sampleCount(), 1);
-    mSampleRow = mWidth;
+    mSampleRow = mFlat ? mWidth : std::min(int(std::bit_ceil(unsigned(std::max(mWidth, 1)))), MAX_SIDE);
     if ((samples + size_t(mSampleRow) - 1) / size_t(mSampleRow) > size_t(MAX_SIDE)) mSampleRow = MAX_SIDE;
     const int rows = int((samples + size_t(mSampleRow) - 1) / size_t(mSampleRow));
     if (rows > MAX_SIDE) return makeError(ErrorCode::InvalidValue, "engine: too many samples for the GPU's textures");
@@ -951,7 +953,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st, bool* fused)
     view.cameraPosition = glm::vec4(mCameraPosition, mOrthographic ? 1.f : 0.f);
     view.cameraForward = glm::vec4(mCameraForward, 0.f);
     view.exposure = glm::vec4(std::exp2(rig.exposureStops), rig.viewTransform == ViewTransform::Filmic ? 1.f : 0.f, 0, 0);
-    view.sampleLayout = glm::ivec4(mSampleRow, 0, 0, 0);
+    view.sampleLayout = glm::ivec4(mSampleRow, std::countr_zero(unsigned(mSampleRow)), 0, 0);
     glNamedBufferSubData(mViewUbo.id(), 0, sizeof view, &view);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_VIEW, mViewUbo.id());
 

@@ -62,7 +62,7 @@ struct ViewBlock {
     glm::vec4 cameraPosition; // w = 1 if orthographic
     glm::vec4 cameraForward;
     glm::vec4 exposure;
-    glm::ivec4 sampleLayout;  // x = width of the sample textures
+    glm::ivec4 sampleLayout;  // x = width of the sample textures, y = log2 of it (deep buffers: a power of two)
 };
 static_assert(offsetof(ViewBlock, cameraForward) == 16);
 static_assert(offsetof(ViewBlock, exposure) == 32);
