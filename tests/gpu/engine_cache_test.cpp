@@ -321,8 +321,9 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
 }
 
 // A deep shot whose every pixel holds its flat sample twice, at half coverage each, renders as the
-// flat shot: the deep paths (the pixel -> samples table, sampleTexel's power-of-two row layout at
-// a width that is not one) address the right samples.
+// flat shot: the deep paths (relight passes once per sample over the sample textures, then summed
+// per pixel through the pixel -> samples table; sampleTexel's power-of-two row layout at a width
+// that is not one) address the right samples.
 TEST(EngineDeep, EachSampleSplitInTwoRendersAsTheFlatShot) {
     auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
     ASSERT_TRUE(scene.ok()) << scene.error().toString();
@@ -367,6 +368,18 @@ TEST(EngineDeep, EachSampleSplitInTwoRendersAsTheFlatShot) {
     const double diff = relativeDifference(g.value(), a.value());
     std::printf("deep (2 half samples per pixel) vs flat: relative difference %.2e\n", diff);
     EXPECT_LT(diff, 1e-5);
+    // Each light's shadow mask (the relight passes' other output: r = coverage-weighted visibility,
+    // g = coverage, summed per pixel the same way).
+    for (const Light& l : rig.lights) {
+        auto ma = flatEngine.value()->renderShadowMask(rig, l.name);
+        auto mg = deepEngine.value()->renderShadowMask(rig, l.name);
+        ASSERT_TRUE(ma.ok() && mg.ok()) << l.name;
+        double worstMask = 0;
+        for (size_t i = 0; i < ma->rgba.size(); ++i) {
+            if (i % 4 != 3) worstMask = std::max(worstMask, double(std::abs(ma->rgba[i] - mg->rgba[i]))); // r, g (alpha unused)
+        }
+        EXPECT_LT(worstMask, 1e-5) << l.name;
+    }
     // The 8-bit frame too (the composite reads the contributions by pixel).
     auto a8 = flatEngine.value()->render(rig);
     auto g8 = deepEngine.value()->render(rig);

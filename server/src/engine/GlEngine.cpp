@@ -164,7 +164,7 @@ private:
     std::vector<glm::vec4> mPlanes; // oriented so that every receiver is on the positive side
     bool mPlanesSkippable = false;  // ... which holds for all of them (else never left out)
     gl::Buffer mLightUbo, mViewUbo;
-    gl::Program mShadowProgram, mAddProgram, mEmissionProgram, mTonemapProgram;
+    gl::Program mShadowProgram, mAddProgram, mEmissionProgram, mTonemapProgram, mResolveProgram;
     gl::Program mBendyClassifyProgram, mBendyFlatProgram;
     gl::Buffer mFlatIndices, mTessIndices, mIndirect; // triangle lists sorted by bendy_classify.comp
     gl::VertexArray mFlatVao, mTessVao;
@@ -179,6 +179,11 @@ private:
     gl::Buffer mReadback;
     const uint8_t* mReadbackPixels = nullptr;
     gl::Texture mMaskDepth; // every contribution target's depth: the light's footprint (relight_mask.frag)
+    // Deep buffers: the relight passes run once per sample over the sample textures' layout into
+    // these (radiance, footprint), and composite_resolve.frag sums each pixel's samples.
+    gl::Texture mSampleRadiance, mSampleDepth;
+    gl::Framebuffer mSampleFb;
+    int mSampleRows = 0;
     gl::Framebuffer mAccumFb, mLdrFb;
     std::map<std::string, LightCache> mLights;
     // The sum of emission and every enabled light but the one being edited ("hot"), so that an
@@ -306,6 +311,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mSampleRow = mFlat ? mWidth : std::min(int(std::bit_ceil(unsigned(std::max(mWidth, 1)))), MAX_SIDE);
     if ((samples + size_t(mSampleRow) - 1) / size_t(mSampleRow) > size_t(MAX_SIDE)) mSampleRow = MAX_SIDE;
     const int rows = int((samples + size_t(mSampleRow) - 1) / size_t(mSampleRow));
+    mSampleRows = rows;
     if (rows > MAX_SIDE) return makeError(ErrorCode::InvalidValue, "engine: too many samples for the GPU's textures");
     mFlat = mFlat && mSampleRow == mWidth; // the flat shaders read sample (x, y) at pixel (x, y)
     mP = uploadLayer(GL_RGBA32F, mSampleRow, rows, g.P, 3, &g.A);
@@ -402,7 +408,8 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     } programs[] = {{&mShadowProgram, "shadow_depth.vert", "shadow_depth.frag"},
                     {&mAddProgram, "common_fullscreen.vert", "composite_add.frag"},
                     {&mEmissionProgram, "common_fullscreen.vert", "composite_emission.frag"},
-                    {&mTonemapProgram, "common_fullscreen.vert", "composite_tonemap.frag"}};
+                    {&mTonemapProgram, "common_fullscreen.vert", "composite_tonemap.frag"},
+                    {&mResolveProgram, "common_fullscreen.vert", "composite_resolve.frag"}};
     for (P& p : programs) {
         auto r = program(p.vert, p.frag);
         if (!r) return r.error();
@@ -822,14 +829,33 @@ Status GlEngine::shade(LightCache& c, int output) {
     // Preview frames shade every second pixel into a half-size image (progressive refinement);
     // shadow masks and full frames shade every pixel.
     const int step = mPreview && output == 0 ? 2 : 1;
-    glBindFramebuffer(GL_FRAMEBUFFER, c.contributionFb.id());
-    glViewport(0, 0, (mWidth + step - 1) / step, (mHeight + step - 1) / step);
+    // A deep buffer's full frames shade once per sample over the sample textures' layout (the
+    // flat shaders, DFB_FLAT_SAMPLES, read the sample at their fragment) and then sum each
+    // pixel's samples: no per-pixel loop whose longest pixel every lane of a group waits for.
+    const bool perSample = !mFlat && !mGeneric && step == 1;
+    GLuint target = c.contributionFb.id();
+    if (perSample) {
+        if (!mSampleFb) {
+            mSampleRadiance = gl::makeTexture2D(GL_RGBA32F, mSampleRow, mSampleRows);
+            mSampleDepth = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, mSampleRow, mSampleRows);
+            GLuint fb = 0;
+            glCreateFramebuffers(1, &fb);
+            mSampleFb = gl::Framebuffer(fb);
+            glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, mSampleRadiance.id(), 0);
+            glNamedFramebufferTexture(fb, GL_DEPTH_ATTACHMENT, mSampleDepth.id(), 0);
+            if (auto s = gl::checkFramebuffer(fb, "per-sample radiance"); !s) return s;
+        }
+        target = mSampleFb.id();
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, target);
+    if (perSample) glViewport(0, 0, mSampleRow, mSampleRows);
+    else glViewport(0, 0, (mWidth + step - 1) / step, (mHeight + step - 1) / step);
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);
     // Light linking: a bit per object id, lit where set.
     const bool linked = !l.include.empty() || !l.exclude.empty();
     if (l.type == LightType::Bendy) uploadBendy(c);
-    const std::string defines = shadeDefines(c, output, cookie != 0, linked);
+    const std::string defines = shadeDefines(c, output, cookie != 0, linked) + (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "");
     auto shader = variant({"common_fullscreen.vert", l.type == LightType::Bendy ? "relight_bendy.frag" : "relight_spot.frag"}, defines);
     if (!shader) return shader.error();
     // A light reaches part of the frame (the surfaces facing it; a spot's cone; a BendyLight's
@@ -841,8 +867,8 @@ Status GlEngine::shade(LightCache& c, int output) {
                             defines + (l.type == LightType::Bendy ? "#define SHADE_BENDY 1\n" : ""));
         if (!mask) return mask.error();
         const float zero[4] = {0.f, 0.f, 0.f, 0.f}, far = 1.f;
-        glClearNamedFramebufferfv(c.contributionFb.id(), GL_COLOR, 0, zero);
-        glClearNamedFramebufferfv(c.contributionFb.id(), GL_DEPTH, 0, &far);
+        glClearNamedFramebufferfv(target, GL_COLOR, 0, zero);
+        glClearNamedFramebufferfv(target, GL_DEPTH, 0, &far);
         glUseProgram(mask.value());
         glUniform1i(2, step);
         glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
@@ -913,6 +939,14 @@ Status GlEngine::shade(LightCache& c, int output) {
     glDisable(GL_DEPTH_TEST);
     glDepthMask(GL_TRUE);
     glDepthFunc(GL_LESS);
+    if (perSample) {
+        glBindFramebuffer(GL_FRAMEBUFFER, c.contributionFb.id());
+        glViewport(0, 0, mWidth, mHeight);
+        glUseProgram(mResolveProgram.id());
+        glBindTextureUnit(engine::TEX_INPUT, mSampleRadiance.id());
+        glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
     c.hasContribution = true;
     if (output == 0) {
         c.previewShading = step != 1;
