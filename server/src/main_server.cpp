@@ -121,6 +121,7 @@ dfb::net::SessionTokens persistentTokens(const fs::path& dir) {
 } // namespace
 
 int main(int argc, char** argv) {
+    dfb::keepFreedMemoryForFrames();
     CLI::App app{"dfb-server: relight deep framebuffers interactively over HTTP and WebSocket (protocol v1)"};
     app.footer("Each session is one shot with its own rig, history, tokens and clients. The server prints, per session, "
                "an editor and a viewer URL carrying the token.\n"

@@ -86,6 +86,7 @@ ScalingRow measureScene(const Scene& scene, int width, int height, int edits, in
 } // namespace
 
 int main(int argc, char** argv) {
+    dfb::keepFreedMemoryForFrames();
     CLI::App app{"dfb-bench: edit-to-frame time of the relight engine"};
     std::string shotPath, scenePath;
     int edits = 100, quality = 85;

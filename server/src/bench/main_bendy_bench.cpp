@@ -59,6 +59,7 @@ Light bentLight(const Bounds& b, int mapSize) {
 } // namespace
 
 int main(int argc, char** argv) {
+    dfb::keepFreedMemoryForFrames();
     CLI::App app{"dfb-bendy-bench: the cost of BendyLights"};
     std::string shotPath, assets = DFB_DEFAULT_ASSETS;
     int edits = 50;

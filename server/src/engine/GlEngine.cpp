@@ -17,6 +17,8 @@
 #include <dfb/server/ImageCodec.h>
 
 #include <algorithm>
+#include <malloc.h>
+
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -1356,6 +1358,11 @@ Result<std::unique_ptr<Engine>> Engine::create(const DeepBuffer& gbuffer, const 
     auto e = std::make_unique<GlEngine>();
     if (auto s = e->init(gbuffer, casters); !s) return s.error();
     return std::unique_ptr<Engine>(std::move(e));
+}
+
+void keepFreedMemoryForFrames() {
+    mallopt(M_TRIM_THRESHOLD, 256 << 20); // keep up to 256 MB freed at the heap's top
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);  // blocks under 32 MB (frames, bins) from the heap
 }
 
 } // namespace dfb
