@@ -265,7 +265,8 @@ TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
 }
 
 // Open planar casters (the table) are left out of the shadow maps of lights on the receivers'
-// side: every light's image is the same as with them drawn.
+// side, and meshes outside a map's frustum (a point light's cube faces) are not drawn into it:
+// every light's image is the same as with everything drawn.
 TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
     auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
     ASSERT_TRUE(scene.ok()) << scene.error().toString();
@@ -275,6 +276,8 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
     ShadowGeometry allDrawn = casters;
     allDrawn.planarIndexStart = allDrawn.indices.size();
     allDrawn.planes.clear();
+    allDrawn.parts.clear(); // and no mesh culled against a map's frustum (a cube face's)
+    ASSERT_EQ(casters.parts.size(), 5u);
     const Bounds& b = scene->bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     Light bendy = rig.lights[0];

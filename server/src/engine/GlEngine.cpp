@@ -24,6 +24,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <optional>
 #include <cstring>
@@ -126,7 +127,7 @@ private:
     void uploadBendy(LightCache& c);
     Status renderShadow(LightCache& c);
     Status renderCubeShadow(LightCache& c);
-    void drawCasters(GLsizei count);
+    void drawCasters(GLsizei count, const glm::mat4& worldToClip);
     GLsizei casterIndices(const LightCache& c) const;
     Result<GLuint> cookieTexture(const Light& l);
     Status waitGpu(const char* stage);
@@ -162,6 +163,7 @@ private:
     gl::VertexArray mCasterVao, mEmptyVao;
     GLsizei mCasterIndexCount = 0;
     GLsizei mClosedIndexCount = 0; // indices[0, this) are closed meshes (ShadowGeometry)
+    std::vector<ShadowGeometry::Part> mParts; // the meshes' index ranges and boxes, in index order
     GLsizei mPlanarStart = 0;      // indices[this, end) are open planar meshes, with these planes:
     std::vector<glm::vec4> mPlanes; // oriented so that every receiver is on the positive side
     bool mPlanesSkippable = false;  // ... which holds for all of them (else never left out)
@@ -377,6 +379,20 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mCasterIndexCount = GLsizei(casters.indices.size());
     mClosedIndexCount = GLsizei(std::min(casters.closedIndexCount, casters.indices.size()) / 3 * 3);
     mPlanarStart = GLsizei(std::clamp(casters.planarIndexStart, size_t(mClosedIndexCount), casters.indices.size()) / 3 * 3);
+    mParts = casters.parts;
+    for (const ShadowGeometry::Part& part : mParts) {
+        if (part.firstIndex % 3 || part.indexCount % 3 || part.firstIndex + part.indexCount > casters.indices.size()) {
+            mParts.clear(); // not whole triangles in range: draw everything, uncut
+            break;
+        }
+    }
+    if (mParts.empty() && !casters.indices.empty()) {
+        ShadowGeometry::Part all;
+        all.indexCount = casters.indices.size() / 3 * 3;
+        all.min = glm::vec3(-std::numeric_limits<float>::infinity());
+        all.max = glm::vec3(std::numeric_limits<float>::infinity());
+        mParts.push_back(all);
+    }
     mPlanes = casters.planes;
     mPlanesSkippable = !mPlanes.empty() && mPlanarStart < mCasterIndexCount;
     {
@@ -619,7 +635,7 @@ Status GlEngine::renderShadow(LightCache& c) {
         c.subdivisionLimit = mSubdivisionLimit;
     } else {
         glUseProgram(mShadowProgram.id());
-        drawCasters(casterIndices(c));
+        drawCasters(casterIndices(c), c.worldToLightClip);
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -656,18 +672,59 @@ GLsizei GlEngine::casterIndices(const LightCache& c) const {
 
 // The undeformed casters into the bound depth target: closed meshes with the faces towards the
 // light culled (their far side casts the same shadow on everything else and on their own unlit
-// side; llvmpipe rasterises about half as much), the rest two-sided, up to index `count`.
-void GlEngine::drawCasters(GLsizei count) {
-    if (mClosedIndexCount > 0) {
-        glEnable(GL_CULL_FACE);
-        glCullFace(GL_FRONT);
-        glDrawElements(GL_TRIANGLES, mClosedIndexCount, GL_UNSIGNED_INT, nullptr);
-        glDisable(GL_CULL_FACE);
+// side; llvmpipe rasterises about half as much), the rest two-sided, up to index `count`. Meshes
+// whose box lies wholly outside one side of the frustum (left, right, bottom or top; near and far
+// are left alone) are skipped: they cannot cover a texel, and llvmpipe would still transform and
+// clip every one of their triangles (a point light's cube face sees about a sixth of the scene).
+void GlEngine::drawCasters(GLsizei count, const glm::mat4& worldToClip) {
+    auto outside = [&](const ShadowGeometry::Part& part) {
+        if (!std::isfinite(part.min.x)) return false;
+        for (int side = 0; side < 4; ++side) {
+            // Clip-space side planes: w + x >= 0, w - x >= 0, w + y >= 0, w - y >= 0.
+            const int axis = side / 2;
+            const float sign = side % 2 ? -1.f : 1.f;
+            bool allOut = true;
+            for (int k = 0; k < 8 && allOut; ++k) {
+                const glm::vec3 corner((k & 1) ? part.max.x : part.min.x, (k & 2) ? part.max.y : part.min.y,
+                                       (k & 4) ? part.max.z : part.min.z);
+                const glm::vec4 clip = worldToClip * glm::vec4(corner, 1.f);
+                allOut = clip.w + sign * clip[axis] < 0.f;
+            }
+            if (allOut) return true;
+        }
+        return false;
+    };
+    // Runs of consecutive drawn meshes become one draw; the closed ones with front faces culled.
+    GLsizei runStart = 0, runEnd = 0;
+    bool runClosed = false;
+    auto flush = [&]() {
+        if (runEnd <= runStart) return;
+        if (runClosed) {
+            glEnable(GL_CULL_FACE);
+            glCullFace(GL_FRONT);
+        }
+        glDrawElements(GL_TRIANGLES, runEnd - runStart, GL_UNSIGNED_INT, reinterpret_cast<const void*>(size_t(runStart) * sizeof(uint32_t)));
+        if (runClosed) glDisable(GL_CULL_FACE);
+        runStart = runEnd;
+    };
+    for (const ShadowGeometry::Part& part : mParts) {
+        const auto first = GLsizei(part.firstIndex);
+        const GLsizei end = std::min(GLsizei(part.firstIndex + part.indexCount), count);
+        if (end <= first || outside(part)) continue;
+        // A range may straddle the closed/open boundary only when the parts are "everything".
+        for (GLsizei a = first; a < end;) {
+            const bool closed = a < mClosedIndexCount;
+            const GLsizei b = closed ? std::min(end, mClosedIndexCount) : end;
+            if (a != runEnd || closed != runClosed) {
+                flush();
+                runStart = a;
+                runClosed = closed;
+            }
+            runEnd = b;
+            a = b;
+        }
     }
-    if (count > mClosedIndexCount) {
-        glDrawElements(GL_TRIANGLES, count - mClosedIndexCount, GL_UNSIGNED_INT,
-                       reinterpret_cast<const void*>(size_t(mClosedIndexCount) * sizeof(uint32_t)));
-    }
+    flush();
 }
 
 Status GlEngine::renderCubeShadow(LightCache& c) {
@@ -731,7 +788,7 @@ Status GlEngine::renderCubeShadow(LightCache& c) {
         block.worldToLightClip = proj * glm::lookAt(pos, pos + targets[face], ups[face]);
         glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
         glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
-        drawCasters(casterIndices(c));
+        drawCasters(casterIndices(c), block.worldToLightClip);
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -1342,8 +1399,18 @@ ShadowGeometry shadowCasters(const Scene& scene) {
     }
     auto append = [&g](const MeshPart& p) {
         const auto base = uint32_t(g.positions.size());
+        ShadowGeometry::Part part;
+        part.firstIndex = g.indices.size();
+        part.indexCount = p.indices.size();
+        part.min = glm::vec3(1e30f);
+        part.max = glm::vec3(-1e30f);
+        for (const glm::vec3& v : p.positions) {
+            part.min = glm::min(part.min, v);
+            part.max = glm::max(part.max, v);
+        }
         g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
         for (uint32_t i : p.indices) g.indices.push_back(base + i);
+        if (part.indexCount > 0) g.parts.push_back(part);
     };
     for (const MeshPart* p : closed) append(*p);
     g.closedIndexCount = g.indices.size();
