@@ -1397,20 +1397,27 @@ ShadowGeometry shadowCasters(const Scene& scene) {
             open.push_back(&p);
         }
     }
+    // Each mesh in runs of CLUSTER triangles (meshes list neighbouring triangles near each other,
+    // so a run's box is small): a map skips the runs outside its frustum, not only whole meshes.
+    constexpr size_t CLUSTER = 2048;
     auto append = [&g](const MeshPart& p) {
         const auto base = uint32_t(g.positions.size());
-        ShadowGeometry::Part part;
-        part.firstIndex = g.indices.size();
-        part.indexCount = p.indices.size();
-        part.min = glm::vec3(1e30f);
-        part.max = glm::vec3(-1e30f);
-        for (const glm::vec3& v : p.positions) {
-            part.min = glm::min(part.min, v);
-            part.max = glm::max(part.max, v);
-        }
         g.positions.insert(g.positions.end(), p.positions.begin(), p.positions.end());
-        for (uint32_t i : p.indices) g.indices.push_back(base + i);
-        if (part.indexCount > 0) g.parts.push_back(part);
+        for (size_t at = 0; at + 3 <= p.indices.size(); at += 3 * CLUSTER) {
+            ShadowGeometry::Part part;
+            part.firstIndex = g.indices.size();
+            part.indexCount = std::min(3 * CLUSTER, p.indices.size() / 3 * 3 - at);
+            part.min = glm::vec3(1e30f);
+            part.max = glm::vec3(-1e30f);
+            for (size_t i = at; i < at + part.indexCount; ++i) {
+                if (p.indices[i] < p.positions.size()) { // (a loaded scene's always are)
+                    part.min = glm::min(part.min, p.positions[p.indices[i]]);
+                    part.max = glm::max(part.max, p.positions[p.indices[i]]);
+                }
+                g.indices.push_back(base + p.indices[i]);
+            }
+            g.parts.push_back(part);
+        }
     };
     for (const MeshPart* p : closed) append(*p);
     g.closedIndexCount = g.indices.size();

@@ -54,9 +54,9 @@ struct ShadowGeometry {
     /// docs/lighting.md). Default: none.
     size_t planarIndexStart = ~size_t(0);
     std::vector<glm::vec4> planes;
-    /// The meshes' index ranges and bounds, in index order: a shadow map draws only the meshes
-    /// whose box reaches into its frustum's sides (a point light's cube face sees a sixth of the
-    /// scene). Empty: one range of everything, never culled.
+    /// Runs of up to 2048 triangles of one mesh, with their bounds, in index order: a shadow map
+    /// draws only the runs whose box reaches into its frustum's sides (a point light's cube face
+    /// sees a sixth of the scene). Empty: one range of everything, never culled.
     struct Part {
         size_t firstIndex = 0, indexCount = 0;
         glm::vec3 min{0.f}, max{0.f};
