@@ -82,6 +82,17 @@ Result<Program> buildProgram(const std::vector<ShaderSource>& stages) {
     return program;
 }
 
+Result<Framebuffer> makeFramebuffer(GLuint color, GLuint depth, const std::string& what) {
+    GLuint id = 0;
+    glCreateFramebuffers(1, &id);
+    Framebuffer fb(id);
+    if (color) glNamedFramebufferTexture(id, GL_COLOR_ATTACHMENT0, color, 0);
+    else glNamedFramebufferDrawBuffer(id, GL_NONE);
+    if (depth) glNamedFramebufferTexture(id, GL_DEPTH_ATTACHMENT, depth, 0);
+    if (auto s = checkFramebuffer(id, what.c_str()); !s) return s.error();
+    return fb;
+}
+
 Status checkFramebuffer(GLuint fb, const char* what) {
     GLenum status = glCheckNamedFramebufferStatus(fb, GL_DRAW_FRAMEBUFFER);
     if (status != GL_FRAMEBUFFER_COMPLETE) {

@@ -27,6 +27,15 @@ double relativeDifference(const ImageF& a, const ImageF& b) {
     return worst;
 }
 
+// A BendyLight named "bendy" made from the spot `base`: two segments, the last point moved sideways.
+Light bentLight(const Light& base) {
+    Light bendy = base;
+    bendy.name = "bendy";
+    makeStraightChain(bendy, 3.f, 2);
+    bendy.controlPoints[3][2] += 0.6f;
+    return bendy;
+}
+
 // A shadowed point light and a shadowed directional light made from `base`, so that a rig has
 // every light type.
 Light bulbLight(Light l, int mapSize) {
@@ -281,10 +290,7 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
     ASSERT_EQ(casters.parts.size(), 53u);
     const Bounds& b = scene->bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
-    Light bendy = rig.lights[0];
-    bendy.name = "bendy";
-    makeStraightChain(bendy, 3.f, 2);
-    bendy.controlPoints[3][2] += 0.6f;
+    Light bendy = bentLight(rig.lights[0]);
     rig.lights.push_back(bendy);
     // dfb-bench's BendyLight: its tubes reach into the table, and their flow lines descend to it.
     const float size = glm::length(b.max - b.min);
@@ -360,11 +366,7 @@ TEST(EngineDeep, EachSampleSplitInTwoRendersAsTheFlatShot) {
     ASSERT_TRUE(flatEngine.ok() && deepEngine.ok());
     const Bounds& b = scene->bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
-    Light bendy = rig.lights[0];
-    bendy.name = "bendy";
-    makeStraightChain(bendy, 3.f, 2);
-    bendy.controlPoints[3][2] += 0.6f;
-    rig.lights.push_back(bendy);
+    rig.lights.push_back(bentLight(rig.lights[0]));
     rig.lights.push_back(bulbLight(rig.lights[1], 256));
     auto a = flatEngine.value()->renderLinear(rig);
     auto g = deepEngine.value()->renderLinear(rig);

@@ -16,19 +16,20 @@
 
 #include <dfb/server/ImageCodec.h>
 
-#include <algorithm>
-#include <malloc.h>
+#include <malloc.h> // mallopt (glibc): keepFreedMemoryForFrames
 
+#include <algorithm>
 #include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <map>
 #include <optional>
-#include <cstring>
 #include <string_view>
+#include <tuple>
 #include <unordered_map>
 
 namespace dfb::shaders {
@@ -91,6 +92,7 @@ struct LightCache {
     lightmath::Chain<float> chain; // its chain as last uploaded,
     engine::BendyBlock bendy{};    // and as the shaders see it (segments: the variants' BENDY_K)
     int bendySegments() const { return int(bendy.axisV.w + 0.5f); }
+    GLsizei casterIndexCount = 0; // casterIndices() when its shadow map was last rendered
     gl::Buffer linkMask; // light linking: one bit per object id
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
     glm::vec3 shadedRadiance{0.f}; // colour x intensity the contribution was shaded with
@@ -463,22 +465,12 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     // linear output (GL_FRAMEBUFFER_SRGB), cheaper than the shader doing it.
     mLdr = gl::makeTexture2D(GL_SRGB8_ALPHA8, mWidth, mHeight);
     mStatic = gl::makeTexture2D(GL_RGBA32F, mWidth, mHeight);
-    {
-        GLuint sfb = 0;
-        glCreateFramebuffers(1, &sfb);
-        mStaticFb = gl::Framebuffer(sfb);
-        glNamedFramebufferTexture(sfb, GL_COLOR_ATTACHMENT0, mStatic.id(), 0);
-        if (auto s = gl::checkFramebuffer(sfb, "static sum"); !s) return s;
+    for (auto [fb, texture, what] : {std::tuple{&mStaticFb, &mStatic, "static sum"}, std::tuple{&mAccumFb, &mAccum, "accumulation"},
+                                      std::tuple{&mLdrFb, &mLdr, "8-bit output"}}) {
+        auto made = gl::makeFramebuffer(texture->id(), 0, what);
+        if (!made) return made.error();
+        *fb = std::move(made.value());
     }
-    GLuint fb = 0;
-    glCreateFramebuffers(1, &fb);
-    mAccumFb = gl::Framebuffer(fb);
-    glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, mAccum.id(), 0);
-    if (auto s = gl::checkFramebuffer(fb, "accumulation"); !s) return s;
-    glCreateFramebuffers(1, &fb);
-    mLdrFb = gl::Framebuffer(fb);
-    glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, mLdr.id(), 0);
-    if (auto s = gl::checkFramebuffer(fb, "8-bit output"); !s) return s;
     return mContext->check("engine initialisation");
 }
 
@@ -552,12 +544,9 @@ Status GlEngine::renderShadow(LightCache& c) {
         glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
         glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
         glTextureParameteri(c.shadowMap.id(), GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
-        GLuint fb = 0;
-        glCreateFramebuffers(1, &fb);
-        c.shadowFb = gl::Framebuffer(fb);
-        glNamedFramebufferTexture(fb, GL_DEPTH_ATTACHMENT, c.shadowMap.id(), 0);
-        glNamedFramebufferDrawBuffer(fb, GL_NONE);
-        if (auto s = gl::checkFramebuffer(fb, ("shadow map of light '" + l.name + "'").c_str()); !s) return s;
+        auto fb = gl::makeFramebuffer(0, c.shadowMap.id(), "shadow map of light '" + l.name + "'");
+        if (!fb) return fb.error();
+        c.shadowFb = std::move(fb.value());
     }
     c.worldToLightClip = lightViewProj(l);
     engine::LightBlock block{};
@@ -600,7 +589,8 @@ Status GlEngine::renderShadow(LightCache& c) {
         const uint32_t commands[20] = {0, 1, 0, 0, 0, 0, 1, closed, 0, 0, 0, 1, 0, 0, 0, 0, 1, closed, 0, 0};
         glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, commands);
         glUseProgram(mBendyClassifyProgram.id());
-        const GLuint triangles = GLuint(casterIndices(c) / 3);
+        c.casterIndexCount = casterIndices(c);
+        const GLuint triangles = GLuint(c.casterIndexCount / 3);
         glUniform1ui(0, triangles);
         glUniform1f(1, float(mSubdivisionLimit));
         glUniform1f(2, texelPerDistance);
@@ -635,7 +625,8 @@ Status GlEngine::renderShadow(LightCache& c) {
         c.subdivisionLimit = mSubdivisionLimit;
     } else {
         glUseProgram(mShadowProgram.id());
-        drawCasters(casterIndices(c), c.worldToLightClip);
+        c.casterIndexCount = casterIndices(c);
+        drawCasters(c.casterIndexCount, c.worldToLightClip);
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -679,20 +670,18 @@ GLsizei GlEngine::casterIndices(const LightCache& c) const {
 void GlEngine::drawCasters(GLsizei count, const glm::mat4& worldToClip) {
     auto outside = [&](const ShadowGeometry::Part& part) {
         if (!std::isfinite(part.min.x)) return false;
-        for (int side = 0; side < 4; ++side) {
-            // Clip-space side planes: w + x >= 0, w - x >= 0, w + y >= 0, w - y >= 0.
-            const int axis = side / 2;
-            const float sign = side % 2 ? -1.f : 1.f;
-            bool allOut = true;
-            for (int k = 0; k < 8 && allOut; ++k) {
-                const glm::vec3 corner((k & 1) ? part.max.x : part.min.x, (k & 2) ? part.max.y : part.min.y,
-                                       (k & 4) ? part.max.z : part.min.z);
-                const glm::vec4 clip = worldToClip * glm::vec4(corner, 1.f);
-                allOut = clip.w + sign * clip[axis] < 0.f;
-            }
-            if (allOut) return true;
+        // A bit per clip-space side plane (w + x, w - x, w + y, w - y >= 0) that every corner
+        // of the box is outside of.
+        unsigned allOut = 15u;
+        for (int k = 0; k < 8 && allOut; ++k) {
+            const glm::vec3 corner((k & 1) ? part.max.x : part.min.x, (k & 2) ? part.max.y : part.min.y,
+                                   (k & 4) ? part.max.z : part.min.z);
+            const glm::vec4 clip = worldToClip * glm::vec4(corner, 1.f);
+            const unsigned out = (clip.w + clip.x < 0.f ? 1u : 0u) | (clip.w - clip.x < 0.f ? 2u : 0u) |
+                                 (clip.w + clip.y < 0.f ? 4u : 0u) | (clip.w - clip.y < 0.f ? 8u : 0u);
+            allOut &= out;
         }
-        return false;
+        return allOut != 0u;
     };
     // Runs of consecutive drawn meshes become one draw; the closed ones with front faces culled.
     GLsizei runStart = 0, runEnd = 0;
@@ -778,6 +767,7 @@ Status GlEngine::renderCubeShadow(LightCache& c) {
     glUseProgram(mShadowProgram.id());
     glBindVertexArray(mCasterVao.id());
     const float one = 1.f;
+    c.casterIndexCount = casterIndices(c);
     for (int face = 0; face < 6; ++face) {
         glNamedFramebufferTextureLayer(c.shadowFb.id(), GL_DEPTH_ATTACHMENT, c.shadowMap.id(), 0, face);
         if (face == 0) {
@@ -788,7 +778,7 @@ Status GlEngine::renderCubeShadow(LightCache& c) {
         block.worldToLightClip = proj * glm::lookAt(pos, pos + targets[face], ups[face]);
         glNamedBufferSubData(mLightUbo.id(), 0, sizeof block, &block);
         glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_LIGHT, mLightUbo.id());
-        drawCasters(casterIndices(c), block.worldToLightClip);
+        drawCasters(c.casterIndexCount, block.worldToLightClip);
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
     glDisable(GL_DEPTH_TEST);
@@ -827,13 +817,10 @@ Status GlEngine::shade(LightCache& c, int output) {
     const Light& l = c.params;
     if (!c.contribution) {
         c.contribution = gl::makeTexture2D(GL_RGBA16F, mWidth, mHeight);
-        GLuint fb = 0;
-        glCreateFramebuffers(1, &fb);
-        c.contributionFb = gl::Framebuffer(fb);
-        glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, c.contribution.id(), 0);
         if (!mMaskDepth) mMaskDepth = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, mWidth, mHeight);
-        glNamedFramebufferTexture(fb, GL_DEPTH_ATTACHMENT, mMaskDepth.id(), 0);
-        if (auto s = gl::checkFramebuffer(fb, ("contribution of light '" + l.name + "'").c_str()); !s) return s;
+        auto fb = gl::makeFramebuffer(c.contribution.id(), mMaskDepth.id(), "contribution of light '" + l.name + "'");
+        if (!fb) return fb.error();
+        c.contributionFb = std::move(fb.value());
     }
     engine::LightBlock block{};
     block.worldToLightClip = c.worldToLightClip;
@@ -897,12 +884,9 @@ Status GlEngine::shade(LightCache& c, int output) {
         if (!mSampleFb) {
             mSampleRadiance = gl::makeTexture2D(GL_RGBA32F, mSampleRow, mSampleRows);
             mSampleDepth = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, mSampleRow, mSampleRows);
-            GLuint fb = 0;
-            glCreateFramebuffers(1, &fb);
-            mSampleFb = gl::Framebuffer(fb);
-            glNamedFramebufferTexture(fb, GL_COLOR_ATTACHMENT0, mSampleRadiance.id(), 0);
-            glNamedFramebufferTexture(fb, GL_DEPTH_ATTACHMENT, mSampleDepth.id(), 0);
-            if (auto s = gl::checkFramebuffer(fb, "per-sample radiance"); !s) return s;
+            auto fb = gl::makeFramebuffer(mSampleRadiance.id(), mSampleDepth.id(), "per-sample radiance");
+            if (!fb) return fb.error();
+            mSampleFb = std::move(fb.value());
         }
         target = mSampleFb.id();
     }
@@ -1066,7 +1050,7 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st, bool* fused)
             c.hasContribution = false;
             if (auto s = renderShadow(c); !s) return s;
             ++st.shadowMapsRendered;
-            st.shadowCasterTriangles += casterIndices(c) / 3;
+            st.shadowCasterTriangles += c.casterIndexCount / 3;
         } else if (!l.shadow && !sameShadowInputs(c.params, l)) {
             c.worldToLightClip = lightViewProj(l);
             c.hasShadow = false;

@@ -74,4 +74,8 @@ Result<Program> buildProgram(const std::vector<ShaderSource>& stages);
 /// Checks that the bound draw framebuffer `fb` is complete.
 Status checkFramebuffer(GLuint fb, const char* what);
 
+/// A framebuffer with the 2D texture `color` (0: none, draw buffer NONE) and the depth texture
+/// `depth` (0: none) attached at level 0, checked complete (error names `what`).
+Result<Framebuffer> makeFramebuffer(GLuint color, GLuint depth, const std::string& what);
+
 } // namespace dfb::gl
