@@ -1,5 +1,7 @@
 #include "Connection.h"
 
+#include <dfb/protocol/Json.h>
+
 #include <utility> // before Boost 1.74's asio, which uses std::exchange without it
 
 #include <boost/asio.hpp>
@@ -11,6 +13,11 @@
 #include <sys/time.h>
 
 namespace dfb::client {
+
+namespace {
+// The server's text messages (a welcome with a rig of the largest size) stay far below this.
+constexpr size_t MAX_SERVER_TEXT_BYTES = 64u << 20;
+} // namespace
 
 namespace beast = boost::beast;
 namespace http = beast::http;
@@ -127,7 +134,8 @@ Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::
     impl->ws.handshake(res, url.host + ":" + url.port, target, ec);
     if (ec == websocket::error::upgrade_declined) {
         // The server said why (no token, unknown session): its JSON error, verbatim.
-        auto j = nlohmann::json::parse(res.body(), nullptr, false);
+        auto parsed = protocol::parseJson(res.body(), 1 << 20, "the server's answer");
+        const nlohmann::json j = parsed ? std::move(parsed.value()) : nlohmann::json();
         const std::string code = j.is_object() ? j.value("code", "") : "";
         const ErrorCode c = code == "unauthorized" ? ErrorCode::Unauthorized : code == "missing_data" ? ErrorCode::MissingData : ErrorCode::Protocol;
         return makeError(c, "HTTP " + std::to_string(res.result_int()) + ": " + res.body());
@@ -153,9 +161,9 @@ Result<ServerMessage> Connection::receive(std::chrono::milliseconds timeout) {
                 [&](auto handler) { mImpl->ws.async_read(mImpl->buffer, handler); });
     if (ec) return netError("receiving", ec);
     if (mImpl->ws.got_text()) {
-        auto j = nlohmann::json::parse(beast::buffers_to_string(mImpl->buffer.data()), nullptr, false);
-        if (j.is_discarded() || !j.is_object()) return makeError(ErrorCode::Protocol, "server sent invalid JSON");
-        return ServerMessage{TextMessage{std::move(j)}};
+        auto j = protocol::parseJson(beast::buffers_to_string(mImpl->buffer.data()), MAX_SERVER_TEXT_BYTES, "server message");
+        if (!j || !j->is_object()) return makeError(ErrorCode::Protocol, "server sent invalid JSON");
+        return ServerMessage{TextMessage{std::move(j.value())}};
     }
     const auto* data = static_cast<const uint8_t*>(mImpl->buffer.data().data());
     const size_t size = mImpl->buffer.size();

@@ -87,7 +87,8 @@ public:
     const std::string& session() {
         if (!mSession.empty()) return mSession;
         auto r = request("GET", "/v1/sessions");
-        json j = json::parse(r.body, nullptr, false);
+        auto parsed = protocol::parseJson(r.body, 64u << 20, "GET /v1/sessions");
+        const json j = parsed ? std::move(parsed.value()) : json();
         if (!j.is_object() || !j["sessions"].is_array()) die(EXIT_BROKEN, "GET /v1/sessions: unreadable answer");
         if (j["sessions"].size() != 1) {
             std::string ids;
@@ -410,7 +411,9 @@ int main(int argc, char** argv) {
                 if (baseOpt->count()) body["base"] = baseVersion;
                 if (ifVersionOpt->count()) body["ifVersion"] = ifVersion;
             } else {
-                json j = json::parse(readFile(applyFile), nullptr, false);
+                auto parsed = protocol::parseJson(readFile(applyFile), protocol::MAX_TEXT_MESSAGE_BYTES, applyFile);
+                if (!parsed) die(EXIT_USAGE, parsed.error().message);
+                const json& j = parsed.value();
                 if (j.is_array()) body["changes"] = j;
                 else if (j.is_object()) body = j;
                 else die(EXIT_USAGE, applyFile + ": expected a JSON object {\"changes\": [...]} or an array of changes");

@@ -1,4 +1,5 @@
 #include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Json.h>
 
 #include <algorithm>
 #include <cmath>
@@ -26,7 +27,7 @@ Result<float> getNumber(const json& v, const std::string& path, double lo, doubl
     const double d = v.get<double>();
     if (!std::isfinite(d)) return invalid(path + ": not a finite number");
     if (d < lo || d > hi) {
-        return invalid(path + ": " + v.dump() + " is out of range [" + json(lo).dump() + ", " + json(hi).dump() + "]");
+        return invalid(path + ": " + excerpt(v) + " is out of range [" + json(lo).dump() + ", " + json(hi).dump() + "]");
     }
     return float(d);
 }
@@ -81,7 +82,12 @@ Status setChainProperty(Light& l, const std::string& name, int index, const json
     if (l.type != LightType::Bendy) return invalid(path + ": '" + name + "' applies to BendyLights only (set type to \"bendy\")");
     const int K = l.segments();
     if (name == "controlPoints") {
-        if (!v.is_array() || v.size() < 2 || v.size() > size_t(2 * MAX_BENDY_SEGMENTS) || v.size() % 2 != 0) {
+        if (v.is_array() && v.size() > size_t(2 * MAX_BENDY_SEGMENTS)) {
+            return makeError(ErrorCode::LimitExceeded, path + ": " + std::to_string(v.size()) + " control points; the limit is " +
+                                                           std::to_string(2 * MAX_BENDY_SEGMENTS) + " per chain (" +
+                                                           std::to_string(MAX_BENDY_SEGMENTS) + " segments)");
+        }
+        if (!v.is_array() || v.size() < 2 || v.size() % 2 != 0) {
             return invalid(path + ": expected an even number (2.." + std::to_string(2 * MAX_BENDY_SEGMENTS) +
                            ") of [a, b, c] points in the light's frame");
         }
@@ -202,7 +208,7 @@ Status setKeys(Light& l, const std::string& name, const json& v, const std::stri
     auto& ks = it->second;
     const auto before = ks.size();
     ks.erase(std::remove_if(ks.begin(), ks.end(), [&](const Key& k) { return std::abs(k.time - t) < 1e-9; }), ks.end());
-    if (ks.size() == before) return makeError(ErrorCode::MissingData, path + ": no key of '" + prop + "' at t = " + json(t).dump());
+    if (ks.size() == before) return makeError(ErrorCode::MissingData, path + ": no key of '" + prop + "' at t = " + excerpt(json(t)));
     if (ks.empty()) l.keys.erase(it);
     return okStatus();
 }
@@ -234,7 +240,7 @@ Status setLightProperty(Light& l, const std::string& prop, const json& v, const 
             if (l.controlPoints.empty()) makeStraightChain(l, 4.f);
             l.type = LightType::Bendy;
         } else {
-            return invalid(path + ": unknown light type " + v.dump() + " (\"spot\", \"point\", \"bendy\" or \"directional\")");
+            return invalid(path + ": unknown light type " + excerpt(v) + " (\"spot\", \"point\", \"bendy\" or \"directional\")");
         }
     } else if (prop == "include" || prop == "exclude") {
         if (!v.is_array() || v.size() > 4096) return invalid(path + ": expected an array of object ids (at most 4096)");
@@ -442,7 +448,7 @@ Status applyChange(Rig& rig, const Change& c) {
     if (c.path == "viewTransform") {
         if (c.value == "srgb") rig.viewTransform = ViewTransform::Srgb;
         else if (c.value == "filmic") rig.viewTransform = ViewTransform::Filmic;
-        else return invalid("viewTransform: " + c.value.dump() + " is not \"srgb\" or \"filmic\"");
+        else return invalid("viewTransform: " + excerpt(c.value) + " is not \"srgb\" or \"filmic\"");
         return okStatus();
     }
     if (c.path == "exposure") {
@@ -532,28 +538,67 @@ Rig evaluateRig(const Rig& rig) {
     return out;
 }
 
+uint64_t lightMemoryBytes(const Light& l, const RigLimits& limits) {
+    if (!l.enabled) return 0;
+    uint64_t bytes = limits.imagePixels * 8; // its contribution image, RGBA16F
+    if (l.shadow) {
+        const uint64_t side = uint64_t(l.shadowMapSize);
+        bytes += side * side * 4 * (l.type == LightType::Point ? 6 : 1);
+    }
+    return bytes;
+}
+
+Status checkRigLimits(const Rig& rig, const RigLimits& limits) {
+    auto over = [](const std::string& what) { return makeError(ErrorCode::LimitExceeded, what); };
+    if (rig.lights.size() > limits.maxLights) {
+        return over("the rig would have " + std::to_string(rig.lights.size()) + " lights; the limit is " +
+                    std::to_string(limits.maxLights) + " lights per rig (--max-lights)");
+    }
+    uint64_t bytes = 0;
+    for (const Light& l : rig.lights) {
+        for (const auto& [prop, ks] : l.keys) {
+            if (ks.size() > limits.maxKeysPerProperty) {
+                return over(l.name + ".keys." + prop + ": " + std::to_string(ks.size()) + " keyframes; the limit is " +
+                            std::to_string(limits.maxKeysPerProperty) + " per property (--max-keys)");
+            }
+        }
+        bytes += lightMemoryBytes(l, limits);
+    }
+    if (bytes > limits.maxLightMemoryBytes) {
+        const auto mb = [](uint64_t b) { return std::to_string((b + (1u << 20) - 1) >> 20); };
+        return over("the lights' shadow maps and cached images would need " + mb(bytes) + " MB; the limit is " +
+                    mb(limits.maxLightMemoryBytes) + " MB per session (--max-light-memory-mb); use smaller shadow maps "
+                    "(shadowMapSize), fewer shadowed lights, or disable lights");
+    }
+    return okStatus();
+}
+
+// A command-line value is at most what one WebSocket message may carry.
+constexpr size_t MAX_TEXT_MESSAGE_VALUE_BYTES = 1 << 20;
+
 Result<Change> parseAssignment(std::string_view text) {
     const size_t eq = text.find('=');
     if (eq == std::string_view::npos || eq == 0) return invalid("'" + std::string(text) + "': expected PATH=VALUE");
     Change c;
     c.path = std::string(text.substr(0, eq));
     const std::string rhs(text.substr(eq + 1));
-    json v = json::parse(rhs, nullptr, false);
-    if (!v.is_discarded()) {
-        c.value = v;
+    auto v = parseJson(rhs, MAX_TEXT_MESSAGE_VALUE_BYTES, c.path);
+    if (v) {
+        c.value = std::move(v.value());
         return c;
     }
+    if (v.error().code == ErrorCode::LimitExceeded) return v.error();
     if (rhs.find(',') != std::string::npos) {
         json arr = json::array();
         size_t start = 0;
         while (start <= rhs.size()) {
             size_t end = rhs.find(',', start);
             if (end == std::string::npos) end = rhs.size();
-            json n = json::parse(rhs.substr(start, end - start), nullptr, false);
-            if (n.is_discarded() || !n.is_number()) {
+            auto n = parseJson(std::string_view(rhs).substr(start, end - start), 64, c.path);
+            if (!n || !n->is_number()) {
                 return invalid("'" + std::string(text) + "': list items must be numbers");
             }
-            arr.push_back(n);
+            arr.push_back(n.value());
             start = end + 1;
         }
         c.value = arr;

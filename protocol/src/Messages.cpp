@@ -1,5 +1,7 @@
 #include <dfb/protocol/Messages.h>
 
+#include <dfb/protocol/Json.h>
+
 #include <cmath>
 #include <cctype>
 #include <cstdlib>
@@ -112,7 +114,7 @@ Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
             if (x == "jpeg" || x == "jpg") v.encoding = Encoding::Jpeg;
             else if (x == "png") v.encoding = Encoding::Png;
             else if (x == "exr") v.encoding = Encoding::Exr;
-            else return invalid("view.encoding: " + dump(x) + " is not \"jpeg\", \"png\" or \"exr\"");
+            else return invalid("view.encoding: " + excerpt(x) + " is not \"jpeg\", \"png\" or \"exr\"");
         } else if (k == "quality") {
             if (!x.is_number_integer() || x.get<int64_t>() < 1 || x.get<int64_t>() > 100) {
                 return invalid("view.quality: expected an integer in [1, 100]");
@@ -125,7 +127,7 @@ Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
             v.exposureStops = x.get<float>();
         } else if (k == "viewTransform") {
             if (x != "rig" && x != "srgb" && x != "filmic") {
-                return invalid("view.viewTransform: " + dump(x) + " is not \"rig\", \"srgb\" or \"filmic\"");
+                return invalid("view.viewTransform: " + excerpt(x) + " is not \"rig\", \"srgb\" or \"filmic\"");
             }
             v.viewTransform = x.get<std::string>();
         } else {
@@ -153,9 +155,9 @@ Result<ViewSettings> viewFromQuery(std::string_view query) {
         } else if (k == "format" || k == "encoding") {
             j["encoding"] = val;
         } else if (k == "quality" || k == "exposure") {
-            json n = json::parse(val, nullptr, false);
-            if (n.is_discarded() || !n.is_number()) return invalid(k + "=" + val + ": expected a number");
-            j[k] = n;
+            auto n = parseJson(val, 64, k);
+            if (!n || !n->is_number()) return invalid(k + "=" + excerpt(json(val)) + ": expected a number");
+            j[k] = n.value();
         } else if (k == "token") {
             // The access token travels in the query for browsers; it is not a view setting.
         } else {
@@ -166,15 +168,18 @@ Result<ViewSettings> viewFromQuery(std::string_view query) {
 }
 
 std::optional<uint64_t> peekSeq(std::string_view text) {
-    json j = json::parse(text, nullptr, false);
-    if (j.is_object() && j.contains("seq") && j["seq"].is_number_unsigned()) return j["seq"].get<uint64_t>();
+    auto j = parseJson(text, MAX_TEXT_MESSAGE_BYTES, "message");
+    if (j && j->is_object() && j->contains("seq") && (*j)["seq"].is_number_unsigned()) return (*j)["seq"].get<uint64_t>();
     return std::nullopt;
 }
 
 Result<ClientMessage> parseClientMessage(std::string_view text) {
-    if (text.size() > MAX_TEXT_MESSAGE_BYTES) return protocolError("message larger than 1 MiB");
-    json j = json::parse(text, nullptr, false);
-    if (j.is_discarded()) return protocolError("message is not valid JSON");
+    auto j = parseJson(text, MAX_TEXT_MESSAGE_BYTES, "message");
+    if (!j) return j.error();
+    return clientMessageFromJson(j.value());
+}
+
+Result<ClientMessage> clientMessageFromJson(const json& j) {
     if (!j.is_object()) return protocolError("message must be a JSON object");
     if (!j.contains("type") || !j["type"].is_string()) return protocolError("message needs a string field 'type'");
     const std::string type = j["type"];
@@ -183,11 +188,13 @@ Result<ClientMessage> parseClientMessage(std::string_view text) {
         HelloMessage m;
         if (j.contains("protocol")) {
             if (!j["protocol"].is_number_integer()) return protocolError("hello.protocol: expected an integer");
-            m.protocol = j["protocol"].get<int>();
-            if (m.protocol != PROTOCOL_VERSION) {
-                return protocolError("hello.protocol: version " + std::to_string(m.protocol) + " is not supported (server speaks " +
+            // Compared as read (64-bit): a narrowing cast made 2^32 + 1 look like version 1.
+            const json& p = j["protocol"];
+            if (!(p.is_number_unsigned() ? p.get<uint64_t>() == uint64_t(PROTOCOL_VERSION) : p.get<int64_t>() == PROTOCOL_VERSION)) {
+                return protocolError("hello.protocol: version " + excerpt(p) + " is not supported (server speaks " +
                                      std::to_string(PROTOCOL_VERSION) + ")");
             }
+            m.protocol = PROTOCOL_VERSION;
         }
         if (j.contains("name")) {
             if (!j["name"].is_string()) return protocolError("hello.name: expected a string");

@@ -72,12 +72,24 @@ std::string nameFromPath(const std::string& path) {
     return n.substr(0, 64);
 }
 
+// A small JSON file of the operator's (tokens), read through the bounded parser.
+constexpr size_t MAX_TOKEN_FILE_BYTES = 1 << 20;
+
+dfb::Result<json> readJsonFile(const std::string& path, std::string_view what) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return dfb::makeError(dfb::ErrorCode::FileNotFound, path + ": cannot open the " + std::string(what));
+    std::string text(MAX_TOKEN_FILE_BYTES + 1, '\0');
+    in.read(text.data(), std::streamsize(text.size()));
+    text.resize(size_t(in.gcount()));
+    return dfb::protocol::parseJson(text, MAX_TOKEN_FILE_BYTES, path);
+}
+
 // Reads {"sessions": {"NAME": {"editor": "...", "viewer": "..."}}}.
 dfb::Result<std::map<std::string, dfb::net::SessionTokens>> readTokenFile(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) return dfb::makeError(dfb::ErrorCode::FileNotFound, path + ": cannot open the token file");
-    json j = json::parse(in, nullptr, false);
-    if (j.is_discarded() || !j.is_object() || !j.contains("sessions") || !j["sessions"].is_object()) {
+    auto parsed = readJsonFile(path, "token file");
+    if (!parsed && parsed.error().code == dfb::ErrorCode::FileNotFound) return parsed.error();
+    const json j = parsed ? std::move(parsed.value()) : json();
+    if (!j.is_object() || !j.contains("sessions") || !j["sessions"].is_object()) {
         return dfb::makeError(dfb::ErrorCode::InvalidFile, path + ": expected {\"sessions\": {\"NAME\": {\"editor\": TOKEN, \"viewer\": TOKEN}}}");
     }
     std::map<std::string, dfb::net::SessionTokens> out;
@@ -101,8 +113,8 @@ dfb::Result<std::map<std::string, dfb::net::SessionTokens>> readTokenFile(const 
 // restarted server keeps every link that was handed out.
 dfb::net::SessionTokens persistentTokens(const fs::path& dir) {
     const fs::path p = dir / "tokens.json";
-    if (std::ifstream in(p); in) {
-        json j = json::parse(in, nullptr, false);
+    if (auto parsed = readJsonFile(p.string(), "tokens"); parsed) {
+        const json& j = parsed.value();
         if (j.is_object() && j.value("editor", "") != "" && j.value("viewer", "") != "" && validToken(j["editor"]) && validToken(j["viewer"])) {
             return {j["editor"], j["viewer"]};
         }
@@ -144,7 +156,29 @@ int main(int argc, char** argv) {
                    "ms: an edit within this time of the previous one renders with preview shadow maps, refined when "
                    "edits stop (0 = always full quality)")
         ->check(CLI::Range(0, 10000));
+    dfb::protocol::RigLimits rigLimits;
+    dfb::net::ServerLimits serverLimits;
+    uint64_t lightMemoryMb = rigLimits.maxLightMemoryBytes >> 20;
+    app.add_option("--max-lights", rigLimits.maxLights, "most lights in one rig")->check(CLI::Range(1, 65536))->capture_default_str();
+    app.add_option("--max-keys", rigLimits.maxKeysPerProperty, "most keyframes of one property of one light")
+        ->check(CLI::Range(1, 1 << 20))
+        ->capture_default_str();
+    app.add_option("--max-light-memory-mb", lightMemoryMb,
+                   "MB of GPU memory the lights of one session may use (shadow maps and cached images)")
+        ->check(CLI::Range(16, 1 << 24))
+        ->capture_default_str();
+    app.add_option("--max-clients-per-session", serverLimits.maxClientsPerSession, "most WebSocket clients of one session")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    app.add_option("--max-connections-per-address", serverLimits.maxConnectionsPerAddress,
+                   "most open connections from one IP address")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    app.add_option("--metrics-session-names", serverLimits.metricsSessionNames,
+                   "label /metrics series with session names (false: sums without names)")
+        ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
+    rigLimits.maxLightMemoryBytes = lightMemoryMb << 20;
 
     std::vector<SessionSpec> specs;
     if (!shotPath.empty()) specs.push_back({nameFromPath(shotPath), shotPath});
@@ -200,12 +234,31 @@ int main(int argc, char** argv) {
 
     boost::asio::io_context ioc(1);
     auto state = std::make_shared<dfb::net::SharedState>(ioc);
+    state->limits() = serverLimits;
+    if (!assets.empty()) state->addPrivateDirectory(assets);
+    if (!stateDir.empty()) state->addPrivateDirectory(stateDir);
+    if (!sessionsDir.empty()) state->addPrivateDirectory(sessionsDir);
     std::vector<std::string> banner;
+    // A session that cannot be opened is reported and refused on its own (503 to its clients);
+    // the others are served. Only when none opens does the server stop.
+    int failedExit = 0;
+    auto tokensFor = [&](const SessionSpec& spec, const fs::path& dir) {
+        if (auto it = configured.find(spec.name); it != configured.end()) return it->second;
+        if (!dir.empty()) return persistentTokens(dir);
+        return dfb::net::SessionTokens{randomToken(), randomToken()};
+    };
+    auto failSession = [&](const SessionSpec& spec, const fs::path& dir, const dfb::Error& e, std::string publicReason, int exitCode) {
+        std::cerr << "dfb-server: session " << spec.name << " is not served: " << e.toString() << "\n";
+        state->addFailed({spec.name, tokensFor(spec, dir), std::move(publicReason)});
+        if (failedExit == 0) failedExit = exitCode;
+    };
     for (const SessionSpec& spec : specs) {
+        const fs::path dir = stateDir.empty() ? fs::path() : fs::path(stateDir) / spec.name;
+        state->addPrivateDirectory(fs::path(spec.shotPath).parent_path().string());
         auto shot = dfb::readDeepBuffer(spec.shotPath);
         if (!shot) {
-            std::cerr << "dfb-server: " << shot.error().toString() << "\n";
-            return EXIT_INPUT;
+            failSession(spec, dir, shot.error(), "its shot cannot be read (see the server's log)", EXIT_INPUT);
+            continue;
         }
         std::string scene = scenePath;
         if (scene.empty()) {
@@ -218,28 +271,29 @@ int main(int argc, char** argv) {
         }
         auto loaded = dfb::loadScene(scene);
         if (!loaded) {
-            std::cerr << "dfb-server: shadow casters: " << loaded.error().toString()
-                      << (scene == shot->sourcePath ? " (the shot's source scene; pass --scene)" : "") << "\n";
-            return EXIT_INPUT;
+            failSession(spec, dir,
+                        dfb::makeError(loaded.error().code, "shadow casters: " + loaded.error().message +
+                                                                (scene == shot->sourcePath ? " (the shot's source scene; pass --scene)" : "")),
+                        "its scene cannot be read (see the server's log)", EXIT_INPUT);
+            continue;
         }
-        const fs::path dir = stateDir.empty() ? fs::path() : fs::path(stateDir) / spec.name;
         bool imported = false;
         dfb::Rig rig = dfb::initialRig(loaded.value(), &imported);
         auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, rig, dir);
         if (!session) {
-            std::cerr << "dfb-server: session " << spec.name << ": " << session.error().toString() << "\n";
-            return EXIT_INPUT;
+            // The journal's own message names the line and the reason; clients get it without
+            // the server's folders.
+            failSession(spec, dir, session.error(), state->redact(session.error().message), EXIT_INPUT);
+            continue;
         }
+        session.value()->setLimits(rigLimits);
         if (imported && session.value()->rigVersion() == rig.version) {
             std::printf("dfb-server: session %s: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", spec.name.c_str(),
                         rig.lights.size());
         }
         const std::string assetDir = !assets.empty() ? assets : fs::path(spec.shotPath).parent_path().string();
         session.value()->setAssetDirectory(assetDir.empty() ? "." : assetDir);
-        dfb::net::SessionTokens tokens;
-        if (auto it = configured.find(spec.name); it != configured.end()) tokens = it->second;
-        else if (!dir.empty()) tokens = persistentTokens(dir);
-        else tokens = {randomToken(), randomToken()};
+        const dfb::net::SessionTokens tokens = tokensFor(spec, dir);
         const size_t triangles = loaded->triangleCount();
         auto hub = std::make_shared<dfb::net::SessionHub>(ioc, state->metrics(), std::make_unique<dfb::DeepBuffer>(std::move(shot.value())),
                                                           std::move(session.value()), tokens);
@@ -250,8 +304,8 @@ int main(int argc, char** argv) {
                                                 },
                                                 &state->metrics());
         if (!render) {
-            std::cerr << "dfb-server: " << render.error().toString() << "\n";
-            return EXIT_GPU;
+            failSession(spec, dir, render.error(), "the GPU could not render it (see the server's log)", EXIT_GPU);
+            continue;
         }
         char line[512];
         std::snprintf(line, sizeof line, "dfb-server: session %s: %s (%dx%d), %zu shadow-casting triangles, rig version %llu%s, %s",
@@ -264,6 +318,11 @@ int main(int argc, char** argv) {
         hub->setRender(std::move(render.value()));
         hub->render().requestFrame();
         state->addSession(hub);
+    }
+
+    if (state->sessions().empty()) {
+        std::cerr << "dfb-server: no session could be opened\n";
+        return failedExit;
     }
 
     boost::system::error_code ec;
@@ -285,9 +344,14 @@ int main(int argc, char** argv) {
     const std::string host = address.is_v6() ? "[" + bind + "]" : bind;
     const std::string base = "http://" + host + ":" + std::to_string(listener->port()) + "/";
     for (const auto& l : banner) std::printf("%s\n", l.c_str());
-    for (const auto& [id, hub] : state->sessions()) {
-        std::printf("dfb-server: session %s editor: %s?session=%s&token=%s\n", id.c_str(), base.c_str(), id.c_str(), hub->tokens().editor.c_str());
-        std::printf("dfb-server: session %s viewer: %s?session=%s&token=%s\n", id.c_str(), base.c_str(), id.c_str(), hub->tokens().viewer.c_str());
+    auto links = [&](const std::string& id, const dfb::net::SessionTokens& t) {
+        std::printf("dfb-server: session %s editor: %s?session=%s&token=%s\n", id.c_str(), base.c_str(), id.c_str(), t.editor.c_str());
+        std::printf("dfb-server: session %s viewer: %s?session=%s&token=%s\n", id.c_str(), base.c_str(), id.c_str(), t.viewer.c_str());
+    };
+    for (const auto& [id, hub] : state->sessions()) links(id, hub->tokens());
+    for (const auto& [id, f] : state->failedSessions()) {
+        std::printf("dfb-server: session %s FAILED (not served): %s\n", id.c_str(), f.reason.c_str());
+        links(id, f.tokens);
     }
     std::printf("dfb-server: listening on %s\n", base.c_str());
     std::fflush(stdout);

@@ -6,6 +6,7 @@
 
 #include "support/NetClient.h"
 #include "support/Process.h"
+#include "support/TestServer.h"
 
 #include <gtest/gtest.h>
 
@@ -19,39 +20,12 @@
 using namespace dfb;
 using namespace std::chrono_literals;
 using json = nlohmann::json;
+using test::Server;
+using test::Tokens;
 
 namespace {
 
 const std::string SHOT = DFB_TEST_DATA "/tabletop_320.exr";
-
-struct Tokens {
-    std::string editor, viewer;
-};
-
-// A dfb-server on a free loopback port; knows the tokens it printed.
-struct Server {
-    explicit Server(std::vector<std::string> args) {
-        args.insert(args.begin(), DFB_SERVER_EXE);
-        args.insert(args.end(), {"--port", "0"});
-        process = std::make_unique<test::Process>(args);
-        auto m = process->waitForLine(std::regex(R"(listening on http://127\.0\.0\.1:(\d+)/)"), 60s);
-        if (!m) return;
-        port = (*m)[1];
-        const std::string out = process->output();
-        const std::regex line(R"(session (\S+) (editor|viewer): http://\S+token=([\w.~-]+))");
-        for (auto it = std::sregex_iterator(out.begin(), out.end(), line); it != std::sregex_iterator(); ++it) {
-            auto& t = tokens[(*it)[1]];
-            ((*it)[2] == "editor" ? t.editor : t.viewer) = (*it)[3];
-        }
-    }
-    bool up() const { return !port.empty(); }
-    test::HttpReply get(const std::string& target, const std::string& token) { return test::http(port, "GET", target, token); }
-    json rig(const std::string& session) { return get("/v1/sessions/" + session + "/rig", tokens[session].editor).json(); }
-
-    std::unique_ptr<test::Process> process;
-    std::string port;
-    std::map<std::string, Tokens> tokens;
-};
 
 std::string sessionOf(const std::string& shot) { return std::filesystem::path(shot).stem().string(); }
 
@@ -312,7 +286,7 @@ TEST(Sessions, EveryKindOfBadMessageGetsItsErrorAndChangesNothing) {
         {"GET", base + "/rig", "", "", {}, 401, "unauthorized"},
         {"GET", base + "/rig", "not-a-token-at-all", "", {}, 401, "unauthorized"},
         {"GET", "/v1/sessions", "", "", {}, 401, "unauthorized"},
-        {"GET", "/v1/sessions/nosuch/rig", tk.editor, "", {}, 404, "missing_data"},
+        {"GET", "/v1/sessions/nosuch/rig", tk.editor, "", {}, 401, "unauthorized"}, // as a wrong token: session names cannot be probed
         {"GET", base + "/nothing", tk.editor, "", {}, 404, "missing_data"},
         {"DELETE", base + "/rig", tk.editor, "", {}, 405, "protocol"},
         {"POST", base + "/edits", tk.viewer, R"({"changes":[{"path":"key.intensity","value":1}]})", {}, 403, "forbidden"},

@@ -132,6 +132,8 @@ public:
             readOne();
         }
     }
+    /// Why the server closed the connection (after a read failed with "closed").
+    const beast::websocket::close_reason& closeReason() const { return mWs.reason(); }
     const std::vector<Frame>& frames() const { return mFrames; }
     const std::vector<nlohmann::json>& texts() const { return mTexts; }
     void close() {

@@ -20,6 +20,10 @@ using json = nlohmann::json;
 
 // Requests larger than this are refused: a rig or an edit is far smaller.
 constexpr size_t MAX_BODY_BYTES = 1 << 20;
+// The request line and headers together (Beast's default is 8 KiB): a browser's are ~1 KB.
+constexpr size_t MAX_HEADER_BYTES = 16 << 10;
+// The request target: our URLs carry a session, a token and a few view settings.
+constexpr size_t MAX_URL_BYTES = 8 << 10;
 
 http::response<http::string_body> makeResponse(unsigned version, bool keepAlive, http::status status, std::string_view contentType,
                                                std::string body) {
@@ -47,6 +51,7 @@ http::status statusFor(ErrorCode code) {
     case ErrorCode::MissingData: return http::status::not_found;
     case ErrorCode::GpuError:
     case ErrorCode::IoError: return http::status::internal_server_error;
+    case ErrorCode::Unavailable: return http::status::service_unavailable;
     default: return http::status::bad_request;
     }
 }
@@ -56,6 +61,7 @@ http::response<http::string_body> errorResponse(unsigned version, bool keepAlive
     auto res = makeResponse(version, keepAlive, status.value_or(statusFor(e.code)), "application/json",
                             protocol::encodeError(e.code, e.message, std::nullopt));
     if (e.code == ErrorCode::Unauthorized) res.set(http::field::www_authenticate, "Bearer realm=\"dfb\"");
+    if (res.result() == http::status::service_unavailable) res.set(http::field::retry_after, "5");
     return res;
 }
 
@@ -112,7 +118,8 @@ std::string etag(uint64_t version) { return "\"" + std::to_string(version) + "\"
 
 } // namespace
 
-HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<SharedState> state) : mStream(std::move(socket)), mState(std::move(state)) {}
+HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<void> slot)
+    : mStream(std::move(socket)), mState(std::move(state)), mSlot(std::move(slot)) {}
 
 void HttpSession::run() {
     asio::dispatch(mStream.get_executor(), beast::bind_front_handler(&HttpSession::doRead, shared_from_this()));
@@ -121,6 +128,7 @@ void HttpSession::run() {
 void HttpSession::doRead() {
     mParser.emplace();
     mParser->body_limit(MAX_BODY_BYTES);
+    mParser->header_limit(MAX_HEADER_BYTES);
     mStream.expires_after(std::chrono::seconds(60));
     http::async_read(mStream, mBuffer, *mParser, beast::bind_front_handler(&HttpSession::onRead, shared_from_this()));
 }
@@ -135,7 +143,37 @@ void HttpSession::onRead(error_code ec, size_t) {
         req.keep_alive(false);
         return send(errorResponse(req, ErrorCode::Protocol, "request body larger than 1 MiB", http::status::payload_too_large));
     }
+    if (ec == http::error::header_limit) {
+        // Beast counts the request line in the header limit and parses it first: a request
+        // whose target was not read (or is over the URL limit) has a long URL, else long headers.
+        const auto target = mParser->get().target();
+        const bool longUrl = target.empty() || target.size() > MAX_URL_BYTES;
+        Request req;
+        req.keep_alive(false);
+        if (longUrl) {
+            return send(errorResponse(req, ErrorCode::LimitExceeded, "the request's URL is over the limit of " + std::to_string(MAX_URL_BYTES) + " bytes",
+                                      http::status::uri_too_long));
+        }
+        return send(errorResponse(req, ErrorCode::LimitExceeded,
+                                  "the request's headers are over the limit of " + std::to_string(MAX_HEADER_BYTES) + " bytes",
+                                  http::status::request_header_fields_too_large));
+    }
     if (ec) return fail(ec, "http read");
+    if (mParser->get().target().size() > MAX_URL_BYTES) {
+        Request req;
+        req.keep_alive(false);
+        return send(errorResponse(req, ErrorCode::LimitExceeded, "the request's URL is over the limit of " + std::to_string(MAX_URL_BYTES) + " bytes",
+                                  http::status::uri_too_long));
+    }
+    if (!mSlot) {
+        Request req;
+        req.keep_alive(false);
+        mState->metrics().connectionRefused();
+        return send(errorResponse(req, ErrorCode::LimitExceeded,
+                                  "too many connections from this address: the limit is " + std::to_string(mState->limits().maxConnectionsPerAddress) +
+                                      " (--max-connections-per-address)",
+                                  http::status::service_unavailable));
+    }
     if (websocket::is_upgrade(mParser->get())) {
         auto req = mParser->release();
         const std::string target(req.target());
@@ -148,12 +186,12 @@ void HttpSession::onRead(error_code ec, size_t) {
         const std::string id = path.substr(prefix.size(), path.size() - prefix.size() - 3);
         const std::string token = tokenOf(req, query);
         if (token.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "no token: add ?token=... or an Authorization: Bearer header"));
+        if (sendIfFailed(req, id, token)) return;
         auto hub = mState->find(id);
-        if (!hub) return send(errorResponse(req, ErrorCode::MissingData, "no session '" + id + "'"));
-        auto role = hub->roleFor(token);
-        if (!role) return send(errorResponse(req, ErrorCode::Unauthorized, "the token does not open session '" + id + "'"));
+        auto role = hub ? hub->roleFor(token) : std::nullopt;
+        if (!role) return sendUnauthorized(req, id);
         mStream.expires_never();
-        std::make_shared<WebSocketSession>(mStream.release_socket(), mState, hub, *role)->run(std::move(req));
+        std::make_shared<WebSocketSession>(mStream.release_socket(), mState, hub, *role, std::move(mSlot))->run(std::move(req));
         return;
     }
     handle(mParser->release());
@@ -172,7 +210,9 @@ void HttpSession::handle(Request&& req) {
         return send(makeResponse(req, http::status::ok, "text/html; charset=utf-8", std::string(web::asset("index.html"))));
     }
     if (path == "/healthz") return send(makeResponse(req, http::status::ok, "text/plain", "ok\n"));
-    if (path == "/metrics") return send(makeResponse(req, http::status::ok, "text/plain; version=0.0.4", mState->metrics().text()));
+    if (path == "/metrics") {
+        return send(makeResponse(req, http::status::ok, "text/plain; version=0.0.4", mState->metrics().text(mState->limits().metricsSessionNames)));
+    }
     if (path == "/favicon.ico") return send(makeResponse(req, http::status::no_content, "image/x-icon", ""));
 
     const std::string token = tokenOf(req, query);
@@ -184,7 +224,12 @@ void HttpSession::handle(Request&& req) {
             if (!role) continue;
             const json& d = hub->session().description();
             list.push_back({{"id", id}, {"role", protocol::toString(*role)}, {"shot", d["shot"]}, {"width", d["width"]},
-                            {"height", d["height"]}, {"rigVersion", hub->session().rigVersion()}, {"clients", hub->clientCount()}});
+                            {"height", d["height"]}, {"rigVersion", hub->session().rigVersion()}, {"clients", hub->clientCount()},
+                            {"state", "open"}});
+        }
+        for (const auto& [id, f] : mState->failedSessions()) {
+            auto role = f.tokens.roleFor(token);
+            if (role) list.push_back({{"id", id}, {"role", protocol::toString(*role)}, {"state", "failed"}, {"error", f.reason}});
         }
         if (list.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "the token opens no session"));
         return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(json{{"sessions", list}}, 2)));
@@ -195,10 +240,10 @@ void HttpSession::handle(Request&& req) {
         const size_t slash = rest.find('/');
         const std::string id = rest.substr(0, slash), resource = slash == std::string::npos ? "" : rest.substr(slash + 1);
         if (token.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "no token: send Authorization: Bearer TOKEN"));
+        if (sendIfFailed(req, id, token)) return;
         auto hub = mState->find(id);
-        if (!hub) return send(errorResponse(req, ErrorCode::MissingData, "no session '" + id + "'"));
-        auto role = hub->roleFor(token);
-        if (!role) return send(errorResponse(req, ErrorCode::Unauthorized, "the token does not open session '" + id + "'"));
+        auto role = hub ? hub->roleFor(token) : std::nullopt;
+        if (!role) return sendUnauthorized(req, id);
         return handleSession(req, hub, *role, resource, query);
     }
     send(errorResponse(req, ErrorCode::MissingData, "no such resource: " + path));
@@ -218,7 +263,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
     };
     auto refuse = [&](const Error& e, std::optional<http::status> status = std::nullopt) {
         if (e.code != ErrorCode::Unauthorized) hub->metrics().editRefused(hub->id());
-        send(errorResponse(req.version(), req.keep_alive(), e, status));
+        send(errorResponse(req.version(), req.keep_alive(), makeError(e.code, mState->redact(e.message)), status));
     };
     // Accepted changes: every WebSocket client hears of them, as of any other change.
     auto accepted = [&](const ChangeOutcome& out, json body) {
@@ -258,9 +303,9 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         if (!editorOnly()) return;
         auto expected = ifMatch(req);
         if (!expected) return refuse(expected.error());
-        json body = json::parse(req.body(), nullptr, false);
-        if (body.is_discarded()) return refuse(makeError(ErrorCode::Protocol, "PUT rig: the body is not JSON"));
-        auto rig = protocol::rigFromJson(body);
+        auto body = protocol::parseJson(req.body(), MAX_BODY_BYTES, "PUT rig: the body");
+        if (!body) return refuse(body.error());
+        auto rig = protocol::rigFromJson(body.value());
         if (!rig) return refuse(rig.error(), http::status::bad_request);
         auto out = session.replace(rig.value(), author, expected.value());
         if (!out) return refuse(out.error());
@@ -272,11 +317,13 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         auto expected = ifMatch(req);
         if (!expected) return refuse(expected.error());
         // The body is an edit message without "type" and "seq": parsed by the WebSocket's codec.
-        json body = json::parse(req.body(), nullptr, false);
+        auto parsedBody = protocol::parseJson(req.body(), MAX_BODY_BYTES, "POST edits: the body");
+        if (!parsedBody) return refuse(parsedBody.error());
+        json& body = parsedBody.value();
         if (!body.is_object()) return refuse(makeError(ErrorCode::Protocol, "POST edits: the body must be a JSON object {\"changes\": [...]}"));
         body["type"] = "edit";
-        body["seq"] = 0;
-        auto parsed = protocol::parseClientMessage(protocol::dump(body));
+        body["seq"] = uint64_t(0);
+        auto parsed = protocol::clientMessageFromJson(body);
         if (!parsed) return refuse(parsed.error());
         auto& edit = std::get<protocol::EditMessage>(parsed.value());
         if (expected.value() && !edit.ifVersion) edit.ifVersion = expected.value();
@@ -314,7 +361,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         hub->render().requestEncoded(view.value(), [self = shared_from_this(), hub, version, keepAlive](Result<std::shared_ptr<const EncodedFrame>> f) {
             Response res;
             if (!f) {
-                res = errorResponse(version, keepAlive, f.error(),
+                res = errorResponse(version, keepAlive, makeError(f.error().code, self->mState->redact(f.error().message)),
                                     f.error().code == ErrorCode::MissingData ? std::optional(http::status::bad_request) : std::nullopt);
             } else {
                 const auto& frame = *f.value();
@@ -341,12 +388,27 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         }
         hub->render().requestPick(xy[0], xy[1], [self = shared_from_this(), version, keepAlive](Result<json> r) {
             Response res = r ? makeResponse(version, keepAlive, http::status::ok, "application/json", protocol::dump(r.value(), 2))
-                             : errorResponse(version, keepAlive, r.error());
+                             : errorResponse(version, keepAlive, makeError(r.error().code, self->mState->redact(r.error().message)));
             asio::post(self->mStream.get_executor(), [self, res = std::move(res)]() mutable { self->send(std::move(res)); });
         });
         return;
     }
     send(errorResponse(req, ErrorCode::MissingData, "no such resource: " + std::string(req.target().substr(0, req.target().find('?')))));
+}
+
+void HttpSession::sendUnauthorized(const Request& req, const std::string& id) {
+    send(errorResponse(req, ErrorCode::Unauthorized, "the token does not open session '" + id + "'"));
+}
+
+bool HttpSession::sendIfFailed(const Request& req, const std::string& id, const std::string& token) {
+    const FailedSession* f = mState->failed(id);
+    if (!f) return false;
+    if (!f->tokens.roleFor(token)) {
+        sendUnauthorized(req, id);
+    } else {
+        send(errorResponse(req, ErrorCode::Unavailable, "session '" + id + "' is not available: " + f->reason));
+    }
+    return true;
 }
 
 void HttpSession::send(Response&& res) {

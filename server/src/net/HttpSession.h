@@ -14,7 +14,10 @@ namespace dfb::net {
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
 public:
-    HttpSession(tcp::socket&& socket, std::shared_ptr<SharedState> state);
+    /// `slot`: the connection's place under the per-address limit (SharedState::admit); null
+    /// when the address is over it, and then the first request is answered 503 and the
+    /// connection closed.
+    HttpSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<void> slot);
     void run();
 
 private:
@@ -27,6 +30,11 @@ private:
     void handleSession(const Request& req, const std::shared_ptr<SessionHub>& hub, protocol::Role role,
                        const std::string& resource, const std::string& query);
     void send(Response&& res);
+    // A request for session `id` whose token does not open it, or for no such session: the same
+    // answer for both, so that session names cannot be probed for.
+    void sendUnauthorized(const Request& req, const std::string& id);
+    // A session that failed to open: 503 with its reason to holders of its tokens.
+    bool sendIfFailed(const Request& req, const std::string& id, const std::string& token);
     void onWrite(bool close, error_code ec, size_t bytes);
 
     beast::tcp_stream mStream;
@@ -34,6 +42,7 @@ private:
     std::shared_ptr<SharedState> mState;
     std::optional<http::request_parser<http::string_body>> mParser;
     std::shared_ptr<void> mResponse; // keeps the response alive during async_write
+    std::shared_ptr<void> mSlot;
 };
 
 } // namespace dfb::net

@@ -32,7 +32,10 @@ void Listener::onAccept(error_code ec, tcp::socket socket) {
         // meet the peer's delayed ACK: that adds ~40 ms to an edit-to-frame round trip.
         error_code ignored;
         socket.set_option(tcp::no_delay(true), ignored);
-        std::make_shared<HttpSession>(std::move(socket), mState)->run();
+        error_code peerError;
+        const auto peer = socket.remote_endpoint(peerError);
+        std::shared_ptr<void> slot = peerError ? nullptr : mState->admit(peer.address());
+        std::make_shared<HttpSession>(std::move(socket), mState, std::move(slot))->run();
     }
     if (mAcceptor.is_open()) doAccept();
 }

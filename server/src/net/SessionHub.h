@@ -25,6 +25,8 @@ class WebSocketSession;
 struct SessionTokens {
     std::string editor;
     std::string viewer;
+    /// The role `token` opens, or nothing (compared in constant time).
+    std::optional<protocol::Role> roleFor(std::string_view token) const;
 };
 
 class SessionHub : public std::enable_shared_from_this<SessionHub> {
@@ -41,7 +43,7 @@ public:
     Metrics& metrics() { return mMetrics; }
     const SessionTokens& tokens() const { return mTokens; }
     /// The role `token` opens in this session, or nothing (compared in constant time).
-    std::optional<protocol::Role> roleFor(std::string_view token) const;
+    std::optional<protocol::Role> roleFor(std::string_view token) const { return mTokens.roleFor(token); }
 
     void join(WebSocketSession* ws);
     void leave(WebSocketSession* ws);

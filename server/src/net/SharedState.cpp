@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <vector>
 
 namespace dfb::net {
@@ -30,10 +31,59 @@ bool sameToken(std::string_view a, std::string_view b) {
 }
 } // namespace
 
-std::optional<protocol::Role> SessionHub::roleFor(std::string_view token) const {
-    if (sameToken(token, mTokens.editor)) return protocol::Role::Editor;
-    if (sameToken(token, mTokens.viewer)) return protocol::Role::Viewer;
+std::optional<protocol::Role> SessionTokens::roleFor(std::string_view token) const {
+    if (sameToken(token, editor)) return protocol::Role::Editor;
+    if (sameToken(token, viewer)) return protocol::Role::Viewer;
     return std::nullopt;
+}
+
+const FailedSession* SharedState::failed(const std::string& id) const {
+    auto it = mFailed.find(id);
+    return it == mFailed.end() ? nullptr : &it->second;
+}
+
+std::shared_ptr<void> SharedState::admit(const asio::ip::address& from) {
+    std::lock_guard lock(mConnectionsMutex);
+    size_t& n = mConnections[from];
+    if (n >= mLimits.maxConnectionsPerAddress) {
+        if (n == 0) mConnections.erase(from);
+        return nullptr;
+    }
+    ++n;
+    // The slot gives the connection back when its last owner (the HTTP or WebSocket session) ends.
+    struct Slot {
+        Slot(std::shared_ptr<SharedState> s, asio::ip::address a) : state(std::move(s)), from(a) {}
+        Slot(const Slot&) = delete;
+        Slot& operator=(const Slot&) = delete;
+        std::shared_ptr<SharedState> state;
+        asio::ip::address from;
+        ~Slot() {
+            std::lock_guard released(state->mConnectionsMutex);
+            auto it = state->mConnections.find(from);
+            if (it != state->mConnections.end() && --it->second == 0) state->mConnections.erase(it);
+        }
+    };
+    return std::make_shared<Slot>(shared_from_this(), from);
+}
+
+std::string SharedState::redact(std::string message) const {
+    for (const std::string& dir : mPrivateDirs) {
+        for (size_t at; !dir.empty() && (at = message.find(dir)) != std::string::npos;) message.replace(at, dir.size(), "");
+    }
+    return message;
+}
+
+void SharedState::addPrivateDirectory(const std::string& dir) {
+    if (dir.empty() || dir == "." || dir == "/") return;
+    std::error_code ec;
+    const auto abs = std::filesystem::absolute(dir, ec);
+    for (std::string d : {dir, ec ? std::string() : abs.string()}) {
+        if (d.empty()) continue;
+        if (d.back() != '/') d += '/';
+        if (std::find(mPrivateDirs.begin(), mPrivateDirs.end(), d) == mPrivateDirs.end()) mPrivateDirs.push_back(d);
+    }
+    // Longest first, so that a folder inside another is removed whole.
+    std::sort(mPrivateDirs.begin(), mPrivateDirs.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
 }
 
 void SessionHub::join(WebSocketSession* ws) { mClients.insert(ws); }

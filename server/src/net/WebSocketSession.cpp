@@ -15,8 +15,8 @@ constexpr size_t MAX_QUEUED_TEXTS = 4096;
 } // namespace
 
 WebSocketSession::WebSocketSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
-                                   protocol::Role role)
-    : mWs(std::move(socket)), mState(std::move(state)), mHub(std::move(hub)), mRole(role) {}
+                                   protocol::Role role, std::shared_ptr<void> slot)
+    : mSlot(std::move(slot)), mWs(std::move(socket)), mState(std::move(state)), mHub(std::move(hub)), mRole(role) {}
 
 WebSocketSession::~WebSocketSession() {
     if (mJoined) {
@@ -39,6 +39,16 @@ void WebSocketSession::run(http::request<http::string_body> req) {
 
 void WebSocketSession::onAccept(error_code ec) {
     if (ec) return fail(ec, "websocket accept");
+    if (const size_t max = mState->limits().maxClientsPerSession; mHub->clientCount() >= max) {
+        // Accepted so that the client can read why (a browser sees nothing of a refused
+        // upgrade's body); 1013 = try again later. The reason must stay under 123 bytes.
+        mClosing = true;
+        mState->metrics().connectionRefused();
+        const std::string reason = "session has the maximum of " + std::to_string(max) + " clients (--max-clients-per-session)";
+        mWs.async_close(websocket::close_reason(websocket::close_code::try_again_later, reason),
+                        [self = shared_from_this()](error_code e) { if (e) fail(e, "websocket close"); });
+        return;
+    }
     mClientId = mState->nextClientId();
     mName = "client-" + std::to_string(mClientId);
     mHub->join(this);
@@ -79,7 +89,7 @@ void WebSocketSession::onRead(error_code ec, size_t) {
 }
 
 void WebSocketSession::replyError(const Error& e, std::optional<uint64_t> seq) {
-    reply(protocol::encodeError(e.code, e.message, seq));
+    reply(protocol::encodeError(e.code, mState->redact(e.message), seq));
 }
 
 void WebSocketSession::setEditing(const std::string& what) {

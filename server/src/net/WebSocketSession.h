@@ -19,8 +19,9 @@ class SharedState;
 
 class WebSocketSession : public std::enable_shared_from_this<WebSocketSession> {
 public:
+    /// `slot`: the connection's place under the per-address limit, held while it lives.
     WebSocketSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
-                     protocol::Role role);
+                     protocol::Role role, std::shared_ptr<void> slot);
     ~WebSocketSession();
 
     /// Accepts the upgrade request and starts reading.
@@ -43,6 +44,7 @@ private:
     void writeNext();
     void onWrite(error_code ec, size_t bytes);
 
+    std::shared_ptr<void> mSlot;
     websocket::stream<beast::tcp_stream> mWs;
     beast::flat_buffer mBuffer;
     std::shared_ptr<SharedState> mState;

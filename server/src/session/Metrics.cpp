@@ -66,11 +66,22 @@ void Metrics::editRefused(const std::string& session) {
     ++mSessions[session].refused;
 }
 
-std::string Metrics::text() const {
+void Metrics::connectionRefused() {
+    std::lock_guard lock(mMutex);
+    ++mConnectionsRefused;
+}
+
+std::string Metrics::text(bool sessionNames) const {
     std::lock_guard lock(mMutex);
     std::ostringstream o;
     auto family = [&](const char* name, const char* type, const char* help, auto value) {
         o << "# HELP " << name << " " << help << "\n# TYPE " << name << " " << type << "\n";
+        if (!sessionNames) {
+            uint64_t sum = 0;
+            for (const auto& [id, s] : mSessions) sum += uint64_t(value(s));
+            o << name << " " << sum << "\n";
+            return;
+        }
         for (const auto& [id, s] : mSessions) o << name << "{session=\"" << id << "\"} " << value(s) << "\n";
     };
     family("dfb_frames_rendered_total", "counter", "Frames rendered (one per new rig version shown).",
@@ -86,12 +97,19 @@ std::string Metrics::text() const {
     family("dfb_changes_refused_total", "counter", "Refused rig changes (invalid, forbidden, conflicting).",
            [](const PerSession& s) { return s.refused; });
     o << "# HELP dfb_clients Connected WebSocket clients.\n# TYPE dfb_clients gauge\n";
-    for (const auto& [id, s] : mSessions) {
-        for (const char* role : {"editor", "viewer"}) {
+    for (const char* role : {"editor", "viewer"}) {
+        int64_t sum = 0;
+        for (const auto& [id, s] : mSessions) {
             auto it = s.clients.find(role);
-            o << "dfb_clients{session=\"" << id << "\",role=\"" << role << "\"} " << (it == s.clients.end() ? 0 : it->second) << "\n";
+            const int64_t n = it == s.clients.end() ? 0 : it->second;
+            sum += n;
+            if (sessionNames) o << "dfb_clients{session=\"" << id << "\",role=\"" << role << "\"} " << n << "\n";
         }
+        if (!sessionNames) o << "dfb_clients{role=\"" << role << "\"} " << sum << "\n";
     }
+    o << "# HELP dfb_connections_refused_total Connections and WebSocket clients refused for a limit.\n"
+         "# TYPE dfb_connections_refused_total counter\n"
+         "dfb_connections_refused_total " << mConnectionsRefused << "\n";
     o << "# HELP dfb_edit_to_frame_seconds Time from an accepted change to the first rendered frame showing it (encoding is per client view, after).\n"
          "# TYPE dfb_edit_to_frame_seconds histogram\n";
     uint64_t cumulative = 0;

@@ -29,9 +29,13 @@ public:
     void bytesSent(const std::string& session, size_t bytes);
     void clientJoined(const std::string& session, const std::string& role, int delta);
     void editRefused(const std::string& session);
+    /// A connection or WebSocket client was refused for a limit (per address, per session).
+    void connectionRefused();
 
-    /// The Prometheus text of every metric.
-    std::string text() const;
+    /// The Prometheus text of every metric; without `sessionNames` the per-session series are
+    /// summed into one series without a session label (names are not shown to whoever can read
+    /// the endpoint).
+    std::string text(bool sessionNames = true) const;
 
 private:
     struct PerSession {
@@ -46,6 +50,7 @@ private:
     std::vector<uint64_t> mBuckets = std::vector<uint64_t>(std::size(LATENCY_BUCKETS) + 1, 0);
     double mLatencySum = 0;
     uint64_t mLatencyCount = 0;
+    uint64_t mConnectionsRefused = 0;
 };
 
 } // namespace dfb

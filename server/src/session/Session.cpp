@@ -50,6 +50,7 @@ bool overlaps(const std::string& a, const std::string& b) {
 
 Session::Session(std::string id, const DeepBuffer& shot, std::string shotPath, Rig rig) : mId(std::move(id)), mRig(std::move(rig)) {
     updateWarnings(mRig);
+    mLimits.imagePixels = uint64_t(shot.width) * uint64_t(shot.height);
     auto mat = [](const glm::mat4& m) {
         json a = json::array();
         for (int c = 0; c < 4; ++c)
@@ -107,10 +108,17 @@ Status Session::checkCookies(const Rig& next) const {
     for (const Light& l : next.lights) {
         const Light* before = mRig.find(l.name);
         if (l.cookie.empty() || (before && before->cookie == l.cookie)) continue;
-        auto img = checkImageFile((std::filesystem::path(mAssetDir) / l.cookie).string());
+        const std::string file = (std::filesystem::path(mAssetDir) / l.cookie).string();
+        auto img = checkImageFile(file);
         if (!img) {
-            return makeError(ErrorCode::InvalidValue, l.name + ".cookie: '" + l.cookie + "' is not a readable image in the asset folder " +
-                                                          mAssetDir + " (" + img.error().message + ")");
+            // Clients see the name they gave, never where the server keeps its assets; the log
+            // has the whole path for the operator.
+            std::string reason = img.error().message;
+            for (size_t at; (at = reason.find(file)) != std::string::npos;) reason.replace(at, file.size(), l.cookie);
+            for (size_t at; !mAssetDir.empty() && (at = reason.find(mAssetDir)) != std::string::npos;) reason.replace(at, mAssetDir.size(), "");
+            std::fprintf(stderr, "dfb-server: session %s: %s.cookie: %s\n", mId.c_str(), l.name.c_str(), img.error().message.c_str());
+            return makeError(ErrorCode::InvalidValue, l.name + ".cookie: '" + l.cookie + "' is not a readable image in the asset folder (" +
+                                                          reason + ")");
         }
     }
     return okStatus();
@@ -226,6 +234,7 @@ Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes
     {
         Rig probe = mRig;
         if (auto st = protocol::applyChanges(probe, changes); !st) return st.error();
+        if (auto st = protocol::checkRigLimits(probe, mLimits); !st) return st.error();
         if (auto st = checkCookies(probe); !st) return st.error();
     }
     json overwrote = json::array();
@@ -269,6 +278,7 @@ Result<ChangeOutcome> Session::replace(const Rig& rig, const Author& by, std::op
         return makeError(ErrorCode::Conflict, "the rig is at version " + std::to_string(mRig.version) + ", not " +
                                                   std::to_string(*ifVersion) + "; nothing was changed");
     }
+    if (auto st = protocol::checkRigLimits(rig, mLimits); !st) return st.error();
     json r = protocol::toJson(rig);
     r.erase("version");
     for (json& l : r["lights"]) l.erase("warning"); // the server's, recomputed

@@ -78,6 +78,14 @@ public:
         std::lock_guard lock(mMutex);
         return mAssetDir;
     }
+    /// The limits every new edit and rig is checked against (LimitExceeded, nothing applied or
+    /// journaled). A replayed journal is not: it was accepted under the limits of its time.
+    /// `imagePixels` is the shot's and is kept.
+    void setLimits(protocol::RigLimits limits) {
+        std::lock_guard lock(mMutex);
+        limits.imagePixels = mLimits.imagePixels;
+        mLimits = limits;
+    }
 
     Rig rig() const;
     uint64_t rigVersion() const;
@@ -113,6 +121,7 @@ private:
     /// The client whose edit is the newest undo step and may take merged edits; 0: none.
     uint64_t mMergeableBy = 0;
     std::string mAssetDir = ".";
+    protocol::RigLimits mLimits;
     nlohmann::json mDescription;
 };
 

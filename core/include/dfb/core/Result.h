@@ -23,6 +23,8 @@ enum class ErrorCode {
     Unauthorized,  ///< no token, or a token that opens nothing (HTTP 401)
     Forbidden,     ///< the token is valid but its role may not do this (a viewer editing; HTTP 403)
     Conflict,      ///< a precondition on the rig version failed (If-Match, `ifVersion`; HTTP 412)
+    LimitExceeded, ///< an input or a rig is over a configured limit; the message names it and its value
+    Unavailable,   ///< the session cannot serve now (its journal is damaged, it failed to load; HTTP 503)
 };
 
 /// Short stable name of an error code (used in protocol error messages).
@@ -40,6 +42,8 @@ inline const char* toString(ErrorCode code) {
     case ErrorCode::Unauthorized: return "unauthorized";
     case ErrorCode::Forbidden: return "forbidden";
     case ErrorCode::Conflict: return "conflict";
+    case ErrorCode::LimitExceeded: return "limit_exceeded";
+    case ErrorCode::Unavailable: return "unavailable";
     }
     return "unknown";
 }

@@ -42,6 +42,30 @@ Status applyChanges(Rig& rig, const std::vector<Change>& changes);
 /// (keys whose value the property refuses are skipped). Unkeyed properties are unchanged.
 Rig evaluateRig(const Rig& rig);
 
+// ---- limits ---------------------------------------------------------------------------------------
+/// What one session's rig may hold (DESIGN section 9; docs/operations.md "Limits"). Each bounds
+/// memory the server would otherwise grow without end: a 10,000-light rig once allocated ~17 MB
+/// per light until the GL context failed, and the journaled rig failed again on every restart.
+struct RigLimits {
+    /// Lights in the rig (--max-lights). Each enabled light keeps a cached image and, when it
+    /// casts shadows, a shadow map; an edit of one light stays as cheap as in a rig of one.
+    size_t maxLights = 256;
+    /// Keyframes of one property of one light (--max-keys).
+    size_t maxKeysPerProperty = 1024;
+    /// Bytes of the lights' GPU caches (--max-light-memory-mb): for every enabled light its
+    /// cached image (pixels x 8 bytes, RGBA16F) plus, when it casts shadows, its shadow map
+    /// (side^2 x 4 bytes, DEPTH32F; six faces for a point light).
+    uint64_t maxLightMemoryBytes = uint64_t(2048) << 20;
+    /// Pixels of the session's shot (for the cached images); 0 leaves them out of the sum.
+    uint64_t imagePixels = 0;
+};
+
+/// The GPU memory `light` costs under `limits` (RigLimits::maxLightMemoryBytes), in bytes.
+uint64_t lightMemoryBytes(const Light& light, const RigLimits& limits);
+/// LimitExceeded naming the limit, its value and its flag when `rig` is over one of `limits`.
+/// Control points per chain are limited by the codec itself (MAX_BENDY_SEGMENTS).
+Status checkRigLimits(const Rig& rig, const RigLimits& limits);
+
 /// Parses "PATH=VALUE" from a command line. VALUE is JSON if it parses as JSON, else a
 /// comma-separated list of numbers ("1,2,3"), else a string.
 Result<Change> parseAssignment(std::string_view text);

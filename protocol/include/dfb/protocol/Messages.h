@@ -5,6 +5,7 @@
 
 #include <dfb/core/Result.h>
 #include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Json.h>
 #include <dfb/protocol/Rig.h>
 
 #include <nlohmann/json.hpp>
@@ -116,8 +117,11 @@ using ClientMessage = std::variant<HelloMessage, EditMessage, UndoMessage, RedoM
                                    PickMessage, PresenceMessage>;
 
 /// Parses and validates one text message from a client (types and fields; rig values are checked
-/// when applied). Errors: Protocol, naming the message type and field.
+/// when applied). Errors: Protocol, naming the message type and field; LimitExceeded for a
+/// message over MAX_TEXT_MESSAGE_BYTES or nested deeper than MAX_JSON_DEPTH.
 Result<ClientMessage> parseClientMessage(std::string_view text);
+/// The same for a value already parsed through parseJson (an HTTP body).
+Result<ClientMessage> clientMessageFromJson(const nlohmann::json& j);
 /// The `seq` of a message if it has a readable one, for an error reply to a refused message.
 std::optional<uint64_t> peekSeq(std::string_view text);
 

@@ -1,0 +1,48 @@
+#pragma once
+// Test support: a dfb-server on a free loopback port (started with --port 0), with the tokens it
+// printed for each session. Stopped when the object goes.
+
+#include "support/NetClient.h"
+#include "support/Process.h"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <map>
+#include <memory>
+#include <regex>
+#include <string>
+#include <vector>
+
+namespace dfb::test {
+
+struct Tokens {
+    std::string editor, viewer;
+};
+
+// A dfb-server on a free loopback port; knows the tokens it printed.
+struct Server {
+    explicit Server(std::vector<std::string> args) {
+        args.insert(args.begin(), DFB_SERVER_EXE);
+        args.insert(args.end(), {"--port", "0"});
+        process = std::make_unique<Process>(args);
+        auto m = process->waitForLine(std::regex(R"(listening on http://127\.0\.0\.1:(\d+)/)"), std::chrono::seconds(60));
+        if (!m) return;
+        port = (*m)[1];
+        const std::string out = process->output();
+        const std::regex line(R"(session (\S+) (editor|viewer): http://\S+token=([\w.~-]+))");
+        for (auto it = std::sregex_iterator(out.begin(), out.end(), line); it != std::sregex_iterator(); ++it) {
+            auto& t = tokens[(*it)[1]];
+            ((*it)[2] == "editor" ? t.editor : t.viewer) = (*it)[3];
+        }
+    }
+    bool up() const { return !port.empty(); }
+    HttpReply get(const std::string& target, const std::string& token) { return http(port, "GET", target, token); }
+    nlohmann::json rig(const std::string& session) { return get("/v1/sessions/" + session + "/rig", tokens[session].editor).json(); }
+
+    std::unique_ptr<Process> process;
+    std::string port;
+    std::map<std::string, Tokens> tokens;
+};
+
+} // namespace dfb::test
