@@ -302,12 +302,10 @@ Status Journal::append(const json& operation) {
     Status s = writeAll(mFd, record, path, true);
     if (s && ::fdatasync(mFd) != 0) s = ioError(path, "fdatasync");
     if (!s) {
-        const int err = errno;
         if (!rollBack()) {
             return makeError(ErrorCode::IoError, s.error().message + "; and the partial record could not be cut off (" +
                                                      std::strerror(errno) + "): later changes are refused until it can");
         }
-        errno = err;
         return s;
     }
     mGoodBytes += record.size();

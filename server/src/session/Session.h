@@ -48,10 +48,10 @@ public:
     static constexpr size_t MAX_LOG = 10000;
 
     /// Changes journaled between two snapshots of the whole state (then the journal is compacted
-    /// to one record). A snapshot holds up to MAX_UNDO steps of two rigs each and MAX_LOG change
-    /// records (a few MB), so writing one every change would cost more than the journal saves;
-    /// 1000 keeps the journal under ~1 MB of edits and one snapshot's write well under a second
-    /// of a drag's edits.
+    /// to one record). A snapshot holds up to MAX_UNDO steps of two rigs each and all MAX_LOG
+    /// change records (up to a few MB with large rigs), written and fsynced on the network thread,
+    /// so it must be rare next to the one small record per change; 1000 changes of ~100-300 bytes
+    /// keep the journal to a few hundred KB between snapshots (whole-rig records aside).
     static constexpr size_t SNAPSHOT_EVERY = 1000;
 
     /// A session named `id` on `shot`. With a non-empty `dir` the session is persistent: the
