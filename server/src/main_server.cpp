@@ -231,8 +231,8 @@ int main(int argc, char** argv) {
             return EXIT_INPUT;
         }
         if (!session.value()->recoveryReport().empty()) {
-            std::fprintf(stderr, "dfb-server: session %s: journal repaired: %s\n", spec.name.c_str(),
-                         session.value()->recoveryReport().c_str());
+            std::fprintf(stderr, "dfb-server: session %s: journal repaired: %s\n",
+                         spec.name.c_str(), session.value()->recoveryReport().c_str());
         }
         if (imported && session.value()->rigVersion() == rig.version) {
             std::printf("dfb-server: session %s: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", spec.name.c_str(),

@@ -28,12 +28,15 @@ std::filesystem::path freshDir(const std::string& name) {
     return d;
 }
 
-Result<std::unique_ptr<Session>> tryOpen(const std::filesystem::path& dir, size_t snapshotEvery = Session::SNAPSHOT_EVERY) {
+Result<std::unique_ptr<Session>> tryOpen(const std::filesystem::path& dir,
+                                         size_t snapshotEvery = Session::SNAPSHOT_EVERY) {
     static const DeepBuffer shot;
-    return Session::open("test", shot, "shot.exr", defaultRig({-1, 0, -1}, {1, 1, 1}), dir, snapshotEvery);
+    return Session::open("test", shot, "shot.exr", defaultRig({-1, 0, -1}, {1, 1, 1}), dir,
+                         snapshotEvery);
 }
 
-std::unique_ptr<Session> open(const std::filesystem::path& dir, size_t snapshotEvery = Session::SNAPSHOT_EVERY) {
+std::unique_ptr<Session> open(const std::filesystem::path& dir,
+                              size_t snapshotEvery = Session::SNAPSHOT_EVERY) {
     auto s = tryOpen(dir, snapshotEvery);
     EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().toString());
     return s.ok() ? std::move(s.value()) : nullptr;
@@ -55,7 +58,8 @@ void writeFile(const std::filesystem::path& p, const std::string& text) {
 std::vector<std::string> lines(const std::string& text) {
     std::vector<std::string> out;
     std::istringstream in(text);
-    for (std::string l; std::getline(in, l);) out.push_back(l);
+    for (std::string l; std::getline(in, l);)
+        out.push_back(l);
     return out;
 }
 
@@ -63,19 +67,25 @@ std::vector<std::string> lines(const std::string& text) {
 std::vector<std::filesystem::path> asideFiles(const std::filesystem::path& dir) {
     std::vector<std::filesystem::path> out;
     for (const auto& e : std::filesystem::directory_iterator(dir)) {
-        if (e.path().filename().string().rfind("journal.corrupt-", 0) == 0) out.push_back(e.path());
+        if (e.path().filename().string().rfind("journal.corrupt-", 0) == 0)
+            out.push_back(e.path());
     }
     return out;
 }
 
 // Everything a restart must restore, for comparing two sessions.
 json state(const Session& s) {
-    return {{"rig", protocol::toJson(s.rig())}, {"undo", s.undoDepth()}, {"redo", s.redoDepth()}, {"history", s.history(0)}};
+    return {{"rig", protocol::toJson(s.rig())},
+            {"undo", s.undoDepth()},
+            {"redo", s.redoDepth()},
+            {"history", s.history(0)}};
 }
 
 // Turns off the injected write failures however a test ends.
 struct WriteFailures {
-    explicit WriteFailures(size_t afterBytes) { Journal::failWritesAfterBytesForTesting(afterBytes); }
+    explicit WriteFailures(size_t afterBytes) {
+        Journal::failWritesAfterBytesForTesting(afterBytes);
+    }
     ~WriteFailures() { Journal::failWritesAfterBytesForTesting(Journal::NO_LIMIT); }
 };
 
@@ -204,10 +214,13 @@ TEST(Session, AJournalOfPlainJsonLinesStillLoads) {
     const auto dir = freshDir("legacy");
     std::filesystem::create_directories(dir);
     const json base = protocol::toJson(defaultRig({-1, 0, -1}, {1, 1, 1}));
-    writeFile(dir / "journal.jsonl",
-              protocol::dump(json{{"op", "base"}, {"rig", base}}) + "\n" +
-                  R"({"op":"edit","v":2,"by":1,"byName":"a","changes":[{"path":"key.intensity","value":10}]})" + "\n" +
-                  R"({"op":"edit","v":3,"by":1,"byName":"a","changes":[{"path":"key.intensity","value":20}]})" + "\n");
+    writeFile(
+        dir / "journal.jsonl",
+        protocol::dump(json{{"op", "base"}, {"rig", base}}) + "\n" +
+            R"({"op":"edit","v":2,"by":1,"byName":"a","changes":[{"path":"key.intensity","value":10}]})" +
+            "\n" +
+            R"({"op":"edit","v":3,"by":1,"byName":"a","changes":[{"path":"key.intensity","value":20}]})" +
+            "\n");
     {
         auto s = open(dir);
         ASSERT_TRUE(s);
@@ -247,7 +260,7 @@ TEST(Session, AFailedWriteIsRolledBackAndTheEditRefused) {
             EXPECT_STREQ(toString(r.error().code), "io_error");
             EXPECT_EQ(s->rigVersion(), v);
             EXPECT_FLOAT_EQ(intensity(*s), 10.f);
-            EXPECT_EQ(readAll(journal), before); // no fragment left
+            EXPECT_EQ(readAll(journal), before);                     // no fragment left
             EXPECT_EQ(s->undo({}).error().code, ErrorCode::IoError); // undo is journaled too
             EXPECT_EQ(s->rigVersion(), v);
         }
@@ -350,7 +363,8 @@ TEST(Session, ACutShortLastLineIsMovedAsideAndADamagedOneRefused) {
     auto bad = tryOpen(dir);
     ASSERT_FALSE(bad.ok());
     EXPECT_EQ(bad.error().code, ErrorCode::InvalidFile);
-    EXPECT_NE(bad.error().message.find("journal.jsonl:2: checksum mismatch"), std::string::npos) << bad.error().message;
+    EXPECT_NE(bad.error().message.find("journal.jsonl:2: checksum mismatch"), std::string::npos)
+        << bad.error().message;
     EXPECT_EQ(readAll(journal), text);
     EXPECT_EQ(asideFiles(dir).size(), 1u);
     std::filesystem::remove_all(dir);
@@ -374,7 +388,8 @@ TEST(Session, AChangedDigitIsCaughtByTheChecksum) {
     auto bad = tryOpen(dir);
     ASSERT_FALSE(bad.ok());
     EXPECT_EQ(bad.error().code, ErrorCode::InvalidFile);
-    EXPECT_NE(bad.error().message.find((dir / "journal.jsonl").string() + ":2: checksum mismatch"), std::string::npos)
+    EXPECT_NE(bad.error().message.find((dir / "journal.jsonl").string() + ":2: checksum mismatch"),
+              std::string::npos)
         << bad.error().message;
     EXPECT_EQ(readAll(journal), text);
     EXPECT_TRUE(asideFiles(dir).empty());
@@ -401,31 +416,37 @@ TEST(Session, ALostJournalIsRefusedNotRestartedAtVersionOne) {
     const auto journal = dir / "journal.jsonl";
     {
         auto s = open(dir, 3);
-        for (int i = 1; i <= 5; ++i) ASSERT_TRUE(s->edit({{"key.intensity", float(i)}}, {}).ok());
+        for (int i = 1; i <= 5; ++i)
+            ASSERT_TRUE(s->edit({{"key.intensity", float(i)}}, {}).ok());
     }
     const std::string good = readAll(journal);
     ASSERT_TRUE(std::filesystem::exists(dir / "snapshot.jsonl"));
     // 3 changes, then a snapshot at version 4, then 2 more changes.
     for (bool remove : {false, true}) {
-        if (remove) std::filesystem::remove(journal);
-        else writeFile(journal, "");
+        if (remove)
+            std::filesystem::remove(journal);
+        else
+            writeFile(journal, "");
         auto bad = tryOpen(dir, 3);
         ASSERT_FALSE(bad.ok());
         EXPECT_EQ(bad.error().code, ErrorCode::InvalidFile);
-        EXPECT_NE(bad.error().message.find("snapshot.jsonl"), std::string::npos) << bad.error().message;
+        EXPECT_NE(bad.error().message.find("snapshot.jsonl"), std::string::npos)
+            << bad.error().message;
         EXPECT_NE(bad.error().message.find("version 4"), std::string::npos) << bad.error().message;
     }
     std::filesystem::remove(dir / "snapshot.jsonl");
     auto bad = tryOpen(dir);
     ASSERT_FALSE(bad.ok());
     EXPECT_EQ(bad.error().code, ErrorCode::InvalidFile);
-    EXPECT_NE(bad.error().message.find("rig.json is at version 6"), std::string::npos) << bad.error().message;
+    EXPECT_NE(bad.error().message.find("rig.json is at version 6"), std::string::npos)
+        << bad.error().message;
     EXPECT_FALSE(std::filesystem::exists(journal) && !readAll(journal).empty());
     // A journal that continues a snapshot which has gone is refused too.
     writeFile(journal, good);
     bad = tryOpen(dir, 3);
     ASSERT_FALSE(bad.ok());
-    EXPECT_NE(bad.error().message.find("snapshot.jsonl is missing"), std::string::npos) << bad.error().message;
+    EXPECT_NE(bad.error().message.find("snapshot.jsonl is missing"), std::string::npos)
+        << bad.error().message;
     EXPECT_EQ(readAll(journal), good);
     std::filesystem::remove_all(dir);
 }
@@ -437,18 +458,32 @@ void manyChanges(Session& s, int count) {
         switch (i % 9) {
         case 0:
         case 1:
-        case 2: ASSERT_TRUE(s.edit({{"key.intensity", float(i)}}, alice, std::nullopt, std::nullopt, true).ok()); break;
-        case 3: ASSERT_TRUE(s.edit({{"fill.intensity", float(i)}}, bob).ok()); break;
-        case 4: ASSERT_TRUE(s.setTime(i * 0.5, bob).ok()); break;
-        case 5: ASSERT_TRUE(s.undo(bob).ok()); break;
+        case 2:
+            ASSERT_TRUE(
+                s.edit({{"key.intensity", float(i)}}, alice, std::nullopt, std::nullopt, true)
+                    .ok());
+            break;
+        case 3:
+            ASSERT_TRUE(s.edit({{"fill.intensity", float(i)}}, bob).ok());
+            break;
+        case 4:
+            ASSERT_TRUE(s.setTime(i * 0.5, bob).ok());
+            break;
+        case 5:
+            ASSERT_TRUE(s.undo(bob).ok());
+            break;
         case 6: {
             Rig r = s.rig();
             r.exposureStops = float(i % 7) * 0.25f;
             ASSERT_TRUE(s.replace(r, alice).ok());
             break;
         }
-        case 7: ASSERT_TRUE(s.undo(alice).ok()); break;
-        case 8: ASSERT_TRUE(s.redo(alice).ok()); break;
+        case 7:
+            ASSERT_TRUE(s.undo(alice).ok());
+            break;
+        case 8:
+            ASSERT_TRUE(s.redo(alice).ok());
+            break;
         }
     }
 }
@@ -484,7 +519,8 @@ TEST(Session, SnapshotsKeepTheJournalBoundedAndRestoreTheSameState) {
     EXPECT_EQ(state(*s), afterUndo);
     // A merged edit right after the restart does not merge into the step from before it.
     const size_t depth = s->undoDepth();
-    ASSERT_TRUE(s->edit({{"key.intensity", 1}}, {1, "alice"}, std::nullopt, std::nullopt, true).ok());
+    ASSERT_TRUE(
+        s->edit({{"key.intensity", 1}}, {1, "alice"}, std::nullopt, std::nullopt, true).ok());
     EXPECT_EQ(s->undoDepth(), depth + 1);
     std::filesystem::remove_all(dir);
     std::filesystem::remove_all(copy);
@@ -498,9 +534,13 @@ TEST(Session, AMergedDragAcrossASnapshotIsStillOneUndoStep) {
     json before;
     {
         auto s = open(dir, 2);
-        for (int i = 1; i <= 5; ++i) ASSERT_TRUE(s->edit({{"key.intensity", float(i)}}, alice, std::nullopt, std::nullopt, true).ok());
+        for (int i = 1; i <= 5; ++i)
+            ASSERT_TRUE(
+                s->edit({{"key.intensity", float(i)}}, alice, std::nullopt, std::nullopt, true)
+                    .ok());
         EXPECT_EQ(s->undoDepth(), 1u);
-        ASSERT_EQ(lines(readAll(dir / "journal.jsonl")).size(), 2u); // the snapshot record and the fifth edit
+        ASSERT_EQ(lines(readAll(dir / "journal.jsonl")).size(),
+                  2u); // the snapshot record and the fifth edit
         before = state(*s);
         std::filesystem::copy(dir, copy);
     }
@@ -528,7 +568,8 @@ TEST(Session, ACrashBetweenSnapshotAndCompactionOpensToTheSameState) {
         expected = state(*a);
         EXPECT_EQ(state(*b), expected);
     }
-    std::filesystem::copy_file(plain / "journal.jsonl", snap / "journal.jsonl", std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::copy_file(plain / "journal.jsonl", snap / "journal.jsonl",
+                               std::filesystem::copy_options::overwrite_existing);
     {
         auto s = open(snap, 10);
         ASSERT_TRUE(s);
@@ -544,13 +585,16 @@ TEST(Session, ACrashBetweenSnapshotAndCompactionOpensToTheSameState) {
     EXPECT_FLOAT_EQ(intensity(*s), 5.f);
 
     // A snapshot that the journal does not reach (an older journal put back) is refused.
-    std::filesystem::copy_file(plain / "journal.jsonl", snap / "journal.jsonl", std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::copy_file(plain / "journal.jsonl", snap / "journal.jsonl",
+                               std::filesystem::copy_options::overwrite_existing);
     const std::string old = readAll(snap / "journal.jsonl");
-    writeFile(snap / "journal.jsonl", old.substr(0, old.rfind('\n', old.size() - 2) + 1)); // one record short
+    writeFile(snap / "journal.jsonl",
+              old.substr(0, old.rfind('\n', old.size() - 2) + 1)); // one record short
     auto bad = tryOpen(snap, 10);
     ASSERT_FALSE(bad.ok());
     EXPECT_EQ(bad.error().code, ErrorCode::InvalidFile);
-    EXPECT_NE(bad.error().message.find("does not continue the snapshot"), std::string::npos) << bad.error().message;
+    EXPECT_NE(bad.error().message.find("does not continue the snapshot"), std::string::npos)
+        << bad.error().message;
     std::filesystem::remove_all(plain);
     std::filesystem::remove_all(snap);
 }

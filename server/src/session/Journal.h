@@ -55,7 +55,8 @@ public:
     /// record; `recoveryReport` then says so (file, line, reason, the aside file), else it is
     /// left empty. Damage before the last record cannot be a crash: InvalidFile naming the file,
     /// line and reason, and the file is left untouched.
-    static Result<Journal> open(const std::filesystem::path& dir, std::vector<nlohmann::json>* operations,
+    static Result<Journal> open(const std::filesystem::path& dir,
+                                std::vector<nlohmann::json>* operations,
                                 std::string* recoveryReport);
     /// DIR/snapshot.jsonl's state, or nullopt when there is none. InvalidFile when it exists but
     /// is damaged (it is written atomically, so that is not a crash).
@@ -104,7 +105,7 @@ private:
 
     std::filesystem::path mDir;
     int mFd = -1;
-    uint64_t mGoodBytes = 0;    ///< size of the file up to the end of its last good record
+    uint64_t mGoodBytes = 0;     ///< size of the file up to the end of its last good record
     bool mNeedsRollBack = false; ///< a failed append's fragment could not be cut off yet
     size_t mRecords = 0;
 };

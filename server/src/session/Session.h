@@ -62,8 +62,9 @@ public:
     /// the journal is damaged before its end, does not continue the snapshot, or is empty or
     /// missing although rig.json or a snapshot show that the session had changes: a session is
     /// never silently restarted at version 1. `snapshotEvery` (>= 1): see SNAPSHOT_EVERY.
-    static Result<std::unique_ptr<Session>> open(std::string id, const DeepBuffer& shot, std::string shotPath,
-                                                 Rig initialRig, const std::filesystem::path& dir,
+    static Result<std::unique_ptr<Session>> open(std::string id, const DeepBuffer& shot,
+                                                 std::string shotPath, Rig initialRig,
+                                                 const std::filesystem::path& dir,
                                                  size_t snapshotEvery = SNAPSHOT_EVERY);
 
     /// Applies all changes or none. `base`: the version the client edited from (for the
