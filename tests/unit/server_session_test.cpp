@@ -440,7 +440,7 @@ TEST(Session, ALostJournalIsRefusedNotRestartedAtVersionOne) {
     EXPECT_EQ(bad.error().code, ErrorCode::InvalidFile);
     EXPECT_NE(bad.error().message.find("rig.json is at version 6"), std::string::npos)
         << bad.error().message;
-    EXPECT_FALSE(std::filesystem::exists(journal) && !readAll(journal).empty());
+    EXPECT_FALSE(std::filesystem::exists(journal)); // left missing, as it was
     // A journal that continues a snapshot which has gone is refused too.
     writeFile(journal, good);
     bad = tryOpen(dir, 3);

@@ -81,6 +81,7 @@ Result<std::unique_ptr<Session>> Session::open(std::string id, const DeepBuffer&
     s->mSnapshotEvery = snapshotEvery;
     if (dir.empty()) return s;
     std::vector<json> ops;
+    const bool journalExisted = std::filesystem::exists(dir / Journal::JOURNAL_FILE);
     auto journal = Journal::open(dir, &ops, &s->mRecoveryReport);
     if (!journal) return journal.error();
     auto snapshot = Journal::readSnapshot(dir);
@@ -96,6 +97,12 @@ Result<std::unique_ptr<Session>> Session::open(std::string id, const DeepBuffer&
     if (ops.empty()) {
         // The base record is on disk before rig.json or a snapshot is ever written, so either
         // of them beside an empty journal means the journal was lost, not that the session is new.
+        // A refusal leaves a missing journal missing, as the operator found it.
+        std::error_code ignored;
+        if (!journalExisted && (snapshot.value() || !savedVersion ||
+                                (savedVersion.value() && *savedVersion.value() > 1))) {
+            std::filesystem::remove(dir / Journal::JOURNAL_FILE, ignored);
+        }
         if (snapshot.value()) {
             return makeError(ErrorCode::InvalidFile,
                              where + " is empty or missing but " + snapWhere +
