@@ -347,6 +347,25 @@ std::string encodeChange(const ChangeInfo& c) {
     return dump(j);
 }
 
+std::string encodeChanges(const std::vector<const ChangeInfo*>& cs) {
+    if (cs.size() == 1) return encodeChange(*cs.front());
+    const ChangeInfo& newest = *cs.back();
+    json all = json::array(), authors = json::array();
+    bool allTime = true;
+    for (const ChangeInfo* c : cs) {
+        allTime = allTime && c->kind == "time";
+        for (const Change& ch : c->changes) all.push_back({{"path", ch.path}, {"value", ch.value}});
+        if (!authors.empty() && authors.back()["by"] == c->byClient && authors.back()["byName"] == c->byName) {
+            authors.back()["to"] = c->rigVersion;
+        } else {
+            authors.push_back({{"by", c->byClient}, {"byName", c->byName}, {"from", c->rigVersion}, {"to", c->rigVersion}});
+        }
+    }
+    return dump(json{{"type", "change"},      {"rigVersion", newest.rigVersion}, {"by", newest.byClient},
+                     {"byName", newest.byName}, {"kind", allTime ? "time" : "edit"},  {"changes", all},
+                     {"coalesced", cs.size()},  {"authors", authors}});
+}
+
 std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq) {
     json j{{"type", "error"}, {"code", toString(code)}, {"message", message}};
     if (seq) j["seq"] = *seq;

@@ -287,6 +287,10 @@ int main(int argc, char** argv) {
             continue;
         }
         session.value()->setLimits(rigLimits);
+        if (!session.value()->recoveryReport().empty()) {
+            std::fprintf(stderr, "dfb-server: session %s: journal repaired: %s\n",
+                         spec.name.c_str(), session.value()->recoveryReport().c_str());
+        }
         if (imported && session.value()->rigVersion() == rig.version) {
             std::printf("dfb-server: session %s: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", spec.name.c_str(),
                         rig.lights.size());

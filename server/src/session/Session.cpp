@@ -1,5 +1,6 @@
 #include "session/Session.h"
 
+#include <dfb/core/Check.h>
 #include <dfb/server/BendyChain.h>
 #include <dfb/server/ImageCodec.h>
 
@@ -72,36 +73,217 @@ Session::Session(std::string id, const DeepBuffer& shot, std::string shotPath, R
                     {"objects", shot.objectNames}};
 }
 
-Result<std::unique_ptr<Session>> Session::open(std::string id, const DeepBuffer& shot, std::string shotPath, Rig initialRig,
-                                               const std::filesystem::path& dir) {
+Result<std::unique_ptr<Session>> Session::open(std::string id, const DeepBuffer& shot,
+                                               std::string shotPath, Rig initialRig,
+                                               const std::filesystem::path& dir,
+                                               size_t snapshotEvery) {
+    DFB_CHECK(snapshotEvery >= 1);
     std::unique_ptr<Session> s(new Session(std::move(id), shot, std::move(shotPath), std::move(initialRig)));
+    s->mSnapshotEvery = snapshotEvery;
     if (dir.empty()) return s;
     std::vector<json> ops;
-    auto journal = Journal::open(dir, &ops);
+    const bool journalExisted = std::filesystem::exists(dir / Journal::JOURNAL_FILE);
+    auto journal = Journal::open(dir, &ops, &s->mRecoveryReport);
     if (!journal) return journal.error();
-    const std::string where = (dir / "journal.jsonl").string();
+    auto snapshot = Journal::readSnapshot(dir);
+    if (!snapshot)
+        return snapshot.error();
+    auto savedVersion = Journal::savedRigVersion(dir);
+    const std::string where = (dir / Journal::JOURNAL_FILE).string();
+    const std::string snapWhere = (dir / Journal::SNAPSHOT_FILE).string();
+    const std::string rigWhere = (dir / Journal::RIG_FILE).string();
+    const std::string refusal =
+        ": refusing to start the session afresh at version 1 (restore the journal, or remove " +
+        dir.string() + " to start afresh on purpose)";
     if (ops.empty()) {
+        // The base record is on disk before rig.json or a snapshot is ever written, so either
+        // of them beside an empty journal means the journal was lost, not that the session is new.
+        // A refusal leaves a missing journal missing, as the operator found it.
+        std::error_code ignored;
+        if (!journalExisted && (snapshot.value() || !savedVersion ||
+                                (savedVersion.value() && *savedVersion.value() > 1))) {
+            std::filesystem::remove(dir / Journal::JOURNAL_FILE, ignored);
+        }
+        if (snapshot.value()) {
+            return makeError(ErrorCode::InvalidFile,
+                             where + " is empty or missing but " + snapWhere +
+                                 " holds the session at version " +
+                                 protocol::dump((*snapshot.value())["v"]) + refusal);
+        }
+        if (!savedVersion)
+            return makeError(ErrorCode::InvalidFile, where + " is empty or missing and " +
+                                                         savedVersion.error().message + refusal);
+        if (savedVersion.value() && *savedVersion.value() > 1) {
+            return makeError(ErrorCode::InvalidFile,
+                             where + " is empty or missing but " + rigWhere + " is at version " +
+                                 std::to_string(*savedVersion.value()) + refusal);
+        }
         if (auto st = journal->append(json{{"op", "base"}, {"rig", protocol::toJson(s->mRig)}}); !st) return st.error();
     } else {
-        // Replay: the base rig, then every operation in order, each landing on the version it had.
-        if (ops[0].value("op", "") != "base" || !ops[0].contains("rig")) {
-            return makeError(ErrorCode::InvalidFile, where + ":1: the journal does not start with the base rig");
+        // Every record after the first lands on the next version; check that before replaying so
+        // that a gap is named, and so that the snapshot can be placed in the journal.
+        const std::string firstKind = ops[0].value("op", "");
+        uint64_t start = 0;
+        if (firstKind == "base") {
+            auto base = protocol::rigFromJson(ops[0].contains("rig") ? ops[0]["rig"] : json());
+            if (!base)
+                return makeError(ErrorCode::InvalidFile,
+                                 where + ":1: base rig: " + base.error().message);
+            s->mRig = base.value();
+            updateWarnings(s->mRig);
+            start = s->mRig.version;
+        } else if (firstKind == "snapshot" && ops[0].contains("v") &&
+                   ops[0]["v"].is_number_unsigned()) {
+            start = ops[0]["v"].get<uint64_t>();
+        } else {
+            return makeError(
+                ErrorCode::InvalidFile,
+                where + ":1: the journal starts with neither the base rig nor a snapshot record");
         }
-        auto base = protocol::rigFromJson(ops[0]["rig"]);
-        if (!base) return makeError(ErrorCode::InvalidFile, where + ":1: base rig: " + base.error().message);
-        s->mRig = base.value();
-        updateWarnings(s->mRig);
         for (size_t i = 1; i < ops.size(); ++i) {
+            const json& v = ops[i].contains("v") ? ops[i]["v"] : json();
+            if (!v.is_number_unsigned() || v.get<uint64_t>() != start + i) {
+                return makeError(ErrorCode::InvalidFile,
+                                 where + ":" + std::to_string(i + 1) + ": the record has version " +
+                                     protocol::dump(v) + ", the one before it " +
+                                     std::to_string(start + i - 1) +
+                                     ": the journal is not contiguous (left untouched)");
+            }
+        }
+        const uint64_t last = start + ops.size() - 1;
+        size_t from = 1;
+        if (snapshot.value()) {
+            // The snapshot is written before the journal is compacted: after a crash between the
+            // two, the old journal still holds records up to and beyond the snapshot; skip those.
+            const json& state = *snapshot.value();
+            const uint64_t v = state.value("v", uint64_t(0));
+            if (v < start || v > last) {
+                return makeError(
+                    ErrorCode::InvalidFile,
+                    snapWhere + " holds version " + std::to_string(v) + " but " + where +
+                        " covers versions " + std::to_string(start) + " to " +
+                        std::to_string(last) +
+                        ": the journal does not continue the snapshot (both left untouched)");
+            }
+            if (auto st = s->restoreState(state); !st)
+                return makeError(ErrorCode::InvalidFile, snapWhere + ": " + st.error().message);
+            from = size_t(v - start) + 1;
+        } else if (firstKind == "snapshot") {
+            return makeError(ErrorCode::InvalidFile,
+                             where + ":1: the journal continues a snapshot at version " +
+                                 std::to_string(start) + " but " + snapWhere + " is missing");
+        }
+        for (size_t i = from; i < ops.size(); ++i) {
             auto r = s->apply(ops[i], false);
             if (!r) {
                 return makeError(ErrorCode::InvalidFile, where + ":" + std::to_string(i + 1) + ": cannot replay: " + r.error().message);
             }
+        }
+        // rig.json is written only after a change is in the journal, so a newer one means the
+        // journal lost acknowledged changes; one newer after a repair: the moved-aside record was
+        // one.
+        if (savedVersion && savedVersion.value() && *savedVersion.value() > s->mRig.version) {
+            const std::string lost = rigWhere + " is at version " +
+                                     std::to_string(*savedVersion.value()) + " but " + where +
+                                     " ends at version " + std::to_string(s->mRig.version);
+            if (s->mRecoveryReport.empty() || *savedVersion.value() > s->mRig.version + 1) {
+                return makeError(
+                    ErrorCode::InvalidFile,
+                    lost + ": acknowledged changes are missing from the journal" +
+                        (s->mRecoveryReport.empty() ? "" : " (" + s->mRecoveryReport + ")"));
+            }
+            s->mRecoveryReport +=
+                "; " + lost + ": the moved-aside record was an acknowledged change, now undone";
         }
     }
     s->mMergeableBy = 0; // client ids start again after a restart: no merging across it
     s->mJournal = std::move(journal.value());
     if (auto st = s->mJournal->saveRig(protocol::toJson(s->mRig)); !st) return st.error();
     return s;
+}
+
+json Session::stateJson() const {
+    auto steps = [](const auto& list) {
+        json arr = json::array();
+        for (const Step& st : list)
+            arr.push_back({protocol::toJson(st.before), protocol::toJson(st.after)});
+        return arr;
+    };
+    json log = json::array();
+    for (const json& rec : mLog)
+        log.push_back(rec);
+    // mergeableBy: a merged edit journaled after the snapshot must merge on replay as it did live.
+    return json{{"op", "state"},
+                {"v", mRig.version},
+                {"rig", protocol::toJson(mRig)},
+                {"undo", steps(mUndo)},
+                {"redo", steps(mRedo)},
+                {"log", std::move(log)},
+                {"mergeableBy", mMergeableBy}};
+}
+
+Status Session::restoreState(const json& state) {
+    auto rig = [](const json& j) -> Result<Rig> {
+        auto r = protocol::rigFromJson(j);
+        if (!r)
+            return r.error();
+        updateWarnings(r.value()); // the server's, recomputed as when the rig was made
+        return r;
+    };
+    auto steps = [&](const char* key, auto& out) -> Status {
+        if (!state.contains(key) || !state[key].is_array())
+            return makeError(ErrorCode::InvalidFile, std::string(key) + ": expected an array");
+        for (const json& st : state[key]) {
+            if (!st.is_array() || st.size() != 2)
+                return makeError(ErrorCode::InvalidFile,
+                                 std::string(key) + ": expected [before, after] pairs");
+            auto before = rig(st[0]), after = rig(st[1]);
+            if (!before)
+                return before.error();
+            if (!after)
+                return after.error();
+            out.push_back({std::move(before.value()), std::move(after.value())});
+        }
+        return okStatus();
+    };
+    auto r = rig(state.contains("rig") ? state["rig"] : json());
+    if (!r)
+        return r.error();
+    if (r->version != state.value("v", uint64_t(0)))
+        return makeError(ErrorCode::InvalidFile, "the rig's version is not the snapshot's");
+    mUndo.clear();
+    mRedo.clear();
+    mLog.clear();
+    if (auto st = steps("undo", mUndo); !st)
+        return st;
+    if (auto st = steps("redo", mRedo); !st)
+        return st;
+    if (!state.contains("log") || !state["log"].is_array())
+        return makeError(ErrorCode::InvalidFile, "log: expected an array");
+    for (const json& rec : state["log"]) {
+        if (!rec.is_object() || !rec.contains("version") || !rec["version"].is_number_unsigned()) {
+            return makeError(ErrorCode::InvalidFile, "log: expected change records with a version");
+        }
+        mLog.push_back(rec);
+    }
+    mMergeableBy = state.value("mergeableBy", uint64_t(0));
+    mRig = std::move(r.value());
+    return okStatus();
+}
+
+void Session::snapshotIfDue() {
+    // records() counts the first record (base or snapshot) too.
+    if (!mJournal || mJournal->records() <= mSnapshotEvery)
+        return;
+    Status st = mJournal->writeSnapshot(stateJson());
+    // Only once the snapshot is durable may the journal forget what it replaces.
+    if (st)
+        st = mJournal->compact({json{{"op", "snapshot"}, {"v", mRig.version}}});
+    if (!st) {
+        std::fprintf(
+            stderr, "dfb-server: session %s: snapshot: %s (the journal still holds every change)\n",
+            mId.c_str(), st.error().toString().c_str());
+    }
 }
 
 Status Session::checkCookies(const Rig& next) const {
@@ -178,7 +360,7 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
             if (auto st = mJournal->append(line); !st) return st.error();
         }
     } else if (!op.contains("v") || !op["v"].is_number_unsigned() || op["v"].get<uint64_t>() != next.version) {
-        return makeError(ErrorCode::InvalidFile, "operation records version " + protocol::dump(op.value("v", json())) + ", replay reached " +
+        return makeError(ErrorCode::InvalidFile, "operation records version " + protocol::excerpt(op.value("v", json())) + ", replay reached " +
                                                      std::to_string(next.version));
     }
 
@@ -218,6 +400,7 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
         if (auto st = mJournal->saveRig(protocol::toJson(mRig)); !st) {
             std::fprintf(stderr, "dfb-server: session %s: %s (the journal holds the change)\n", mId.c_str(), st.error().toString().c_str());
         }
+        snapshotIfDue();
     }
     return out;
 }

@@ -47,11 +47,25 @@ public:
     /// Most change records kept for conflict reports and GET .../history.
     static constexpr size_t MAX_LOG = 10000;
 
-    /// A session named `id` on `shot`. With a non-empty `dir` the session is persistent: an
-    /// existing journal there is replayed (the rig and history are restored exactly; `initialRig`
-    /// is then ignored), else a new one is started from `initialRig`.
-    static Result<std::unique_ptr<Session>> open(std::string id, const DeepBuffer& shot, std::string shotPath,
-                                                 Rig initialRig, const std::filesystem::path& dir);
+    /// Changes journaled between two snapshots of the whole state (then the journal is compacted
+    /// to one record). A snapshot holds up to MAX_UNDO steps of two rigs each and all MAX_LOG
+    /// change records (up to a few MB with large rigs), written and fsynced on the network thread,
+    /// so it must be rare next to the one small record per change; 1000 changes of ~100-300 bytes
+    /// keep the journal to a few hundred KB between snapshots (whole-rig records aside).
+    static constexpr size_t SNAPSHOT_EVERY = 1000;
+
+    /// A session named `id` on `shot`. With a non-empty `dir` the session is persistent: the
+    /// snapshot and journal there are replayed (the rig, version, undo/redo stacks and history
+    /// are restored exactly; `initialRig` is then ignored), else a new journal is started from
+    /// `initialRig`. A damaged last journal record is moved aside and reported by
+    /// recoveryReport(). InvalidFile, naming the file, line and reason, and nothing touched, when
+    /// the journal is damaged before its end, does not continue the snapshot, or is empty or
+    /// missing although rig.json or a snapshot show that the session had changes: a session is
+    /// never silently restarted at version 1. `snapshotEvery` (>= 1): see SNAPSHOT_EVERY.
+    static Result<std::unique_ptr<Session>> open(std::string id, const DeepBuffer& shot,
+                                                 std::string shotPath, Rig initialRig,
+                                                 const std::filesystem::path& dir,
+                                                 size_t snapshotEvery = SNAPSHOT_EVERY);
 
     /// Applies all changes or none. `base`: the version the client edited from (for the
     /// overwrote report); `ifVersion`: refuse with Conflict unless the rig is at that version.
@@ -95,6 +109,10 @@ public:
     /// shows them: [{"version", "kind", "by", "byName", "changes" | "rig"}].
     nlohmann::json history(uint64_t since) const;
 
+    /// What open() repaired in the journal (file, line, reason, where the damaged bytes were
+    /// moved), for the operator; empty when nothing needed repair.
+    const std::string& recoveryReport() const { return mRecoveryReport; }
+
     const std::string& id() const { return mId; }
     bool persistent() const { return mJournal.has_value(); }
     /// Resolution, camera and source of the shot, for the welcome message and GET /v1/sessions/ID.
@@ -110,6 +128,12 @@ private:
     // A cookie new in `next` must be an image the engine can read, or the change is refused now
     // rather than every frame failing later.
     Status checkCookies(const Rig& next) const;
+    // The whole state a restart needs (what replaying the journal so far would rebuild), and back.
+    nlohmann::json stateJson() const;
+    Status restoreState(const nlohmann::json& state);
+    // After enough journaled changes: snapshot the state and compact the journal. A failure is
+    // logged only: the journal still holds every change, and the next change tries again.
+    void snapshotIfDue();
 
     const std::string mId;
     mutable std::mutex mMutex;
@@ -122,6 +146,8 @@ private:
     uint64_t mMergeableBy = 0;
     std::string mAssetDir = ".";
     protocol::RigLimits mLimits;
+    size_t mSnapshotEvery = SNAPSHOT_EVERY;
+    std::string mRecoveryReport;
     nlohmann::json mDescription;
 };
 
