@@ -350,11 +350,14 @@ std::string encodeChange(const ChangeInfo& c) {
 std::string encodeChanges(const std::vector<const ChangeInfo*>& cs) {
     if (cs.size() == 1) return encodeChange(*cs.front());
     const ChangeInfo& newest = *cs.back();
-    json all = json::array(), authors = json::array();
+    json all = json::array(), versions = json::array(), authors = json::array();
     bool allTime = true;
     for (const ChangeInfo* c : cs) {
         allTime = allTime && c->kind == "time";
-        for (const Change& ch : c->changes) all.push_back({{"path", ch.path}, {"value", ch.value}});
+        for (const Change& ch : c->changes) {
+            all.push_back({{"path", ch.path}, {"value", ch.value}});
+            versions.push_back(c->rigVersion);
+        }
         if (!authors.empty() && authors.back()["by"] == c->byClient && authors.back()["byName"] == c->byName) {
             authors.back()["to"] = c->rigVersion;
         } else {
@@ -363,7 +366,7 @@ std::string encodeChanges(const std::vector<const ChangeInfo*>& cs) {
     }
     return dump(json{{"type", "change"},      {"rigVersion", newest.rigVersion}, {"by", newest.byClient},
                      {"byName", newest.byName}, {"kind", allTime ? "time" : "edit"},  {"changes", all},
-                     {"coalesced", cs.size()},  {"authors", authors}});
+                     {"versions", versions},    {"coalesced", cs.size()},         {"authors", authors}});
 }
 
 std::string encodeError(ErrorCode code, std::string_view message, std::optional<uint64_t> seq) {

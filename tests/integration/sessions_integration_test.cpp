@@ -92,7 +92,14 @@ TEST(Sessions, TwoEditorsAndAViewerSeeTheSameChangesAndFrames) {
                 log[m["rigVersion"]] = own->at(m["seq"]);
             } else if (m["type"] == "change") {
                 EXPECT_EQ(m["kind"], "edit");
-                log[m["rigVersion"]] = m["changes"];
+                if (!m.contains("coalesced")) {
+                    log[m["rigVersion"]] = m["changes"];
+                    continue;
+                }
+                // Several changes in one message: each with the version it made.
+                EXPECT_EQ(m["versions"].size(), m["changes"].size()) << m;
+                EXPECT_EQ(m["versions"].back(), m["rigVersion"]) << m;
+                for (size_t i = 0; i < m["changes"].size(); ++i) log[m["versions"][i]].push_back(m["changes"][i]);
             } else {
                 ADD_FAILURE() << "unexpected " << m;
                 return log;

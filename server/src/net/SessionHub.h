@@ -60,8 +60,6 @@ public:
     void onNewImage(uint64_t imageSerial);
 
 private:
-    void broadcastText(const std::string& message, const WebSocketSession* except);
-
     asio::io_context& mIoc;
     Metrics& mMetrics;
     std::unique_ptr<DeepBuffer> mShot;

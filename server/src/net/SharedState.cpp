@@ -96,25 +96,27 @@ std::vector<protocol::ClientInfo> SessionHub::clients() const {
     return out;
 }
 
-void SessionHub::broadcastText(const std::string& message, const WebSocketSession* except) {
-    auto shared = std::make_shared<const std::string>(message);
-    // Hold strong references while sending: a send may close (and remove) a session.
+void SessionHub::published(const ChangeOutcome& outcome, const WebSocketSession* except) {
+    mMetrics.changeAccepted(id(), outcome.info.rigVersion);
+    // Encoded by each client with the others of its interval (coalesced); shared, not copied.
+    auto change = std::make_shared<const protocol::ChangeInfo>(outcome.info);
     std::vector<std::weak_ptr<WebSocketSession>> targets;
     for (WebSocketSession* c : mClients) {
         if (c != except) targets.push_back(c->weak_from_this());
     }
     for (auto& w : targets) {
-        if (auto s = w.lock()) s->sendText(shared);
+        if (auto s = w.lock()) s->changeAvailable(change);
     }
-}
-
-void SessionHub::published(const ChangeOutcome& outcome, const WebSocketSession* except) {
-    mMetrics.changeAccepted(id(), outcome.info.rigVersion);
-    broadcastText(protocol::encodeChange(outcome.info), except);
     mRender->requestFrame();
 }
 
-void SessionHub::broadcastPresence() { broadcastText(protocol::encodePresence(clients()), nullptr); }
+void SessionHub::broadcastPresence() {
+    std::vector<std::weak_ptr<WebSocketSession>> targets;
+    for (WebSocketSession* c : mClients) targets.push_back(c->weak_from_this());
+    for (auto& w : targets) {
+        if (auto s = w.lock()) s->presenceChanged();
+    }
+}
 
 void SessionHub::onNewImage(uint64_t serial) {
     asio::post(mIoc, [self = shared_from_this(), serial] {

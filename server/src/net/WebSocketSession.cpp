@@ -4,19 +4,45 @@
 
 #include <dfb/protocol/Messages.h>
 
+#include <climits>
 #include <cstdio>
+
+#include <sys/ioctl.h>
+#include <linux/sockios.h>
 
 namespace dfb::net {
 
 namespace {
-// A client that lets this many text messages pile up (it does not read) is disconnected: it
-// could not keep a consistent rig anyway, and the server must not hold unbounded memory for it.
+using Clock = std::chrono::steady_clock;
+// Replies (acks, errors, picks) a client may leave unread: a client sending that many messages
+// without reading one answer is not reading, and the server must not hold unbounded memory.
 constexpr size_t MAX_QUEUED_TEXTS = 4096;
+// Other clients' changes are sent at most once per interval, coalesced: 64 editors at 10 edits/s
+// were 40,000 messages a second for the network thread, which dropped healthy clients.
+// 40 ms is below a frame at interactive rates, so the panels follow the image.
+constexpr auto CHANGE_INTERVAL = std::chrono::milliseconds(40);
+// One coalesced message carries at most this many changes (the rest follow at once).
+constexpr size_t MAX_CHANGES_PER_MESSAGE = 256;
+// Changes held for a client that has not taken any for long: only reached by a client that
+// reads nothing for many seconds in a very busy session (STALL_TIMEOUT usually comes first).
+constexpr size_t MAX_PENDING_CHANGES = 100000;
+// A client is "not reading" when its socket accepts no byte for this long while a write waits
+// (a slow link still drains its buffer, a stopped reader does not).
+constexpr auto STALL_TIMEOUT = std::chrono::seconds(20);
+constexpr auto STALL_CHECK = std::chrono::seconds(2);
+
+// Bytes written to the socket that the peer has not acknowledged yet (Linux SIOCOUTQ); -1 when
+// unknown.
+int unsentBytes(int fd) {
+    int n = 0;
+    return ::ioctl(fd, SIOCOUTQ, &n) == 0 ? n : -1;
+}
 } // namespace
 
 WebSocketSession::WebSocketSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
                                    protocol::Role role, std::shared_ptr<void> slot)
-    : mSlot(std::move(slot)), mWs(std::move(socket)), mState(std::move(state)), mHub(std::move(hub)), mRole(role) {}
+    : mSlot(std::move(slot)), mWs(std::move(socket)), mState(std::move(state)), mHub(std::move(hub)), mRole(role),
+      mFlushTimer(mWs.get_executor()), mStallTimer(mWs.get_executor()) {}
 
 WebSocketSession::~WebSocketSession() {
     if (mJoined) {
@@ -164,18 +190,87 @@ void WebSocketSession::handleText(const std::string& text) {
         parsed.value());
 }
 
+void WebSocketSession::disconnect(const char* why) {
+    if (mClosing) return;
+    std::fprintf(stderr, "dfb-server: session %s: client %llu %s: disconnected\n", mHub->id().c_str(),
+                 static_cast<unsigned long long>(mClientId), why);
+    mClosing = true;
+    mTextQueue.clear();
+    mPendingChanges.clear();
+    mFlushTimer.cancel();
+    mStallTimer.cancel();
+    error_code ignored;
+    beast::get_lowest_layer(mWs).socket().close(ignored);
+}
+
 void WebSocketSession::sendText(std::shared_ptr<const std::string> message) {
     if (mClosing) return;
-    if (mTextQueue.size() >= MAX_QUEUED_TEXTS) {
-        std::fprintf(stderr, "dfb-server: session %s: client %llu does not read its messages: disconnected\n", mHub->id().c_str(),
-                     static_cast<unsigned long long>(mClientId));
-        mClosing = true;
-        mTextQueue.clear();
-        beast::get_lowest_layer(mWs).socket().close();
-        return;
-    }
+    if (mTextQueue.size() >= MAX_QUEUED_TEXTS) return disconnect("does not read the answers to its messages");
     mTextQueue.push_back(std::move(message));
     if (!mWriting) writeNext();
+}
+
+void WebSocketSession::changeAvailable(std::shared_ptr<const protocol::ChangeInfo> change) {
+    if (mClosing || !mJoined) return;
+    // A whole rig is the state at its version: the changes before it need not be sent.
+    if (change->rig) mPendingChanges.clear();
+    mPendingChanges.push_back(std::move(change));
+    if (mPendingChanges.size() > MAX_PENDING_CHANGES) return disconnect("does not read its messages");
+    if (!mWriting) writeNext();
+}
+
+void WebSocketSession::presenceChanged() {
+    if (mClosing || !mJoined) return;
+    mPresenceDirty = true;
+    if (!mWriting) writeNext();
+}
+
+bool WebSocketSession::changesDue() const { return Clock::now() - mLastChangesSent >= CHANGE_INTERVAL; }
+
+void WebSocketSession::armFlush() {
+    if (mFlushArmed) return;
+    mFlushArmed = true;
+    mFlushTimer.expires_at(mLastChangesSent + CHANGE_INTERVAL);
+    mFlushTimer.async_wait([self = weak_from_this()](error_code ec) {
+        auto s = self.lock();
+        if (!s) return;
+        s->mFlushArmed = false;
+        if (!ec && !s->mWriting) s->writeNext();
+    });
+}
+
+std::shared_ptr<const std::string> WebSocketSession::takeChanges() {
+    if (mPendingChanges.front()->rig) {
+        auto m = std::make_shared<const std::string>(protocol::encodeChange(*mPendingChanges.front()));
+        mPendingChanges.erase(mPendingChanges.begin());
+        return m;
+    }
+    // Only the first pending change can be a whole rig (changeAvailable), so these are edits.
+    const size_t n = std::min(mPendingChanges.size(), MAX_CHANGES_PER_MESSAGE);
+    std::vector<const protocol::ChangeInfo*> batch;
+    batch.reserve(n);
+    for (size_t i = 0; i < n; ++i) batch.push_back(mPendingChanges[i].get());
+    auto m = std::make_shared<const std::string>(protocol::encodeChanges(batch));
+    mPendingChanges.erase(mPendingChanges.begin(), mPendingChanges.begin() + std::ptrdiff_t(n));
+    return m;
+}
+
+void WebSocketSession::armStallCheck() {
+    if (mStallArmed) return;
+    mStallArmed = true;
+    mStallTimer.expires_after(STALL_CHECK);
+    mStallTimer.async_wait([self = weak_from_this()](error_code ec) {
+        auto s = self.lock();
+        if (!s) return;
+        s->mStallArmed = false;
+        if (ec || s->mClosing || !s->mWriting) return;
+        const int unsent = unsentBytes(beast::get_lowest_layer(s->mWs).socket().native_handle());
+        // Bytes left the socket since the last look: the peer reads, however slowly.
+        if (unsent >= 0 && s->mUnsentAtCheck >= 0 && unsent < s->mUnsentAtCheck) s->mWriteStarted = Clock::now();
+        s->mUnsentAtCheck = unsent;
+        if (Clock::now() - s->mWriteStarted >= STALL_TIMEOUT) return s->disconnect("accepts no data (it does not read)");
+        s->armStallCheck();
+    });
 }
 
 void WebSocketSession::frameAvailable(uint64_t serial) {
@@ -231,24 +326,50 @@ void WebSocketSession::onEncoded(uint64_t viewGeneration, Result<std::shared_ptr
 }
 
 void WebSocketSession::writeNext() {
-    if (mClosing) return;
-    // Text first: acks and changes are small and order matters for them.
+    if (mClosing || mWriting) return;
+    std::shared_ptr<const std::string> text;
+    // Replies first: they are small, in order, and what this client waits for.
     if (!mTextQueue.empty()) {
-        mWriting = true;
-        mWritingText = std::move(mTextQueue.front());
+        text = std::move(mTextQueue.front());
         mTextQueue.pop_front();
+    } else if (!mPendingChanges.empty() || mPresenceDirty) {
+        // Others' changes and presence, at most once per interval (all that is pending goes out
+        // back to back, then the interval starts again).
+        if (mFlushing || changesDue()) {
+            if (!mFlushing) mLastChangesSent = Clock::now();
+            mFlushing = true;
+            if (!mPendingChanges.empty()) {
+                text = takeChanges();
+            } else {
+                mPresenceDirty = false;
+                text = std::make_shared<const std::string>(protocol::encodePresence(mHub->clients()));
+            }
+            mFlushing = !mPendingChanges.empty() || mPresenceDirty;
+        } else {
+            armFlush();
+        }
+    }
+    if (text) {
+        mWriting = true;
+        mWritingText = std::move(text);
         mHub->metrics().bytesSent(mHub->id(), mWritingText->size());
         mWs.text(true);
-        mWs.async_write(asio::buffer(*mWritingText), beast::bind_front_handler(&WebSocketSession::onWrite, shared_from_this()));
+        startWrite(asio::buffer(*mWritingText));
     } else if (mPendingFrame) {
         mWriting = true;
         mWritingFrame = std::move(mPendingFrame);
         mPendingFrame.reset();
         mHub->metrics().frameSent(mHub->id(), mWritingFrame->message->size());
         mWs.binary(true);
-        mWs.async_write(asio::buffer(*mWritingFrame->message),
-                        beast::bind_front_handler(&WebSocketSession::onWrite, shared_from_this()));
+        startWrite(asio::buffer(*mWritingFrame->message));
     }
+}
+
+void WebSocketSession::startWrite(asio::const_buffer bytes) {
+    mWriteStarted = Clock::now();
+    mUnsentAtCheck = -1;
+    armStallCheck();
+    mWs.async_write(bytes, beast::bind_front_handler(&WebSocketSession::onWrite, shared_from_this()));
 }
 
 void WebSocketSession::onWrite(error_code ec, size_t) {

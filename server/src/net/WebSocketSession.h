@@ -1,17 +1,23 @@
 #pragma once
-// One WebSocket client of one session, with the role its token gave it. Text messages are queued
-// in order; frames are pulled: when nothing is being written, the client asks the render thread
-// for the newest image encoded for its own view settings, so it never holds more than one frame
-// and a slow client skips versions instead of queueing them. One async write in flight at a time
-// (Beast's rule).
+// One WebSocket client of one session, with the role its token gave it. Replies to this client
+// (welcome, acks, errors, picks) are queued in order and written first; other clients' changes
+// and presence are coalesced: at most one change message (all changes since the last one, in
+// order) and one presence list per CHANGE_INTERVAL, so a busy session costs each client a bounded
+// number of messages whatever the edit rate. Frames are pulled: when nothing is being written, the
+// client asks the render thread for the newest image encoded for its own view settings, so it
+// never holds more than one frame and a slow client skips versions instead of queueing them. One
+// async write in flight at a time (Beast's rule). A client whose socket accepts no bytes for
+// STALL_TIMEOUT while a write waits is disconnected as not reading.
 
 #include "net/Beast.h"
 #include "net/SessionHub.h"
 
 #include <dfb/protocol/Messages.h>
 
+#include <chrono>
 #include <deque>
 #include <memory>
+#include <vector>
 
 namespace dfb::net {
 
@@ -27,6 +33,10 @@ public:
     /// Accepts the upgrade request and starts reading.
     void run(http::request<http::string_body> req);
     void sendText(std::shared_ptr<const std::string> message);
+    /// Another client's accepted change: sent coalesced with the others of the interval.
+    void changeAvailable(std::shared_ptr<const protocol::ChangeInfo> change);
+    /// The presence list changed: the newest list is sent within the interval.
+    void presenceChanged();
     /// A new image (serial) has been rendered: pull it when the connection is free.
     void frameAvailable(uint64_t imageSerial);
     protocol::ClientInfo info() const;
@@ -43,6 +53,13 @@ private:
     void onEncoded(uint64_t viewGeneration, Result<std::shared_ptr<const EncodedFrame>> frame);
     void writeNext();
     void onWrite(error_code ec, size_t bytes);
+    // The next coalesced change message, taken off mPendingChanges (a whole-rig change first).
+    std::shared_ptr<const std::string> takeChanges();
+    bool changesDue() const;
+    void startWrite(asio::const_buffer bytes);
+    void armFlush();
+    void armStallCheck();
+    void disconnect(const char* why);
 
     std::shared_ptr<void> mSlot;
     websocket::stream<beast::tcp_stream> mWs;
@@ -66,6 +83,18 @@ private:
 
     bool mWriting = false;
     std::deque<std::shared_ptr<const std::string>> mTextQueue;
+    std::vector<std::shared_ptr<const protocol::ChangeInfo>> mPendingChanges;
+    bool mPresenceDirty = false;
+    bool mFlushing = false; // sending everything pending, interval started
+    std::chrono::steady_clock::time_point mLastChangesSent{};
+    asio::steady_timer mFlushTimer;
+    bool mFlushArmed = false;
+    // Write progress: when the write in flight began, and the socket's unsent bytes then.
+    asio::steady_timer mStallTimer;
+    bool mStallArmed = false;
+    uint64_t mWriteSerial = 0;
+    std::chrono::steady_clock::time_point mWriteStarted{};
+    int mUnsentAtCheck = -1;
     std::shared_ptr<const EncodedFrame> mPendingFrame;
     std::shared_ptr<const EncodedFrame> mWritingFrame;
     std::shared_ptr<const std::string> mWritingText;

@@ -176,7 +176,8 @@ std::string encodeChange(const ChangeInfo& c);
 /// Several consecutive property changes (kinds "edit" and "time", oldest first, none with a
 /// whole rig) as ONE change message: `changes` is their changes in order, `rigVersion`, `by` and
 /// `byName` the newest's, `kind` "edit" (or "time" when all are), and, when there is more than
-/// one, `coalesced` (how many) and `authors`: [{"by", "byName", "from", "to"}] (the versions each
+/// one, `versions` (the rig version each change of `changes` made, in step with it),
+/// `coalesced` (how many) and `authors`: [{"by", "byName", "from", "to"}] (the versions each
 /// author's changes span, in order). Applying `changes` in order gives the rig at `rigVersion`
 /// (docs/protocol.md "change"): the server sends a busy session's changes so, at most one such
 /// message per client per interval, instead of one message per change per client.
