@@ -606,7 +606,8 @@ int main(int argc, char** argv) {
     // All clients stopping early means all connections were lost: nothing left to measure.
     sleepUntil(sendEnd, [&] { return shared.finished >= opt.clients; });
     sleepUntil(sendEnd + std::chrono::seconds(2), [&] { return shared.doneSending >= opt.clients; });
-    const auto drainBy = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(opt.drainSeconds));
+    const auto drainStart = Clock::now();
+    const auto drainBy = drainStart + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(opt.drainSeconds));
     sleepUntil(drainBy, [&] { return shared.answered + shared.lost >= shared.sent; });
     const auto drainEnd = Clock::now();
 
@@ -653,7 +654,7 @@ int main(int argc, char** argv) {
 
     std::fprintf(human, "edits        sent %llu, acked %llu, refused %llu, unanswered %llu (drain %.1f s)\n", (unsigned long long)sent,
                  (unsigned long long)acked, (unsigned long long)refused, (unsigned long long)unanswered,
-                 std::chrono::duration<double>(drainEnd - sendEnd).count());
+                 std::chrono::duration<double>(drainEnd - drainStart).count());
     std::string codes;
     for (const auto& [code, n] : errorsByCode) codes += " " + code + " " + std::to_string(n);
     std::fprintf(human, "errors       %s\n", codes.empty() ? " none" : codes.c_str());
