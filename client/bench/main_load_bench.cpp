@@ -665,7 +665,7 @@ int main(int argc, char** argv) {
             (long long)std::chrono::duration_cast<std::chrono::seconds>(CONNECT_TIMEOUT).count());
         return EXIT_NO_CONNECTION;
     }
-    // Safe to read: that client's welcome is in (the atomic count says so) and it sends nothing yet.
+    // Safe to read: that welcome is in (the atomic count says so) and nothing is sent yet.
     const uint64_t startVersion = clients.front()->welcomeVersion();
 
     std::vector<double> rssSeconds, rssMb;
