@@ -177,6 +177,13 @@ int main(int argc, char** argv) {
     app.add_option("--metrics-session-names", serverLimits.metricsSessionNames,
                    "label /metrics series with session names (false: sums without names)")
         ->capture_default_str();
+    std::string tlsCert, tlsKey;
+    auto* certOpt = app.add_option("--tls-cert", tlsCert, "PEM certificate chain: serve HTTPS and WSS (with --tls-key) instead of "
+                                                          "plain HTTP on the port")
+                        ->check(CLI::ExistingFile);
+    auto* keyOpt = app.add_option("--tls-key", tlsKey, "PEM private key of --tls-cert")->check(CLI::ExistingFile);
+    certOpt->needs(keyOpt);
+    keyOpt->needs(certOpt);
     CLI11_PARSE(app, argc, argv);
     rigLimits.maxLightMemoryBytes = lightMemoryMb << 20;
 
@@ -335,7 +342,26 @@ int main(int argc, char** argv) {
         std::cerr << "dfb-server: --bind " << bind << " is not an IP address\n";
         return EXIT_USAGE;
     }
-    auto listener = std::make_shared<dfb::net::Listener>(ioc, state);
+    // TLS 1.2 and later only; the certificate and key are checked now, not at the first client.
+    std::unique_ptr<boost::asio::ssl::context> tls;
+    if (!tlsCert.empty()) {
+        tls = std::make_unique<boost::asio::ssl::context>(boost::asio::ssl::context::tls_server);
+        tls->set_options(boost::asio::ssl::context::default_workarounds | boost::asio::ssl::context::no_sslv2 |
+                         boost::asio::ssl::context::no_sslv3 | boost::asio::ssl::context::no_tlsv1 |
+                         boost::asio::ssl::context::no_tlsv1_1 | boost::asio::ssl::context::single_dh_use);
+        boost::system::error_code tlsError;
+        const char* step = "--tls-cert " ;
+        tls->use_certificate_chain_file(tlsCert, tlsError);
+        if (!tlsError) {
+            step = "--tls-key ";
+            tls->use_private_key_file(tlsKey, boost::asio::ssl::context::pem, tlsError);
+        }
+        if (tlsError) {
+            std::cerr << "dfb-server: " << step << (step[6] == 'c' ? tlsCert : tlsKey) << ": " << tlsError.message() << "\n";
+            return EXIT_USAGE;
+        }
+    }
+    auto listener = std::make_shared<dfb::net::Listener>(ioc, state, tls.get());
     if (auto s = listener->open({address, static_cast<unsigned short>(port)}); !s) {
         std::cerr << "dfb-server: " << s.error().toString() << "\n";
         return EXIT_NETWORK;
@@ -346,7 +372,7 @@ int main(int argc, char** argv) {
     signals.async_wait([&](const boost::system::error_code&, int) { ioc.stop(); });
 
     const std::string host = address.is_v6() ? "[" + bind + "]" : bind;
-    const std::string base = "http://" + host + ":" + std::to_string(listener->port()) + "/";
+    const std::string base = std::string(tls ? "https://" : "http://") + host + ":" + std::to_string(listener->port()) + "/";
     for (const auto& l : banner) std::printf("%s\n", l.c_str());
     auto links = [&](const std::string& id, const dfb::net::SessionTokens& t) {
         std::printf("dfb-server: session %s editor: %s?session=%s&token=%s\n", id.c_str(), base.c_str(), id.c_str(), t.editor.c_str());

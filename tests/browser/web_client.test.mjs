@@ -24,8 +24,14 @@ const { values: opts } = parseArgs({
     shot: { type: "string" },
     artifacts: { type: "string", default: "browser-artifacts" },
     chromium: { type: "string", default: "/usr/bin/chromium" },
+    // With both: the server speaks HTTPS and WSS only, and the page is loaded over https (the
+    // certificate is the test's own: NODE_EXTRA_CA_CERTS for node's fetch, and the browser
+    // context accepts it).
+    "tls-cert": { type: "string" },
+    "tls-key": { type: "string" },
   },
 });
+const tlsArgs = opts["tls-cert"] ? ["--tls-cert", opts["tls-cert"], "--tls-key", opts["tls-key"]] : [];
 if (!opts.server || !opts.shot) {
   console.error("usage: node web_client.test.mjs --server DFB_SERVER --shot SHOT.exr [--artifacts DIR]");
   process.exit(2);
@@ -38,14 +44,15 @@ const WAIT = { timeout: 30000 };
 // its URLs once it listens.
 function startServer(port) {
   return new Promise((resolve, reject) => {
-    const proc = spawn(opts.server, [opts.shot, "--port", String(port), "--state", stateDir], { stdio: ["ignore", "pipe", "pipe"] });
+    const proc = spawn(opts.server, [opts.shot, "--port", String(port), "--state", stateDir, ...tlsArgs],
+                       { stdio: ["ignore", "pipe", "pipe"] });
     let out = "";
     const timer = setTimeout(() => { proc.kill("SIGKILL"); reject(new Error(`server did not start:\n${out}`)); }, 60000);
     const onData = (d) => {
       out += d;
-      const m = out.match(/listening on (http:\/\/127\.0\.0\.1:(\d+)\/)/);
-      const editor = out.match(/session (\S+) editor: (http:\/\/\S+token=(\w+))/);
-      const viewer = out.match(/session \S+ viewer: (http:\/\/\S+token=(\w+))/);
+      const m = out.match(/listening on (https?:\/\/127\.0\.0\.1:(\d+)\/)/);
+      const editor = out.match(/session (\S+) editor: (https?:\/\/\S+token=(\w+))/);
+      const viewer = out.match(/session \S+ viewer: (https?:\/\/\S+token=(\w+))/);
       if (m && editor && viewer) {
         clearTimeout(timer);
         resolve({ proc, base: m[1], port: Number(m[2]), session: editor[1], editorUrl: editor[2], token: editor[3],
@@ -176,7 +183,7 @@ try {
            "--disable-component-update", "--disable-sync"],
   });
   const viewport = { width: 1280, height: 800 };
-  const ctxA = await browser.newContext({ viewport });
+  const ctxA = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });
   const a = await ctxA.newPage();
   const consoleErrors = [];
   let restarting = false;
@@ -324,7 +331,7 @@ try {
     console.log(`     r[1] ${r0.toFixed(3)} -> ${rig3.lights.find((l) => l.name === "key").radii[1].toFixed(3)}`);
   });
 
-  const ctxB = await browser.newContext({ viewport });
+  const ctxB = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });
   const b = await ctxB.newPage();
   await check("an edit from a second browser appears in the first, with presence", async () => {
     await b.goto(`${server.editorUrl}&name=bob`);
@@ -346,7 +353,7 @@ try {
     // The editor's Review panel offers the session's viewer link; the viewer opens that.
     const shared = await a.$eval("#viewerLink", (e) => e.value);
     assert(shared === server.viewerUrl, `shared viewer link ${shared}, server's ${server.viewerUrl}`);
-    const ctxV = await browser.newContext({ viewport });
+    const ctxV = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });
     const v = await ctxV.newPage();
     await v.goto(`${shared}&name=carol`);
     assert(!(await v.isVisible("#viewerShare")), "a viewer is offered a viewer link it cannot know");

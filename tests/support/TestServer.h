@@ -26,11 +26,11 @@ struct Server {
         args.insert(args.begin(), DFB_SERVER_EXE);
         args.insert(args.end(), {"--port", "0"});
         process = std::make_unique<Process>(args);
-        auto m = process->waitForLine(std::regex(R"(listening on http://127\.0\.0\.1:(\d+)/)"), std::chrono::seconds(60));
+        auto m = process->waitForLine(std::regex(R"(listening on https?://127\.0\.0\.1:(\d+)/)"), std::chrono::seconds(60));
         if (!m) return;
         port = (*m)[1];
         const std::string out = process->output();
-        const std::regex line(R"(session (\S+) (editor|viewer): http://\S+token=([\w.~-]+))");
+        const std::regex line(R"(session (\S+) (editor|viewer): https?://\S+token=([\w.~-]+))");
         for (auto it = std::sregex_iterator(out.begin(), out.end(), line); it != std::sregex_iterator(); ++it) {
             auto& t = tokens[(*it)[1]];
             ((*it)[2] == "editor" ? t.editor : t.viewer) = (*it)[3];

@@ -118,26 +118,47 @@ std::string etag(uint64_t version) { return "\"" + std::to_string(version) + "\"
 
 } // namespace
 
-HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<void> slot)
-    : mStream(std::move(socket)), mState(std::move(state)), mSlot(std::move(slot)) {}
+HttpSession::HttpSession(Stream&& stream, std::shared_ptr<SharedState> state, std::shared_ptr<void> slot)
+    : mStream(std::move(stream)), mState(std::move(state)), mSlot(std::move(slot)) {}
 
 void HttpSession::run() {
-    asio::dispatch(mStream.get_executor(), beast::bind_front_handler(&HttpSession::doRead, shared_from_this()));
+    asio::dispatch(mStream.get_executor(), [self = shared_from_this()] {
+        if (!self->mStream.tls()) return self->doRead();
+        // A client that connects and never finishes the handshake holds a slot for 30 s at most.
+        beast::get_lowest_layer(self->mStream).expires_after(std::chrono::seconds(30));
+        self->mStream.tlsStream().async_handshake(asio::ssl::stream_base::server,
+                                                  beast::bind_front_handler(&HttpSession::onHandshake, self));
+    });
+}
+
+void HttpSession::onHandshake(error_code ec) {
+    if (ec) return fail(ec, "tls handshake");
+    doRead();
+}
+
+void HttpSession::shutdown() {
+    error_code ec;
+    if (!mStream.tls()) {
+        mStream.next_layer().socket().shutdown(tcp::socket::shutdown_send, ec);
+        return;
+    }
+    beast::get_lowest_layer(mStream).expires_after(std::chrono::seconds(5));
+    mStream.tlsStream().async_shutdown([self = shared_from_this()](error_code) {
+        error_code ignored;
+        self->mStream.next_layer().socket().shutdown(tcp::socket::shutdown_send, ignored);
+    });
 }
 
 void HttpSession::doRead() {
     mParser.emplace();
     mParser->body_limit(MAX_BODY_BYTES);
     mParser->header_limit(MAX_HEADER_BYTES);
-    mStream.expires_after(std::chrono::seconds(60));
+    beast::get_lowest_layer(mStream).expires_after(std::chrono::seconds(60));
     http::async_read(mStream, mBuffer, *mParser, beast::bind_front_handler(&HttpSession::onRead, shared_from_this()));
 }
 
 void HttpSession::onRead(error_code ec, size_t) {
-    if (ec == http::error::end_of_stream) {
-        mStream.socket().shutdown(tcp::socket::shutdown_send, ec);
-        return;
-    }
+    if (ec == http::error::end_of_stream) return shutdown();
     if (ec == http::error::body_limit) {
         Request req; // the rest of the body is unread: answer, then close
         req.keep_alive(false);
@@ -190,8 +211,8 @@ void HttpSession::onRead(error_code ec, size_t) {
         auto hub = mState->find(id);
         auto role = hub ? hub->roleFor(token) : std::nullopt;
         if (!role) return sendUnauthorized(req, id);
-        mStream.expires_never();
-        std::make_shared<WebSocketSession>(mStream.release_socket(), mState, hub, *role, std::move(mSlot))->run(std::move(req));
+        beast::get_lowest_layer(mStream).expires_never();
+        std::make_shared<WebSocketSession>(std::move(mStream), mState, hub, *role, std::move(mSlot))->run(std::move(req));
         return;
     }
     handle(mParser->release());
@@ -420,10 +441,7 @@ void HttpSession::send(Response&& res) {
 void HttpSession::onWrite(bool close, error_code ec, size_t) {
     if (ec) return fail(ec, "http write");
     mResponse.reset();
-    if (close) {
-        mStream.socket().shutdown(tcp::socket::shutdown_send, ec);
-        return;
-    }
+    if (close) return shutdown();
     doRead();
 }
 

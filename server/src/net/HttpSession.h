@@ -6,6 +6,7 @@
 
 #include "net/Beast.h"
 #include "net/SharedState.h"
+#include "net/Stream.h"
 
 #include <memory>
 #include <optional>
@@ -17,14 +18,18 @@ public:
     /// `slot`: the connection's place under the per-address limit (SharedState::admit); null
     /// when the address is over it, and then the first request is answered 503 and the
     /// connection closed.
-    HttpSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<void> slot);
+    /// `stream`: plain or TLS (not yet handshaken).
+    HttpSession(Stream&& stream, std::shared_ptr<SharedState> state, std::shared_ptr<void> slot);
     void run();
 
 private:
     using Request = http::request<http::string_body>;
     using Response = http::response<http::string_body>;
 
+    void onHandshake(error_code ec);
     void doRead();
+    // Ends the connection after the last response: TLS close_notify when on TLS, then TCP.
+    void shutdown();
     void onRead(error_code ec, size_t bytes);
     void handle(Request&& req);
     void handleSession(const Request& req, const std::shared_ptr<SessionHub>& hub, protocol::Role role,
@@ -37,7 +42,7 @@ private:
     bool sendIfFailed(const Request& req, const std::string& id, const std::string& token);
     void onWrite(bool close, error_code ec, size_t bytes);
 
-    beast::tcp_stream mStream;
+    Stream mStream;
     beast::flat_buffer mBuffer;
     std::shared_ptr<SharedState> mState;
     std::optional<http::request_parser<http::string_body>> mParser;

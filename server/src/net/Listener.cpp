@@ -35,7 +35,8 @@ void Listener::onAccept(error_code ec, tcp::socket socket) {
         error_code peerError;
         const auto peer = socket.remote_endpoint(peerError);
         std::shared_ptr<void> slot = peerError ? nullptr : mState->admit(peer.address());
-        std::make_shared<HttpSession>(std::move(socket), mState, std::move(slot))->run();
+        auto stream = mTls ? Stream(std::move(socket), *mTls) : Stream(std::move(socket));
+        std::make_shared<HttpSession>(std::move(stream), mState, std::move(slot))->run();
     }
     if (mAcceptor.is_open()) doAccept();
 }

@@ -3,6 +3,7 @@
 
 #include "net/Beast.h"
 #include "net/SharedState.h"
+#include "net/Stream.h"
 
 #include <memory>
 
@@ -10,7 +11,9 @@ namespace dfb::net {
 
 class Listener : public std::enable_shared_from_this<Listener> {
 public:
-    Listener(asio::io_context& ioc, std::shared_ptr<SharedState> state) : mIoc(ioc), mAcceptor(ioc), mState(std::move(state)) {}
+    /// With `tls`, every connection speaks TLS (HTTPS and WSS); the context outlives the listener.
+    Listener(asio::io_context& ioc, std::shared_ptr<SharedState> state, asio::ssl::context* tls = nullptr)
+        : mIoc(ioc), mAcceptor(ioc), mState(std::move(state)), mTls(tls) {}
     /// Binds and listens; port 0 picks a free port (see port()).
     Status open(const tcp::endpoint& endpoint);
     unsigned short port() const { return mAcceptor.local_endpoint().port(); }
@@ -23,6 +26,7 @@ private:
     asio::io_context& mIoc;
     tcp::acceptor mAcceptor;
     std::shared_ptr<SharedState> mState;
+    asio::ssl::context* mTls;
 };
 
 } // namespace dfb::net

@@ -39,9 +39,9 @@ int unsentBytes(int fd) {
 }
 } // namespace
 
-WebSocketSession::WebSocketSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
+WebSocketSession::WebSocketSession(Stream&& stream, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
                                    protocol::Role role, std::shared_ptr<void> slot)
-    : mSlot(std::move(slot)), mWs(std::move(socket)), mState(std::move(state)), mHub(std::move(hub)), mRole(role),
+    : mSlot(std::move(slot)), mWs(std::move(stream)), mState(std::move(state)), mHub(std::move(hub)), mRole(role),
       mFlushTimer(mWs.get_executor()), mStallTimer(mWs.get_executor()) {}
 
 WebSocketSession::~WebSocketSession() {

@@ -11,6 +11,7 @@
 
 #include "net/Beast.h"
 #include "net/SessionHub.h"
+#include "net/Stream.h"
 
 #include <dfb/protocol/Messages.h>
 
@@ -26,7 +27,7 @@ class SharedState;
 class WebSocketSession : public std::enable_shared_from_this<WebSocketSession> {
 public:
     /// `slot`: the connection's place under the per-address limit, held while it lives.
-    WebSocketSession(tcp::socket&& socket, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
+    WebSocketSession(Stream&& stream, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
                      protocol::Role role, std::shared_ptr<void> slot);
     ~WebSocketSession();
 
@@ -62,7 +63,7 @@ private:
     void disconnect(const char* why);
 
     std::shared_ptr<void> mSlot;
-    websocket::stream<beast::tcp_stream> mWs;
+    websocket::stream<Stream> mWs;
     beast::flat_buffer mBuffer;
     std::shared_ptr<SharedState> mState;
     std::shared_ptr<SessionHub> mHub;
