@@ -328,6 +328,7 @@ int main(int argc, char** argv) {
         render.value()->setRefinement(std::chrono::milliseconds(refineMs), std::chrono::milliseconds(150));
         hub->setRender(std::move(render.value()));
         hub->render().requestFrame();
+        hub->startHousekeeping();
         state->addSession(hub);
     }
 
@@ -395,6 +396,7 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "dfb-server: internal error in a network handler (continuing): %s\n", e.what());
         }
     }
+    for (const auto& [id, hub] : state->sessions()) hub->session().flushSavedRig();
     std::printf("dfb-server: shutting down\n");
     return 0;
 }

@@ -33,7 +33,12 @@ class SessionHub : public std::enable_shared_from_this<SessionHub> {
 public:
     SessionHub(asio::io_context& ioc, Metrics& metrics, std::unique_ptr<DeepBuffer> shot, std::unique_ptr<Session> session,
                SessionTokens tokens)
-        : mIoc(ioc), mMetrics(metrics), mShot(std::move(shot)), mSession(std::move(session)), mTokens(std::move(tokens)) {}
+        : mIoc(ioc), mMetrics(metrics), mShot(std::move(shot)), mSession(std::move(session)), mTokens(std::move(tokens)),
+          mHousekeeping(ioc) {}
+
+    /// Starts the periodic work of the session on the I/O thread (rig.json after a burst of
+    /// changes, Session::flushSavedRig).
+    void startHousekeeping();
 
     const std::string& id() const { return mSession->id(); }
     Session& session() { return *mSession; }
@@ -67,6 +72,7 @@ private:
     std::unique_ptr<RenderService> mRender;
     SessionTokens mTokens;
     std::set<WebSocketSession*> mClients;
+    asio::steady_timer mHousekeeping;
 };
 
 } // namespace dfb::net

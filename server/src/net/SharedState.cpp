@@ -86,6 +86,16 @@ void SharedState::addPrivateDirectory(const std::string& dir) {
     std::sort(mPrivateDirs.begin(), mPrivateDirs.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
 }
 
+void SessionHub::startHousekeeping() {
+    mHousekeeping.expires_after(Session::RIG_SAVE_INTERVAL);
+    mHousekeeping.async_wait([self = weak_from_this()](error_code ec) {
+        auto s = self.lock();
+        if (ec || !s) return;
+        s->mSession->flushSavedRig();
+        s->startHousekeeping();
+    });
+}
+
 void SessionHub::join(WebSocketSession* ws) { mClients.insert(ws); }
 void SessionHub::leave(WebSocketSession* ws) { mClients.erase(ws); }
 

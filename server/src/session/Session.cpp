@@ -397,12 +397,26 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
     mLog.push_back(std::move(rec));
     if (mLog.size() > MAX_LOG) mLog.pop_front();
     if (record && mJournal) {
-        if (auto st = mJournal->saveRig(protocol::toJson(mRig)); !st) {
-            std::fprintf(stderr, "dfb-server: session %s: %s (the journal holds the change)\n", mId.c_str(), st.error().toString().c_str());
-        }
+        mRigSaveDue = true;
+        if (std::chrono::steady_clock::now() - mLastRigSave >= RIG_SAVE_INTERVAL) saveRigNow();
         snapshotIfDue();
     }
     return out;
+}
+
+void Session::saveRigNow() {
+    mRigSaveDue = false;
+    mLastRigSave = std::chrono::steady_clock::now();
+    if (auto st = mJournal->saveRig(protocol::toJson(mRig)); !st) {
+        std::fprintf(stderr, "dfb-server: session %s: %s (the journal holds the change)\n", mId.c_str(), st.error().toString().c_str());
+    }
+}
+
+Session::~Session() { flushSavedRig(); }
+
+void Session::flushSavedRig() {
+    std::lock_guard lock(mMutex);
+    if (mJournal && mRigSaveDue) saveRigNow();
 }
 
 Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes, const Author& by, std::optional<uint64_t> base,
