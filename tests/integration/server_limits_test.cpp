@@ -17,6 +17,9 @@
 #include <sstream>
 #include <thread>
 
+#include <sys/mount.h>
+#include <unistd.h>
+
 using namespace dfb;
 using namespace std::chrono_literals;
 using json = nlohmann::json;
@@ -305,4 +308,75 @@ TEST(Limits, ADamagedJournalRefusesOnlyItsSession) {
     // The damaged journal is left as it was, for the operator.
     EXPECT_EQ(slurp(journal), text);
     std::filesystem::remove_all(state);
+}
+
+TEST(Limits, AFullDiskRefusesEditsOfItsSessionAndLosesNothing) {
+    // alpha's folder is a 256 KiB tmpfs; beta's is on the ordinary disk beside it.
+    const auto state = tempDir("enospc");
+    const auto alphaDir = state / "alpha";
+    std::filesystem::create_directories(alphaDir);
+    if (::geteuid() != 0 || ::mount("tmpfs", alphaDir.c_str(), "tmpfs", 0, "size=256k") != 0) {
+        std::filesystem::remove_all(state);
+        GTEST_SKIP() << "cannot mount a tmpfs (needs root)";
+    }
+    struct Unmount {
+        std::filesystem::path dir;
+        ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
+    } unmount{alphaDir};
+    const std::vector<std::string> args = {"--session", "alpha=" + SHOT, "--session", "beta=" + SHOT, "--state", state.string()};
+    std::vector<int> acked; // the intensities alpha acknowledged, in order
+    uint64_t lastVersion = 0;
+    {
+        Server server(args);
+        ASSERT_TRUE(server.up()) << server.process->output();
+        auto post = [&](const std::string& s, int value) {
+            return test::http(server.port, "POST", "/v1/sessions/" + s + "/edits", server.tokens[s].editor,
+                              json{{"changes", {{{"path", "key.intensity"}, {"value", value}}}}}.dump());
+        };
+        auto ok = post("alpha", 10);
+        ASSERT_EQ(ok.status, 200) << ok.body;
+        acked.push_back(10);
+        // Fill the disk to the last few bytes: the next journal record cannot be written whole.
+        {
+            std::ofstream filler(alphaDir / "filler", std::ios::binary);
+            const std::string block(4096, 'x');
+            while (filler.write(block.data(), block.size())) {}
+        }
+        {
+            std::ofstream tail(alphaDir / "filler-tail", std::ios::binary);
+            while (tail.put('x')) {}
+        }
+        // The journal's last page still has room for some records (tmpfs allocates pages).
+        int refused = 0;
+        for (int i = 0; i < 200 && refused < 3; ++i) {
+            auto r = post("alpha", 20 + i);
+            if (r.status == 200) {
+                acked.push_back(20 + i);
+                continue;
+            }
+            EXPECT_EQ(r.json()["code"], "io_error") << r.body;
+            EXPECT_EQ(r.json()["message"].get<std::string>().find(state.string()), std::string::npos) << r.body;
+            ++refused;
+        }
+        EXPECT_GT(refused, 0) << "the full disk refused nothing";
+        // beta is on another disk: served as usual meanwhile.
+        EXPECT_EQ(post("beta", 44).status, 200);
+        // Space comes back: alpha's edits are accepted again.
+        std::filesystem::remove(alphaDir / "filler");
+        std::filesystem::remove(alphaDir / "filler-tail");
+        auto again = post("alpha", 30);
+        ASSERT_EQ(again.status, 200) << again.body;
+        acked.push_back(30);
+        lastVersion = again.json()["rigVersion"];
+    }
+    // A restart replays every acknowledged edit and nothing else: no fragment in the journal.
+    Server server(args);
+    ASSERT_TRUE(server.up()) << server.process->output();
+    EXPECT_EQ(server.process->output().find("not served"), std::string::npos) << server.process->output();
+    const json history = server.get("/v1/sessions/alpha/history", server.tokens["alpha"].editor).json();
+    std::vector<int> replayed;
+    for (const auto& e : history["entries"]) replayed.push_back(int(e["changes"][0]["value"].get<double>()));
+    EXPECT_EQ(replayed, acked);
+    EXPECT_EQ(history["rigVersion"], lastVersion);
+    EXPECT_EQ(server.rig("beta")["version"], 2);
 }
