@@ -177,6 +177,11 @@ int main(int argc, char** argv) {
     app.add_option("--metrics-session-names", serverLimits.metricsSessionNames,
                    "label /metrics series with session names (false: sums without names)")
         ->capture_default_str();
+    size_t snapshotEvery = dfb::Session::SNAPSHOT_EVERY;
+    app.add_option("--snapshot-every", snapshotEvery, "journaled changes between two snapshots of a session's state (then the "
+                                                      "journal is compacted)")
+        ->check(CLI::Range(size_t(1), size_t(100000000)))
+        ->capture_default_str();
     std::string tlsCert, tlsKey;
     auto* certOpt = app.add_option("--tls-cert", tlsCert, "PEM certificate chain: serve HTTPS and WSS (with --tls-key) instead of "
                                                           "plain HTTP on the port")
@@ -286,7 +291,7 @@ int main(int argc, char** argv) {
         }
         bool imported = false;
         dfb::Rig rig = dfb::initialRig(loaded.value(), &imported);
-        auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, rig, dir);
+        auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, rig, dir, snapshotEvery);
         if (!session) {
             // The journal's own message names the line and the reason; clients get it without
             // the server's folders.

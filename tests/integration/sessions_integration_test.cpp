@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <regex>
 #include <set>
 
@@ -398,6 +399,72 @@ TEST(Sessions, KillMidStreamKeepsEveryAcknowledgedEdit) {
         after = server.rig(id);
     }
     EXPECT_FLOAT_EQ((*findLight(after, "key"))["intensity"].get<float>(), previousKey.get<float>());
+    std::filesystem::remove_all(state);
+}
+
+TEST(Sessions, TwentySigkillRoundsLoseNoAcknowledgedEdit) {
+    // Two editors stream edits; the server is killed at a different point each round and
+    // restarted on the same folder. Snapshots every 40 changes put compactions (and kills near
+    // them) into the rounds. Every acknowledged edit of every round must be in the history with
+    // its changes, and the versions must stay contiguous.
+    const auto state = tempDir("kill20");
+    const std::string id = sessionOf(SHOT);
+    const std::vector<std::string> args = {SHOT, "--state", state.string(), "--snapshot-every", "40"};
+    std::map<uint64_t, json> ackedChanges; // rig version -> the changes acknowledged with it
+    std::mt19937 rng(20261201);
+    for (int round = 0; round < 20; ++round) {
+        Server server(args);
+        ASSERT_TRUE(server.up()) << "round " << round << ": " << server.process->output();
+        test::WsClient a(server.port, id, server.tokens[id].editor), b(server.port, id, server.tokens[id].editor);
+        ASSERT_EQ(a.nextText()["type"], "welcome");
+        ASSERT_EQ(b.nextText()["type"], "welcome");
+        std::map<uint64_t, json> sentA, sentB;
+        const int killAfter = 5 + int(rng() % 40);
+        int acks = 0;
+        bool dead = false;
+        uint64_t seq = 1;
+        auto send = [&](test::WsClient& c, std::map<uint64_t, json>& sent, const char* path) {
+            const json e = edit(seq, path, double(round * 1000 + int(seq)));
+            sent[seq++] = e["changes"];
+            c.send(e);
+        };
+        for (int i = 0; i < 20; ++i) {
+            send(a, sentA, "key.intensity");
+            send(b, sentB, "fill.intensity");
+        }
+        auto drain = [&](test::WsClient& c, std::map<uint64_t, json>& sent, const char* path) {
+            try {
+                for (;;) {
+                    const json m = c.nextText({"presence", "change"});
+                    if (m["type"] != "ack") continue;
+                    ackedChanges[m["rigVersion"]] = sent.at(m["seq"]);
+                    if (++acks == killAfter && !dead) {
+                        server.process->kill(SIGKILL);
+                        dead = true;
+                    }
+                    if (!dead) send(c, sent, path);
+                }
+            } catch (const std::exception&) {
+            }
+        };
+        // Read a's acks until the kill (or its connection ends), then what b had acknowledged.
+        drain(a, sentA, "key.intensity");
+        if (!dead) server.process->kill(SIGKILL);
+        drain(b, sentB, "fill.intensity");
+    }
+    Server server(args);
+    ASSERT_TRUE(server.up()) << server.process->output();
+    const json history = server.get("/v1/sessions/" + id + "/history", server.tokens[id].editor).json();
+    std::map<uint64_t, json> byVersion;
+    for (const auto& e : history["entries"]) byVersion[e["version"]] = e;
+    ASSERT_FALSE(ackedChanges.empty());
+    for (const auto& [version, changes] : ackedChanges) {
+        ASSERT_TRUE(byVersion.count(version)) << "acknowledged version " << version << " is lost";
+        EXPECT_EQ(byVersion[version]["changes"], changes) << "version " << version;
+    }
+    uint64_t expect = byVersion.begin()->first;
+    for (const auto& [version, e] : byVersion) EXPECT_EQ(version, expect++) << "versions are not contiguous";
+    EXPECT_TRUE(std::filesystem::exists(state / id / "snapshot.jsonl"));
     std::filesystem::remove_all(state);
 }
 
