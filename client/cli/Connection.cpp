@@ -5,9 +5,15 @@
 #include <utility> // before Boost 1.74's asio, which uses std::exchange without it
 
 #include <boost/asio.hpp>
+#include <boost/asio/ssl.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <boost/beast/websocket/ssl.hpp>
+
+#include <openssl/ssl.h>
+
+#include <optional>
 
 #include <sys/socket.h>
 #include <sys/time.h>
@@ -27,13 +33,13 @@ using tcp = asio::ip::tcp;
 
 Result<Url> parseUrl(const std::string& text) {
     std::string rest = text;
-    for (const char* scheme : {"http://", "ws://"}) {
-        if (rest.rfind(scheme, 0) == 0) rest = rest.substr(std::strlen(scheme));
-    }
-    if (rest.rfind("https://", 0) == 0 || rest.rfind("wss://", 0) == 0) {
-        return makeError(ErrorCode::InvalidValue, "'" + text + "': TLS is not supported; use http:// or ws://");
-    }
     Url u;
+    for (const char* scheme : {"http://", "ws://", "https://", "wss://"}) {
+        if (rest.rfind(scheme, 0) == 0) {
+            rest = rest.substr(std::strlen(scheme));
+            u.tls = std::strcmp(scheme, "https://") == 0 || std::strcmp(scheme, "wss://") == 0;
+        }
+    }
     if (const size_t q = rest.find('?'); q != std::string::npos) {
         // ?session=ID&token=T, as in the links dfb-server prints.
         std::string query = rest.substr(q + 1);
@@ -107,11 +113,49 @@ beast::error_code runFor(asio::io_context& ioc, tcp::socket& socket, std::chrono
     return result;
 }
 
+namespace {
+using TlsSocket = asio::ssl::stream<tcp::socket>;
+
+// A client TLS context: the system's certificates, plus `caFile` when given.
+Result<std::shared_ptr<asio::ssl::context>> tlsContext(const Url& url) {
+    auto ctx = std::make_shared<asio::ssl::context>(asio::ssl::context::tls_client);
+    beast::error_code ec;
+    ctx->set_default_verify_paths(ec);
+    if (!url.caFile.empty()) {
+        ctx->load_verify_file(url.caFile, ec);
+        if (ec) return makeError(ErrorCode::InvalidValue, "--ca-cert " + url.caFile + ": " + ec.message());
+    }
+    ctx->set_verify_mode(asio::ssl::verify_peer);
+    return ctx;
+}
+
+// TLS on a connected socket: the server's certificate must be valid for the URL's host (SNI set).
+Status tlsHandshake(TlsSocket& s, const Url& url) {
+    if (!::SSL_set_tlsext_host_name(s.native_handle(), url.host.c_str())) {
+        return makeError(ErrorCode::Network, "connecting to " + url.host + ":" + url.port + ": TLS: cannot set the server name");
+    }
+    s.set_verify_callback(asio::ssl::host_name_verification(url.host));
+    beast::error_code ec;
+    s.handshake(asio::ssl::stream_base::client, ec);
+    if (ec) {
+        return makeError(ErrorCode::Network, "connecting to " + url.host + ":" + url.port + ": TLS handshake: " + ec.message() +
+                                                 (url.caFile.empty() ? " (a self-signed server needs --ca-cert)" : ""));
+    }
+    return okStatus();
+}
+} // namespace
+
 struct Connection::Impl {
     asio::io_context ioc;
     std::chrono::milliseconds timeout{30000};
-    websocket::stream<tcp::socket> ws{ioc};
+    std::shared_ptr<asio::ssl::context> tls;
+    // One of the two, by the URL's scheme.
+    std::optional<websocket::stream<tcp::socket>> plain;
+    std::optional<websocket::stream<TlsSocket>> secure;
     beast::flat_buffer buffer;
+
+    tcp::socket& socket() { return plain ? plain->next_layer() : secure->next_layer().next_layer(); }
+    template <typename F> auto withWs(F&& f) { return plain ? f(*plain) : f(*secure); }
 };
 
 Connection::Connection(std::unique_ptr<Impl> impl) : mImpl(std::move(impl)) {}
@@ -119,19 +163,32 @@ Connection::~Connection() { close(); }
 
 Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::string& target, std::chrono::milliseconds timeout) {
     auto impl = std::make_unique<Impl>();
+    if (url.tls) {
+        auto ctx = tlsContext(url);
+        if (!ctx) return ctx.error();
+        impl->tls = ctx.value();
+        impl->secure.emplace(impl->ioc, *impl->tls);
+    } else {
+        impl->plain.emplace(impl->ioc);
+    }
     beast::error_code ec;
     tcp::resolver resolver(impl->ioc);
     auto results = resolver.resolve(url.host, url.port, ec);
     if (ec) return netError("resolving " + url.host, ec);
-    asio::connect(impl->ws.next_layer(), results, ec);
+    asio::connect(impl->socket(), results, ec);
     if (ec) return netError("connecting to " + url.host + ":" + url.port, ec);
-    setDeadline(impl->ws.next_layer(), timeout);
+    setDeadline(impl->socket(), timeout);
     // Edits are small: send them at once, not after the server's delayed ACK (Nagle).
-    impl->ws.next_layer().set_option(tcp::no_delay(true), ec);
+    impl->socket().set_option(tcp::no_delay(true), ec);
+    if (impl->secure) {
+        if (auto s = tlsHandshake(impl->secure->next_layer(), url); !s) return s.error();
+    }
     impl->timeout = timeout;
-    impl->ws.read_message_max(256u << 20);
     websocket::response_type res;
-    impl->ws.handshake(res, url.host + ":" + url.port, target, ec);
+    impl->withWs([&](auto& ws) {
+        ws.read_message_max(256u << 20);
+        ws.handshake(res, url.host + ":" + url.port, target, ec);
+    });
     if (ec == websocket::error::upgrade_declined) {
         // The server said why (no token, unknown session): its JSON error, verbatim.
         auto parsed = protocol::parseJson(res.body(), 1 << 20, "the server's answer");
@@ -146,8 +203,10 @@ Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::
 
 Status Connection::sendText(const std::string& text) {
     beast::error_code ec;
-    mImpl->ws.text(true);
-    mImpl->ws.write(asio::buffer(text), ec);
+    mImpl->withWs([&](auto& ws) {
+        ws.text(true);
+        ws.write(asio::buffer(text), ec);
+    });
     if (ec) return netError("sending", ec);
     return okStatus();
 }
@@ -157,10 +216,10 @@ Result<ServerMessage> Connection::receive() { return receive(mImpl->timeout); }
 Result<ServerMessage> Connection::receive(std::chrono::milliseconds timeout) {
     beast::error_code ec;
     mImpl->buffer.consume(mImpl->buffer.size());
-    ec = runFor(mImpl->ioc, mImpl->ws.next_layer(), timeout,
-                [&](auto handler) { mImpl->ws.async_read(mImpl->buffer, handler); });
+    ec = runFor(mImpl->ioc, mImpl->socket(), timeout,
+                [&](auto handler) { mImpl->withWs([&](auto& ws) { ws.async_read(mImpl->buffer, handler); }); });
     if (ec) return netError("receiving", ec);
-    if (mImpl->ws.got_text()) {
+    if (mImpl->withWs([](auto& ws) { return ws.got_text(); })) {
         auto j = protocol::parseJson(beast::buffers_to_string(mImpl->buffer.data()), MAX_SERVER_TEXT_BYTES, "server message");
         if (!j || !j->is_object()) return makeError(ErrorCode::Protocol, "server sent invalid JSON");
         return ServerMessage{TextMessage{std::move(j.value())}};
@@ -175,13 +234,13 @@ Result<ServerMessage> Connection::receive(std::chrono::milliseconds timeout) {
 
 void Connection::shutdown() {
     if (!mImpl) return;
-    ::shutdown(mImpl->ws.next_layer().native_handle(), SHUT_RDWR);
+    ::shutdown(mImpl->socket().native_handle(), SHUT_RDWR);
 }
 
 void Connection::close() {
-    if (!mImpl || !mImpl->ws.is_open()) return;
+    if (!mImpl || !mImpl->withWs([](auto& ws) { return ws.is_open(); })) return;
     beast::error_code ec;
-    mImpl->ws.close(websocket::close_code::normal, ec);
+    mImpl->withWs([&](auto& ws) { ws.close(websocket::close_code::normal, ec); });
 }
 
 Result<HttpResponse> httpRequest(const Url& url, const std::string& method, const std::string& target, const std::string& token,
@@ -191,10 +250,24 @@ Result<HttpResponse> httpRequest(const Url& url, const std::string& method, cons
     tcp::resolver resolver(ioc);
     auto results = resolver.resolve(url.host, url.port, ec);
     if (ec) return netError("resolving " + url.host, ec);
-    tcp::socket socket(ioc);
+    std::shared_ptr<asio::ssl::context> tls;
+    std::optional<TlsSocket> secure;
+    std::optional<tcp::socket> plain;
+    if (url.tls) {
+        auto ctx = tlsContext(url);
+        if (!ctx) return ctx.error();
+        tls = ctx.value();
+        secure.emplace(ioc, *tls);
+    } else {
+        plain.emplace(ioc);
+    }
+    tcp::socket& socket = plain ? *plain : secure->next_layer();
     asio::connect(socket, results, ec);
     if (ec) return netError("connecting to " + url.host + ":" + url.port, ec);
     setDeadline(socket, timeout);
+    if (secure) {
+        if (auto s = tlsHandshake(*secure, url); !s) return s.error();
+    }
     http::request<http::string_body> req{http::string_to_verb(method), target, 11};
     req.set(http::field::host, url.host);
     req.set(http::field::user_agent, "dfb-client");
@@ -205,12 +278,16 @@ Result<HttpResponse> httpRequest(const Url& url, const std::string& method, cons
         req.body() = body;
     }
     req.prepare_payload();
-    http::write(socket, req, ec);
-    if (ec) return netError(method + " " + target, ec);
     beast::flat_buffer buffer;
     http::response_parser<http::string_body> parser;
     parser.body_limit(512u << 20);
-    ec = runFor(ioc, socket, timeout, [&](auto handler) { http::async_read(socket, buffer, parser, handler); });
+    auto exchange = [&](auto& stream) {
+        http::write(stream, req, ec);
+        if (ec) return;
+        ec = runFor(ioc, socket, timeout, [&](auto handler) { http::async_read(stream, buffer, parser, handler); });
+    };
+    if (plain) exchange(*plain);
+    else exchange(*secure);
     if (ec) return netError(method + " " + target, ec);
     auto res = parser.release();
     HttpResponse out;

@@ -19,9 +19,12 @@ struct Url {
     std::string path;    ///< without host, starting with '/'
     std::string session; ///< from a "?session=ID" query (the links dfb-server prints), else empty
     std::string token;   ///< from a "?token=T" query, else empty
+    bool tls = false;    ///< https:// or wss://: TLS, the server's certificate verified
+    /// PEM file of certificates to trust besides the system's (a server's self-signed one).
+    std::string caFile;
 };
-/// Accepts http://, ws:// or a bare host:port; the default port is 8080. The query of the URLs
-/// the server prints (?session=ID&token=T) fills `session` and `token`.
+/// Accepts http://, ws://, https://, wss:// or a bare host:port; the default port is 8080. The
+/// query of the URLs the server prints (?session=ID&token=T) fills `session` and `token`.
 Result<Url> parseUrl(const std::string& text);
 
 /// A message from the server: JSON text or a binary frame.

@@ -40,6 +40,7 @@ struct Options {
     std::string token;
     std::string name = "dfb-client";
     double timeoutS = 30.0;
+    std::string caCert;
 };
 
 /// Thrown inside a subcommand to leave with an exit code (caught in main only).
@@ -58,6 +59,7 @@ public:
         auto u = client::parseUrl(o.server);
         if (!u) die(EXIT_USAGE, u.error().message);
         mUrl = u.value();
+        mUrl.caFile = o.caCert;
         mToken = !o.token.empty() ? o.token : mUrl.token;
         mSession = !o.session.empty() ? o.session : mUrl.session;
     }
@@ -324,9 +326,12 @@ int main(int argc, char** argv) {
     if (const char* e = std::getenv("DFB_SERVER")) opt.server = e;
     if (const char* e = std::getenv("DFB_SESSION")) opt.session = e;
     if (const char* e = std::getenv("DFB_TOKEN")) opt.token = e;
+    if (const char* e = std::getenv("DFB_CA_CERT")) opt.caCert = e;
     app.add_option("--server", opt.server, "server URL; the links dfb-server prints carry ?session=ID&token=T (env DFB_SERVER)");
     app.add_option("--session", opt.session, "session id (env DFB_SESSION; default: the only one the token opens)");
     app.add_option("--token", opt.token, "editor or viewer token (env DFB_TOKEN)");
+    app.add_option("--ca-cert", opt.caCert, "PEM certificate(s) to trust for an https:// server besides the system's, e.g. its "
+                                            "self-signed one (env DFB_CA_CERT)");
     app.add_option("--timeout", opt.timeoutS, "seconds to wait for each answer")->check(CLI::Range(0.1, 3600.0));
     app.add_option("--name", opt.name, "name shown to the other clients (watch, bench)");
 

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 
 using namespace dfb;
@@ -133,6 +134,32 @@ TEST(Tls, HttpsAndWssOnTheServersPort) {
     EXPECT_EQ(frameVersion, acked);
     ws.close(beast::websocket::close_code::normal);
     EXPECT_EQ(httpsGet(port, "/healthz", "").status, 200);
+}
+
+TEST(Tls, TheCommandLineClientSpeaksHttpsAndWss) {
+    test::Server server({SHOT, "--tls-cert", CERT, "--tls-key", KEY});
+    ASSERT_TRUE(server.up()) << server.process->output();
+    const std::string link = "https://127.0.0.1:" + server.port + "/?session=tabletop_320&token=" + server.tokens["tabletop_320"].editor;
+    auto client = [&](std::vector<std::string> args, bool trust = true) {
+        args.insert(args.begin(), {DFB_CLIENT_EXE, "--server", link});
+        if (trust) args.insert(args.end(), {"--ca-cert", CERT});
+        return test::run(args);
+    };
+    auto [rc, out] = client({"rig", "get"});
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("\"lights\""), std::string::npos) << out;
+    std::tie(rc, out) = client({"set", "key.intensity=66"}); // HTTP POST
+    ASSERT_EQ(rc, 0) << out;
+    const std::string png = DFB_TLS_DIR "/frame.png";
+    std::tie(rc, out) = client({"frame", png}); // over WSS
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_GT(std::filesystem::file_size(png), 1000u);
+    std::tie(rc, out) = client({"watch", "--count", "1"});
+    EXPECT_EQ(rc, 0) << out;
+    // Without trusting the self-signed certificate: refused, and the message says what to do.
+    std::tie(rc, out) = client({"rig", "get"}, false);
+    EXPECT_EQ(rc, 2) << out;
+    EXPECT_NE(out.find("--ca-cert"), std::string::npos) << out;
 }
 
 TEST(Tls, ABadCertificateOrKeyStopsTheServerWithTheReason) {
