@@ -21,6 +21,13 @@ namespace dfb::net {
 
 class WebSocketSession;
 
+/// An accepted change on its way to the clients: encoded once (the message a client gets when it
+/// is the only change of its interval; its size bounds coalesced messages), shared by all.
+struct BroadcastChange {
+    protocol::ChangeInfo info;
+    std::shared_ptr<const std::string> encoded;
+};
+
 /// The two tokens of a session: whoever presents one gets its role.
 struct SessionTokens {
     std::string editor;

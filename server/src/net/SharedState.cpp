@@ -108,8 +108,9 @@ std::vector<protocol::ClientInfo> SessionHub::clients() const {
 
 void SessionHub::published(const ChangeOutcome& outcome, const WebSocketSession* except) {
     mMetrics.changeAccepted(id(), outcome.info.rigVersion);
-    // Encoded by each client with the others of its interval (coalesced); shared, not copied.
-    auto change = std::make_shared<const protocol::ChangeInfo>(outcome.info);
+    // Coalesced by each client with the others of its interval; encoded once, shared, not copied.
+    auto change = std::make_shared<const BroadcastChange>(
+        BroadcastChange{outcome.info, std::make_shared<const std::string>(protocol::encodeChange(outcome.info))});
     std::vector<std::weak_ptr<WebSocketSession>> targets;
     for (WebSocketSession* c : mClients) {
         if (c != except) targets.push_back(c->weak_from_this());

@@ -4,7 +4,6 @@
 
 #include <dfb/protocol/Messages.h>
 
-#include <climits>
 #include <cstdio>
 
 #include <sys/ioctl.h>
@@ -21,8 +20,11 @@ constexpr size_t MAX_QUEUED_TEXTS = 4096;
 // were 40,000 messages a second for the network thread, which dropped healthy clients.
 // 40 ms is below a frame at interactive rates, so the panels follow the image.
 constexpr auto CHANGE_INTERVAL = std::chrono::milliseconds(40);
-// One coalesced message carries at most this many changes (the rest follow at once).
+// One coalesced message carries at most this many changes and about this many bytes (the rest
+// follow at once): a change may carry a large value (a whole key map), and clients bound the
+// messages they read.
 constexpr size_t MAX_CHANGES_PER_MESSAGE = 256;
+constexpr size_t MAX_BYTES_PER_MESSAGE = 1 << 20;
 // Changes held for a client that has not taken any for long: only reached by a client that
 // reads nothing for many seconds in a very busy session (STALL_TIMEOUT usually comes first).
 constexpr size_t MAX_PENDING_CHANGES = 100000;
@@ -210,10 +212,10 @@ void WebSocketSession::sendText(std::shared_ptr<const std::string> message) {
     if (!mWriting) writeNext();
 }
 
-void WebSocketSession::changeAvailable(std::shared_ptr<const protocol::ChangeInfo> change) {
+void WebSocketSession::changeAvailable(std::shared_ptr<const BroadcastChange> change) {
     if (mClosing || !mJoined) return;
     // A whole rig is the state at its version: the changes before it need not be sent.
-    if (change->rig) mPendingChanges.clear();
+    if (change->info.rig) mPendingChanges.clear();
     mPendingChanges.push_back(std::move(change));
     if (mPendingChanges.size() > MAX_PENDING_CHANGES) return disconnect("does not read its messages");
     if (!mWriting) writeNext();
@@ -240,16 +242,21 @@ void WebSocketSession::armFlush() {
 }
 
 std::shared_ptr<const std::string> WebSocketSession::takeChanges() {
-    if (mPendingChanges.front()->rig) {
-        auto m = std::make_shared<const std::string>(protocol::encodeChange(*mPendingChanges.front()));
+    // Only the first pending change can be a whole rig (changeAvailable): it goes alone.
+    size_t n = 1, bytes = mPendingChanges.front()->encoded->size();
+    if (!mPendingChanges.front()->info.rig) {
+        while (n < mPendingChanges.size() && n < MAX_CHANGES_PER_MESSAGE && bytes + mPendingChanges[n]->encoded->size() <= MAX_BYTES_PER_MESSAGE) {
+            bytes += mPendingChanges[n++]->encoded->size();
+        }
+    }
+    if (n == 1) {
+        auto m = mPendingChanges.front()->encoded;
         mPendingChanges.erase(mPendingChanges.begin());
         return m;
     }
-    // Only the first pending change can be a whole rig (changeAvailable), so these are edits.
-    const size_t n = std::min(mPendingChanges.size(), MAX_CHANGES_PER_MESSAGE);
     std::vector<const protocol::ChangeInfo*> batch;
     batch.reserve(n);
-    for (size_t i = 0; i < n; ++i) batch.push_back(mPendingChanges[i].get());
+    for (size_t i = 0; i < n; ++i) batch.push_back(&mPendingChanges[i]->info);
     auto m = std::make_shared<const std::string>(protocol::encodeChanges(batch));
     mPendingChanges.erase(mPendingChanges.begin(), mPendingChanges.begin() + std::ptrdiff_t(n));
     return m;

@@ -35,7 +35,7 @@ public:
     void run(http::request<http::string_body> req);
     void sendText(std::shared_ptr<const std::string> message);
     /// Another client's accepted change: sent coalesced with the others of the interval.
-    void changeAvailable(std::shared_ptr<const protocol::ChangeInfo> change);
+    void changeAvailable(std::shared_ptr<const BroadcastChange> change);
     /// The presence list changed: the newest list is sent within the interval.
     void presenceChanged();
     /// A new image (serial) has been rendered: pull it when the connection is free.
@@ -84,7 +84,7 @@ private:
 
     bool mWriting = false;
     std::deque<std::shared_ptr<const std::string>> mTextQueue;
-    std::vector<std::shared_ptr<const protocol::ChangeInfo>> mPendingChanges;
+    std::vector<std::shared_ptr<const BroadcastChange>> mPendingChanges;
     bool mPresenceDirty = false;
     bool mFlushing = false; // sending everything pending, interval started
     std::chrono::steady_clock::time_point mLastChangesSent{};
