@@ -12,6 +12,7 @@
 // atomic counters while the run lasts and reads the per-client records after the io threads have
 // been joined.
 
+#include <dfb/core/Stats.h>
 #include <dfb/protocol/Codec.h>
 #include <dfb/protocol/Json.h>
 
@@ -515,14 +516,7 @@ std::optional<double> readRssMb(int pid) {
 // ---- statistics
 // ----------------------------------------------------------------------------------
 
-// Linear interpolation between closest ranks; NaN for no samples.
-double percentile(const std::vector<double>& sorted, double p) {
-    if (sorted.empty())
-        return NAN;
-    const double idx = p / 100.0 * double(sorted.size() - 1);
-    const size_t lo = size_t(std::floor(idx)), hi = size_t(std::ceil(idx));
-    return sorted[lo] + (sorted[hi] - sorted[lo]) * (idx - double(lo));
-}
+// percentile: dfb/core/Stats.h (linear between closest ranks, NaN for no samples).
 
 json numberOrNull(double v) {
     return std::isfinite(v) ? json(std::round(v * 100) / 100) : json(nullptr);
@@ -535,7 +529,7 @@ struct Summary {
 
 Summary summarize(std::vector<double> v) {
     std::sort(v.begin(), v.end());
-    return {percentile(v, 50), percentile(v, 95), percentile(v, 99), v.empty() ? NAN : v.back(),
+    return {dfb::percentile(v, 50), dfb::percentile(v, 95), dfb::percentile(v, 99), v.empty() ? NAN : v.back(),
             v.size()};
 }
 
@@ -773,7 +767,7 @@ int main(int argc, char** argv) {
     std::sort(frameCounts.begin(), frameCounts.end());
     const Summary ackSummary = summarize(ackMs), frameSummary = summarize(frameMs);
     const double framesMin = frameCounts.front(), framesMax = frameCounts.back(),
-                 framesMedian = percentile(frameCounts, 50);
+                 framesMedian = dfb::percentile(frameCounts, 50);
     std::optional<int64_t> appliedUnacked;
     if (endVersion)
         appliedUnacked = int64_t(*endVersion) - int64_t(startVersion) - int64_t(acked);

@@ -10,6 +10,7 @@
 
 #include "Connection.h"
 
+#include <dfb/core/Stats.h>
 #include <dfb/protocol/Messages.h>
 
 #include <CLI/CLI.hpp>
@@ -177,14 +178,6 @@ std::string urlEncode(const std::string& s) {
         }
     }
     return out;
-}
-
-double percentile(std::vector<double> v, double p) {
-    if (v.empty()) return NAN;
-    std::sort(v.begin(), v.end());
-    const double idx = p / 100.0 * double(v.size() - 1);
-    const size_t lo = size_t(std::floor(idx)), hi = size_t(std::ceil(idx));
-    return v[lo] + (v[hi] - v[lo]) * (idx - double(lo));
 }
 
 // ---- bench ----------------------------------------------------------------------------------

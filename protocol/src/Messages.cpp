@@ -43,10 +43,12 @@ bool validLightName(std::string_view n) {
     return true;
 }
 
+} // namespace
+
 std::string percentDecode(std::string_view s) {
     std::string out;
     for (size_t i = 0; i < s.size(); ++i) {
-        if (s[i] == '%' && i + 2 < s.size() + 0 && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+        if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
             std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
             out += char(std::strtol(std::string(s.substr(i + 1, 2)).c_str(), nullptr, 16));
             i += 2;
@@ -56,8 +58,6 @@ std::string percentDecode(std::string_view s) {
     }
     return out;
 }
-
-} // namespace
 
 std::string dump(const json& j, int indent) { return j.dump(indent, ' ', false, json::error_handler_t::replace); }
 

@@ -51,8 +51,8 @@ function startServer(port) {
     const onData = (d) => {
       out += d;
       const m = out.match(/listening on (https?:\/\/127\.0\.0\.1:(\d+)\/)/);
-      const editor = out.match(/session (\S+) editor: (https?:\/\/\S+token=(\w+))/);
-      const viewer = out.match(/session \S+ viewer: (https?:\/\/\S+token=(\w+))/);
+      const editor = out.match(/session (\S+) editor: (https?:\/\/\S+token=([\w.~-]+))/);
+      const viewer = out.match(/session \S+ viewer: (https?:\/\/\S+token=([\w.~-]+))/);
       if (m && editor && viewer) {
         clearTimeout(timer);
         resolve({ proc, base: m[1], port: Number(m[2]), session: editor[1], editorUrl: editor[2], token: editor[3],

@@ -4,6 +4,7 @@
 // serving; bad inputs give clear errors and non-zero exits.
 
 #include "support/Process.h"
+#include "support/TestServer.h"
 #include "support/RayCaster.h"
 
 #include <dfb/gbuffer/ExrIO.h>
@@ -66,22 +67,18 @@ protected:
         auto shot = readDeepBuffer(SHOT);
         ASSERT_TRUE(shot.ok()) << shot.error().toString();
         mShot = std::move(shot.value());
-        mServer = std::make_unique<test::Process>(std::vector<std::string>{DFB_SERVER_EXE, SHOT, "--port", "0"});
-        auto m = mServer->waitForLine(std::regex(R"(listening on (http://127\.0\.0\.1:(\d+)/))"), 60s);
-        ASSERT_TRUE(m.has_value()) << "server did not start:\n" << mServer->output();
-        mPort = (*m)[2];
+        mServer = std::make_unique<test::Server>(std::vector<std::string>{SHOT});
+        ASSERT_TRUE(mServer->up()) << "server did not start:\n" << mServer->process->output();
+        mPort = mServer->port;
         // The editor link the server printed carries the session and its token.
-        std::smatch e;
-        const std::string out = mServer->output();
-        ASSERT_TRUE(std::regex_search(out, e, std::regex(R"(session (\S+) editor: (http://\S+token=(\w+)))"))) << out;
-        mSession = e[1];
-        mUrl = e[2];
-        mToken = e[3];
+        mSession = mServer->onlySession();
+        mUrl = mServer->editorLink(mSession);
+        mToken = mServer->tokens[mSession].editor;
         mDir = std::filesystem::temp_directory_path() / ("dfb_it_" + std::to_string(::getpid()));
         std::filesystem::create_directories(mDir);
     }
     void TearDown() override {
-        if (mServer) mServer->stop();
+        mServer.reset();
         std::filesystem::remove_all(mDir);
     }
 
@@ -110,7 +107,7 @@ protected:
     }
 
     DeepBuffer mShot;
-    std::unique_ptr<test::Process> mServer;
+    std::unique_ptr<test::Server> mServer;
     std::string mUrl, mPort, mSession, mToken;
     std::filesystem::path mDir;
 };

@@ -4,6 +4,7 @@
 // full quality when the edits stop). A real dfb-server and dfb-client over loopback.
 
 #include "support/Process.h"
+#include "support/TestServer.h"
 
 #include <utility> // Boost 1.74 asio needs std::exchange declared first
 #include <boost/asio.hpp>
@@ -32,23 +33,19 @@ protected:
         ASSERT_TRUE(std::filesystem::exists(SHOT)) << "run the bake_tabletop_fixture test first";
         mDir = std::filesystem::temp_directory_path() / ("dfb_out_" + std::to_string(::getpid()));
         std::filesystem::create_directories(mDir);
-        mServer = std::make_unique<dfb::test::Process>(
+        mServer = std::make_unique<dfb::test::Server>(
             // A wide refinement window: under a loaded CI machine edits 60 ms apart may render
             // more than the default 250 ms apart, and every edit here must count as a drag.
-            std::vector<std::string>{DFB_SERVER_EXE, SHOT, "--port", "0", "--assets", mDir.string(), "--refine-window", "5000"});
-        auto m = mServer->waitForLine(std::regex(R"(listening on (http://127\.0\.0\.1:(\d+)/))"), 60s);
-        ASSERT_TRUE(m.has_value()) << "server did not start:\n" << mServer->output();
-        mPort = (*m)[2];
+            std::vector<std::string>{SHOT, "--assets", mDir.string(), "--refine-window", "5000"});
+        ASSERT_TRUE(mServer->up()) << "server did not start:\n" << mServer->process->output();
+        mPort = mServer->port;
         // The editor link the server printed carries the session and its token (protocol v1).
-        std::smatch e;
-        const std::string out = mServer->output();
-        ASSERT_TRUE(std::regex_search(out, e, std::regex(R"(session (\S+) editor: (http://\S+token=([\w.~-]+)))"))) << out;
-        mSession = e[1];
-        mUrl = e[2];
-        mToken = e[3];
+        mSession = mServer->onlySession();
+        mUrl = mServer->editorLink(mSession);
+        mToken = mServer->tokens[mSession].editor;
     }
     void TearDown() override {
-        if (mServer) mServer->stop();
+        mServer.reset();
         std::filesystem::remove_all(mDir);
     }
     // dfb-client SUBCOMMAND ARGS... on the session.
@@ -58,7 +55,7 @@ protected:
         return dfb::test::run(args, 60s);
     }
 
-    std::unique_ptr<dfb::test::Process> mServer;
+    std::unique_ptr<dfb::test::Server> mServer;
     std::string mUrl, mPort, mSession, mToken;
     std::filesystem::path mDir;
 };

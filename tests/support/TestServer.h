@@ -37,6 +37,12 @@ struct Server {
         }
     }
     bool up() const { return !port.empty(); }
+    /// The editor link the server printed for `session` (what a user gives dfb-client).
+    std::string editorLink(const std::string& session) {
+        return "http://127.0.0.1:" + port + "/?session=" + session + "&token=" + tokens[session].editor;
+    }
+    /// The only session's id (for a server started on one shot).
+    std::string onlySession() const { return tokens.size() == 1 ? tokens.begin()->first : ""; }
     HttpReply get(const std::string& target, const std::string& token) { return http(port, "GET", target, token); }
     nlohmann::json rig(const std::string& session) { return get("/v1/sessions/" + session + "/rig", tokens[session].editor).json(); }
 

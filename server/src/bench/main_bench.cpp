@@ -19,17 +19,11 @@
 #include <functional>
 #include <iostream>
 
+#include <dfb/core/Stats.h>
+
 using namespace dfb;
 
 namespace {
-
-double percentile(std::vector<double> v, double p) {
-    if (v.empty()) return 0;
-    std::sort(v.begin(), v.end());
-    const double idx = p * double(v.size() - 1);
-    const size_t lo = size_t(std::floor(idx)), hi = size_t(std::ceil(idx));
-    return v[lo] + (v[hi] - v[lo]) * (idx - double(lo));
-}
 
 // Bends `l` into a BendyLight curving sideways over a length fitted to the scene (the drag
 // benchmark's light), keeping its cone and shadow-map size.
@@ -51,7 +45,7 @@ double medianEditMs(Engine& engine, Rig& rig, int edits, int quality, const std:
         if (!img || !encodeJpeg(img.value(), quality)) return -1;
         t.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     }
-    return percentile(t, 0.5);
+    return percentile(t, 50);
 }
 
 // The scaling tables: one scene baked at several sizes, and many scenes at one size.
@@ -193,9 +187,9 @@ int main(int argc, char** argv) {
             readback.push_back(st.readbackMs);
         }
         std::printf("%-22s %7.2fms %7.2fms %7.2fms | %6.2fms %6.2fms %7.2fms %7.2fms %6.2fms\n", k.name,
-                    percentile(total, 0.5), percentile(total, 0.9), percentile(total, 1.0), percentile(shadow, 0.5),
-                    percentile(shade, 0.5), percentile(composite, 0.5), percentile(readback, 0.5),
-                    percentile(encode, 0.5));
+                    percentile(total, 50), percentile(total, 90), percentile(total, 100), percentile(shadow, 50),
+                    percentile(shade, 50), percentile(composite, 50), percentile(readback, 50),
+                    percentile(encode, 50));
     }
     engine.value()->setPreview(false);
     std::printf("\n(stage columns are medians; the stages of one edit add up to its total)\n");
@@ -233,9 +227,9 @@ int main(int argc, char** argv) {
             if (!img || !encodeJpeg(img.value(), quality)) return 3;
             inten.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         }
-        const double p50 = percentile(pos, 0.5);
+        const double p50 = percentile(pos, 50);
         if (n == 1) single = p50;
-        std::printf("%17d   %20.2f ms (%.2fx of one)   %20.2f ms\n", n, p50, p50 / single, percentile(inten, 0.5));
+        std::printf("%17d   %20.2f ms (%.2fx of one)   %20.2f ms\n", n, p50, p50 / single, percentile(inten, 50));
     }
     if (!scaling) return 0;
 

@@ -62,11 +62,6 @@ void scale(ImageF& img, float s, bool alphaToo) {
 
 } // namespace
 
-Status checkOutputRequest(const OutputRequest& request) {
-    auto p = parse(request);
-    return p ? okStatus() : Status(p.error());
-}
-
 Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request) {
     auto parsed = parse(request);
     if (!parsed) return parsed.error();

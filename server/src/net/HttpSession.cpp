@@ -70,27 +70,13 @@ http::response<http::string_body> errorResponse(const http::request<http::string
     return errorResponse(req.version(), req.keep_alive(), makeError(code, message), status);
 }
 
-std::string percentDecode(std::string_view s) {
-    std::string out;
-    for (size_t i = 0; i < s.size(); ++i) {
-        if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
-            std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
-            out += char(std::strtol(std::string(s.substr(i + 1, 2)).c_str(), nullptr, 16));
-            i += 2;
-        } else {
-            out += s[i];
-        }
-    }
-    return out;
-}
-
 std::optional<std::string> queryParam(std::string_view query, std::string_view name) {
     while (!query.empty()) {
         const size_t amp = query.find('&');
         const std::string_view item = query.substr(0, amp);
         query = amp == std::string_view::npos ? std::string_view() : query.substr(amp + 1);
         const size_t eq = item.find('=');
-        if (item.substr(0, eq) == name) return percentDecode(eq == std::string_view::npos ? "" : item.substr(eq + 1));
+        if (item.substr(0, eq) == name) return protocol::percentDecode(eq == std::string_view::npos ? "" : item.substr(eq + 1));
     }
     return std::nullopt;
 }

@@ -30,6 +30,10 @@ constexpr size_t MAX_TEXT_MESSAGE_BYTES = 1 << 20;
 /// Everything the server and clients send goes through it.
 std::string dump(const nlohmann::json& j, int indent = -1);
 
+/// Decodes one value of a URL query string: %XX escapes, and '+' as a space (HTML form
+/// encoding); a '%' not followed by two hex digits stays as it is.
+std::string percentDecode(std::string_view s);
+
 /// What a token allows: an editor may change the rig; a viewer receives frames and changes only.
 enum class Role { Editor, Viewer };
 const char* toString(Role role);

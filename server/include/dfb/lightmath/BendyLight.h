@@ -26,7 +26,6 @@ constexpr int MAX_SEGMENTS = 8;
 constexpr int MAX_CONTROL_POINTS = 2 * MAX_SEGMENTS + 1;
 
 template <typename T> T saturate(T x) { return x < T(0) ? T(0) : (x > T(1) ? T(1) : x); }
-template <typename T> T mixScalar(T a, T b, T t) { return a + (b - a) * t; }
 
 /// A BendyLight's chain with the derived quantities prepareChain() computes. Plain data: the GPU
 /// receives the same numbers (BendyBlock in server/src/engine/UniformBlocks.h).

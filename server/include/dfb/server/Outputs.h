@@ -29,9 +29,6 @@ struct EncodedImage {
     int height = 0;
 };
 
-/// Checks the names of an output request (not whether a light exists): InvalidValue naming the
-/// accepted outputs and formats otherwise.
-Status checkOutputRequest(const OutputRequest& request);
 
 /// Renders and encodes one output of `rig` (already evaluated at the session's time).
 /// 8-bit encodings get the rig's exposure and the sRGB view transform (shadow masks: visibility as
