@@ -219,15 +219,20 @@ TEST_F(ServerOutputs, EditsInQuickSuccessionGetPreviewFramesThenARefinedOne) {
         ws.write(boost::asio::buffer(edit));
         std::this_thread::sleep_for(60ms);
     }
-    std::this_thread::sleep_for(2s); // edits stopped: the refined frame comes after 150 ms
-    done = true;
+    // Edits stopped: the refined frame comes 150 ms after the last one. Wait for the event (the
+    // last edit's version in two frames), not a fixed time; the deadline only ends a failure.
     uint64_t finalVersion = 0;
     int finalFrames = 0;
-    {
-        std::lock_guard lock(mutex);
-        finalVersion = lastAck;
-        finalFrames = framesPerVersion[finalVersion];
+    for (const auto deadline = std::chrono::steady_clock::now() + 60s; std::chrono::steady_clock::now() < deadline;) {
+        {
+            std::lock_guard lock(mutex);
+            finalVersion = lastAck;
+            finalFrames = framesPerVersion[finalVersion];
+        }
+        if (finalFrames >= 2 && finalVersion >= 8) break;
+        std::this_thread::sleep_for(20ms);
     }
+    done = true;
     beast::error_code ec;
     ws.next_layer().shutdown(boost::asio::ip::tcp::socket::shutdown_both, ec);
     ws.next_layer().close(ec);

@@ -58,11 +58,13 @@ std::shared_ptr<void> SharedState::admit(const asio::ip::address& from) {
         std::shared_ptr<SharedState> state;
         asio::ip::address from;
         ~Slot() {
+            state->mMetrics.connectionsOpen(-1);
             std::lock_guard released(state->mConnectionsMutex);
             auto it = state->mConnections.find(from);
             if (it != state->mConnections.end() && --it->second == 0) state->mConnections.erase(it);
         }
     };
+    mMetrics.connectionsOpen(1);
     return std::make_shared<Slot>(shared_from_this(), from);
 }
 

@@ -71,6 +71,11 @@ void Metrics::connectionRefused() {
     ++mConnectionsRefused;
 }
 
+void Metrics::connectionsOpen(int delta) {
+    std::lock_guard lock(mMutex);
+    mConnectionsOpen += delta;
+}
+
 std::string Metrics::text(bool sessionNames) const {
     std::lock_guard lock(mMutex);
     std::ostringstream o;
@@ -109,7 +114,10 @@ std::string Metrics::text(bool sessionNames) const {
     }
     o << "# HELP dfb_connections_refused_total Connections and WebSocket clients refused for a limit.\n"
          "# TYPE dfb_connections_refused_total counter\n"
-         "dfb_connections_refused_total " << mConnectionsRefused << "\n";
+         "dfb_connections_refused_total " << mConnectionsRefused << "\n"
+      << "# HELP dfb_connections_open Open HTTP and WebSocket connections (each holds a slot of the per-address limit).\n"
+         "# TYPE dfb_connections_open gauge\n"
+         "dfb_connections_open " << mConnectionsOpen << "\n";
     o << "# HELP dfb_edit_to_frame_seconds Time from an accepted change to the first rendered frame showing it (encoding is per client view, after).\n"
          "# TYPE dfb_edit_to_frame_seconds histogram\n";
     uint64_t cumulative = 0;

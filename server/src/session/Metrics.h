@@ -31,6 +31,8 @@ public:
     void editRefused(const std::string& session);
     /// A connection or WebSocket client was refused for a limit (per address, per session).
     void connectionRefused();
+    /// Open TCP connections (HTTP and WebSocket) changed by `delta`.
+    void connectionsOpen(int delta);
 
     /// The Prometheus text of every metric; without `sessionNames` the per-session series are
     /// summed into one series without a session label (names are not shown to whoever can read
@@ -51,6 +53,7 @@ private:
     double mLatencySum = 0;
     uint64_t mLatencyCount = 0;
     uint64_t mConnectionsRefused = 0;
+    int64_t mConnectionsOpen = 0;
 };
 
 } // namespace dfb
