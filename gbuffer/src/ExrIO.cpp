@@ -231,6 +231,33 @@ bool headerAttributeSizesFit(const std::string& path, uint64_t fileSize) {
         std::memcpy(&size, &head[at], 4);
         at += 4;
         if (size < 0 || uint64_t(at) + uint64_t(size) > fileSize) return false;
+        // OpenEXR reads these two by their content, not by the size before them: a content that
+        // disagrees with the size moves its reader to another place than this scan, where a
+        // garbage "size" of a later attribute became a 1.5 GB string (found by fuzzing), and a
+        // preview's declared pixels are allocated as they are.
+        if (type == "chlist") {
+            // Channels: name, pixel type (4), pLinear + 3 reserved (4), xSampling, ySampling (8);
+            // an empty name ends the list.
+            size_t c = at;
+            const size_t end = std::min(n, at + size_t(size));
+            for (;;) {
+                if (c >= end) return false;
+                if (head[c] == '\0') { // the empty name that ends the list
+                    ++c;
+                    break;
+                }
+                while (c < end && head[c] != '\0') ++c;
+                if (c >= end) return false;
+                c += 1 + 16;
+            }
+            if (c != at + size_t(size)) return false;
+        } else if (type == "preview") {
+            if (size < 8 || at + 8 > n) return false;
+            uint32_t w, h;
+            std::memcpy(&w, &head[at], 4);
+            std::memcpy(&h, &head[at + 4], 4);
+            if (uint64_t(w) * uint64_t(h) * 4 + 8 != uint64_t(size)) return false;
+        }
         at += size_t(size);
     }
     return false;
@@ -473,7 +500,8 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
         }
         if (tiled) return makeError(ErrorCode::InvalidFile, path + ": tiled EXR files are not supported (write scanlines)");
         if (!headerAttributeSizesFit(path, uint64_t(st.st_size))) {
-            return makeError(ErrorCode::InvalidFile, path + ": corrupt header (an attribute is larger than the file)");
+            return makeError(ErrorCode::InvalidFile, path + ": corrupt header (an attribute is larger than the file, or its "
+                                                         "content disagrees with its size)");
         }
         {
             // Check the size in the header alone before OpenEXR reads the line-offset table that
