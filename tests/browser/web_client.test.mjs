@@ -12,7 +12,7 @@
 // a failure. Screenshots of the main states are saved in the artifacts folder.
 
 import { spawn } from "node:child_process";
-import { mkdirSync, mkdtempSync, rmSync } from "node:fs";
+import { mkdirSync, mkdtempSync, rmSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { parseArgs } from "node:util";
@@ -47,6 +47,7 @@ function startServer(port) {
     const proc = spawn(opts.server, [opts.shot, "--port", String(port), "--state", stateDir, ...tlsArgs],
                        { stdio: ["ignore", "pipe", "pipe"] });
     let out = "";
+    serverLog = () => out; // the newest server's output, saved when a check fails
     const timer = setTimeout(() => { proc.kill("SIGKILL"); reject(new Error(`server did not start:\n${out}`)); }, 60000);
     const onData = (d) => {
       out += d;
@@ -66,6 +67,18 @@ function startServer(port) {
 }
 
 let server;
+let serverLog = () => "";
+// Every page the test opens, so that a failing check can save what each one showed.
+const pages = [];
+const pageLogs = new Map(); // page -> console lines
+function track(page) {
+  pages.push(page);
+  const lines = [];
+  pageLogs.set(page, lines);
+  page.on("console", (m) => lines.push(`${m.type()}: ${m.text()}`));
+  page.on("pageerror", (e) => lines.push(`pageerror: ${e.stack || e}`));
+  return page;
+}
 async function http(resource) {
   const res = await fetch(new URL(`/v1/sessions/${server.session}${resource ? `/${resource}` : ""}`, server.base),
                           { headers: { Authorization: `Bearer ${server.token}` } });
@@ -155,6 +168,22 @@ async function waitRig(pred, what) {
   }
 }
 
+// On a failing check: the server's log, each page's console and a screenshot of each page go to
+// the artifacts folder (CI keeps no other trace of a flaky run).
+async function saveFailure(name) {
+  const stem = join(opts.artifacts, `FAIL-${name.replace(/[^A-Za-z0-9]+/g, "_").slice(0, 60)}`);
+  try {
+    writeFileSync(`${stem}-server.log`, serverLog());
+    for (let i = 0; i < pages.length; ++i) {
+      writeFileSync(`${stem}-page${i}-console.log`, (pageLogs.get(pages[i]) || []).join("\n"));
+      if (!pages[i].isClosed()) await pages[i].screenshot({ path: `${stem}-page${i}.png` }).catch(() => {});
+    }
+    console.log(`     saved the server log, console logs and screenshots as ${stem}-*`);
+  } catch (err) {
+    console.log(`     could not save the failure's artifacts: ${err.message}`);
+  }
+}
+
 const results = [];
 async function check(name, fn) {
   const t0 = Date.now();
@@ -164,6 +193,7 @@ async function check(name, fn) {
     console.log(`ok   ${name} (${((Date.now() - t0) / 1000).toFixed(1)} s)`);
   } catch (e) {
     results.push([name, false]);
+    await saveFailure(name);
     console.log(`FAIL ${name}: ${e.stack || e.message}`);
   }
 }
@@ -184,7 +214,7 @@ try {
   });
   const viewport = { width: 1280, height: 800 };
   const ctxA = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });
-  const a = await ctxA.newPage();
+  const a = track(await ctxA.newPage());
   const consoleErrors = [];
   let restarting = false;
   a.on("console", (m) => {
@@ -332,7 +362,7 @@ try {
   });
 
   const ctxB = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });
-  const b = await ctxB.newPage();
+  const b = track(await ctxB.newPage());
   await check("an edit from a second browser appears in the first, with presence", async () => {
     await b.goto(`${server.editorUrl}&name=bob`);
     await frameAtLeast(b, 1);
@@ -354,7 +384,7 @@ try {
     const shared = await a.$eval("#viewerLink", (e) => e.value);
     assert(shared === server.viewerUrl, `shared viewer link ${shared}, server's ${server.viewerUrl}`);
     const ctxV = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });
-    const v = await ctxV.newPage();
+    const v = track(await ctxV.newPage());
     await v.goto(`${shared}&name=carol`);
     assert(!(await v.isVisible("#viewerShare")), "a viewer is offered a viewer link it cannot know");
     await frameAtLeast(v, 1);
