@@ -1,6 +1,6 @@
 #pragma once
-// Test support: the third-party scenes of ../shared/assets (DFB_ASSETS_DIR). CI has them beside
-// the checkout; a checkout without them skips those tests, saying so.
+// Test support: the third-party scenes of tests/assets (DFB_ASSETS_DIR), kept in the repository
+// with their licences: a test that needs them fails, not skips, when they are missing.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -13,5 +13,5 @@ inline bool haveAssets() { return std::filesystem::exists(assetPath("SHA256SUMS"
 
 #define DFB_REQUIRE_ASSETS()                                                                       \
     do {                                                                                           \
-        if (!dfb::test::haveAssets()) GTEST_SKIP() << "asset scenes not found in " DFB_ASSETS_DIR; \
+        if (!dfb::test::haveAssets()) FAIL() << "asset scenes not found in " DFB_ASSETS_DIR;     \
     } while (false)

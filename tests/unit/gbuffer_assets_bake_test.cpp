@@ -1,4 +1,4 @@
-// Every real scene of ../shared/assets bakes (at a modest size), and what it stores is right:
+// Every real scene of tests/assets bakes (at a modest size), and what it stores is right:
 // positions reproject to their pixels, normals are unit and face the camera, ids point into the
 // manifest. Also: scenes with several cameras, orthographic cameras, scenes without a camera
 // (automatic framing and --look-from/--look-at).

@@ -25,7 +25,7 @@ TEST(Scene, LoadsBundledTabletop) {
 
 TEST(Scene, InstancedAssetTriangleCountsMatchTheAssetsReadme) {
     DFB_REQUIRE_ASSETS();
-    // Counts from ../shared/assets/README.md (mesh nodes x mesh triangles).
+    // Counts from tests/assets/README.md (mesh nodes x mesh triangles).
     struct Case { const char* file; size_t triangles; };
     for (const Case& c : {Case{"CesiumMilkTruck.glb", 3624}, Case{"Box.glb", 12}, Case{"CornellBox-Original.glb", 36},
                           Case{"VulkanSamples-SubpassScene.glb", 23388}}) {

@@ -1,5 +1,5 @@
 // dfb-bake-bench: bake time, file size and peak memory for every scene of a folder (by default
-// ../shared/assets), printed as a table. A benchmark prints numbers; nothing passes or fails.
+// tests/assets), printed as a table. A benchmark prints numbers; nothing passes or fails.
 //
 //   dfb-bake-bench [DIR] [--width W] [--height H] [--samples N]
 //
