@@ -293,14 +293,10 @@ Status Session::checkCookies(const Rig& next) const {
         const std::string file = (std::filesystem::path(mAssetDir) / l.cookie).string();
         auto img = checkImageFile(file);
         if (!img) {
-            // Clients see the name they gave, never where the server keeps its assets; the log
-            // has the whole path for the operator.
-            std::string reason = img.error().message;
-            for (size_t at; (at = reason.find(file)) != std::string::npos;) reason.replace(at, file.size(), l.cookie);
-            for (size_t at; !mAssetDir.empty() && (at = reason.find(mAssetDir)) != std::string::npos;) reason.replace(at, mAssetDir.size(), "");
-            std::fprintf(stderr, "dfb-server: session %s: %s.cookie: %s\n", mId.c_str(), l.name.c_str(), img.error().message.c_str());
+            // The network layer takes the server's folders out of what clients see
+            // (SharedState::redact), so the asset folder is not named here.
             return makeError(ErrorCode::InvalidValue, l.name + ".cookie: '" + l.cookie + "' is not a readable image in the asset folder (" +
-                                                          reason + ")");
+                                                          img.error().message + ")");
         }
     }
     return okStatus();
