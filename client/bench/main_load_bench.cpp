@@ -167,6 +167,10 @@ public:
         mEdits.reserve(size_t(opt.rate * opt.seconds) + 16);
     }
 
+    /// Every acknowledged edit of this client is in a frame it received (or its connection is
+    /// over): the edit-to-frame figures are complete. Any thread.
+    bool framesCaughtUp() const { return mNewestFrame >= mNewestAck || mFinished; }
+
     void start(const tcp::resolver::results_type& endpoints) {
         beast::get_lowest_layer(mWs).expires_after(CONNECT_TIMEOUT);
         beast::get_lowest_layer(mWs).async_connect(
@@ -280,7 +284,9 @@ private:
             return;
         }
         mFrames.push_back({h.value().rigVersion, now});
+        mNewestFrame = std::max<uint64_t>(mNewestFrame, h.value().rigVersion);
     }
+
 
     void onText(std::string_view text, Clock::time_point now) {
         // Changes (one per edit of every other client: most of the text traffic) need nothing
@@ -326,6 +332,7 @@ private:
         e.state = state;
         e.version = version;
         e.ackAt = now;
+        if (state == EditRecord::State::Acked) mNewestAck = std::max<uint64_t>(mNewestAck, version);
         ++mAnswered;
         ++mShared.answered;
     }
@@ -426,6 +433,7 @@ private:
             beast::error_code ignored;
             beast::get_lowest_layer(mWs).socket().close(ignored);
         }
+        mFinished = true;
         ++mShared.finished;
     }
 
@@ -433,6 +441,8 @@ private:
     asio::steady_timer mTimer;
     beast::flat_buffer mBuffer;
     websocket::response_type mHandshakeResponse;
+    std::atomic<uint64_t> mNewestAck{0}, mNewestFrame{0};
+    std::atomic<bool> mFinished{false};
     std::deque<std::string> mQueue; // front: the write in flight
     const int mIndex;
     const Options& mOpt;
@@ -710,6 +720,10 @@ int main(int argc, char** argv) {
     const auto drainBy = drainStart + std::chrono::duration_cast<Clock::duration>(
                                           std::chrono::duration<double>(opt.drainSeconds));
     sleepUntil(drainBy, [&] { return shared.answered + shared.lost >= shared.sent; });
+    // Then the frames of the last acknowledged edits (they follow the acks by a render).
+    sleepUntil(drainBy, [&] {
+        return std::all_of(clients.begin(), clients.end(), [](const auto& c) { return c->framesCaughtUp(); });
+    });
     const auto drainEnd = Clock::now();
 
     for (auto& c : clients)
