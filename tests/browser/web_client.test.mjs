@@ -404,7 +404,8 @@ try {
     await v.mouse.up();
     await waitMessage(v, /viewers cannot move lights/);
     // And the server refuses a viewer's edit even when sent by hand.
-    await v.evaluate(() => send({ type: "edit", seq: 999, changes: [{ path: "key.intensity", value: 1 }] }));
+    // (The page's modules keep their functions to themselves; main.js hands the raw send to window.dfb.)
+    await v.evaluate(() => window.dfb.send({ type: "edit", seq: 999, changes: [{ path: "key.intensity", value: 1 }] }));
     await waitMessage(v, /^forbidden: .*viewer/);
     assert((await getRig()).version === v0, "the viewer changed the rig");
     await a.waitForFunction(() => [...document.querySelectorAll("#clients li")].some((li) => /carol/.test(li.textContent) && /viewer/.test(li.textContent)), null, WAIT);

@@ -3,6 +3,7 @@
 // where the light's geometry puts them; malformed messages get an error and the server keeps
 // serving; bad inputs give clear errors and non-zero exits.
 
+#include "support/NetClient.h"
 #include "support/Process.h"
 #include "support/TestServer.h"
 #include "support/RayCaster.h"
@@ -21,8 +22,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 using namespace dfb;
 using namespace std::chrono_literals;
@@ -122,6 +125,44 @@ TEST_F(ServerClient, ClientPrintsTheRig) {
     ASSERT_TRUE(j["lights"].is_array());
     EXPECT_EQ(j["lights"][0]["name"], "key");
     EXPECT_EQ(j["lights"][0]["shadow"], true);
+}
+
+// The browser page's files: each of DFB_WEB_FILES (server/CMakeLists.txt, the list the server
+// embeds) is served at /NAME as its source, with its extension's type; nothing else is.
+TEST_F(ServerClient, ServesThePageFilesWithTheirTypesAndNothingElse) {
+    std::vector<std::string> files;
+    std::stringstream list(DFB_WEB_FILES);
+    for (std::string f; std::getline(list, f, ',');) files.push_back(f);
+    ASSERT_GE(files.size(), 3u) << DFB_WEB_FILES;
+    const std::map<std::string, std::string> types = {{".html", "text/html; charset=utf-8"},
+                                                      {".js", "text/javascript; charset=utf-8"},
+                                                      {".css", "text/css; charset=utf-8"}};
+    for (const std::string& f : files) {
+        const auto r = test::http(mPort, "GET", "/" + f);
+        EXPECT_EQ(r.status, 200) << f;
+        const auto type = types.find(f.substr(f.rfind('.')));
+        ASSERT_NE(type, types.end()) << f;
+        EXPECT_EQ(r.headers.count("Content-Type") ? r.headers.at("Content-Type") : "", type->second) << f;
+        EXPECT_EQ(r.headers.count("X-Content-Type-Options") ? r.headers.at("X-Content-Type-Options") : "", "nosniff") << f;
+        std::ifstream source(DFB_SOURCE_DIR "/client/web/" + f, std::ios::binary);
+        const std::string text((std::istreambuf_iterator<char>(source)), std::istreambuf_iterator<char>());
+        EXPECT_FALSE(text.empty()) << f;
+        EXPECT_TRUE(r.body == text) << f << ": the served file differs from its source";
+    }
+    const auto root = test::http(mPort, "GET", "/");
+    EXPECT_EQ(root.status, 200);
+    EXPECT_EQ(root.headers.count("Content-Type") ? root.headers.at("Content-Type") : "", "text/html; charset=utf-8");
+    EXPECT_EQ(root.body, test::http(mPort, "GET", "/index.html").body);
+    // Names of no listed file: out of the folder, files beside the listed ones, encodings and
+    // near-misses of listed names, other folders.
+    for (const char* path : {"/../CMakeLists.txt", "/main.js.map", "/index.html%00", "/package.json", "/web/main.js", "//main.js",
+                             "/main.js/", "/MAIN.JS", "/%2e%2e/CMakeLists.txt", "/main%2ejs", "/rig.js%20", "/client/web/main.js",
+                             "/./main.js", "/.."}) {
+        const auto r = test::http(mPort, "GET", path);
+        EXPECT_EQ(r.status, 404) << path;
+        EXPECT_EQ(r.headers.count("Content-Type") ? r.headers.at("Content-Type") : "", "application/json") << path;
+    }
+    EXPECT_EQ(test::http(mPort, "POST", "/main.js").status, 405);
 }
 
 TEST_F(ServerClient, MovingTheKeyLightMovesTheLitRegionAndTheBunnyShadow) {

@@ -10,6 +10,8 @@
 #include <string_view>
 
 namespace dfb::web {
+// The browser page's files by name, embedded at build time (cmake/EmbedFiles.cmake); empty for
+// any other name.
 std::string_view asset(std::string_view name);
 }
 
@@ -101,6 +103,26 @@ Result<std::optional<uint64_t>> ifMatch(const http::request<http::string_body>& 
 }
 
 std::string etag(uint64_t version) { return "\"" + std::to_string(version) + "\""; }
+
+// The browser page's file that `path` names, or an empty view: "/" is index.html, "/NAME" the
+// file NAME of DFB_WEB_FILES (server/CMakeLists.txt), embedded at build time. The lookup compares
+// whole names, so nothing else is reachable: no other file of client/web, no "..", no encoding.
+std::string_view webFile(std::string_view path) {
+    if (path == "/") return web::asset("index.html");
+    if (path.size() < 2 || path[0] != '/') return {};
+    return web::asset(path.substr(1));
+}
+
+// Its type, by extension: DFB_WEB_FILES admits only these three. Module scripts must come as
+// JavaScript (browsers refuse a module of another type), so the type is never guessed.
+std::string_view webContentType(std::string_view path) {
+    auto endsWith = [&](std::string_view ext) {
+        return path.size() >= ext.size() && path.substr(path.size() - ext.size()) == ext;
+    };
+    if (endsWith(".js")) return "text/javascript; charset=utf-8";
+    if (endsWith(".css")) return "text/css; charset=utf-8";
+    return "text/html; charset=utf-8";
+}
 
 } // namespace
 
@@ -209,12 +231,17 @@ void HttpSession::handle(Request&& req) {
     const size_t q = target.find('?');
     const std::string path = target.substr(0, q), query = q == std::string::npos ? "" : target.substr(q + 1);
     const bool get = req.method() == http::verb::get || req.method() == http::verb::head;
-    if (path == "/" || path == "/index.html" || path == "/healthz" || path == "/metrics" || path == "/favicon.ico" || path == "/v1/sessions") {
+    const std::string_view page = webFile(path);
+    if (!page.empty() || path == "/healthz" || path == "/metrics" || path == "/favicon.ico" || path == "/v1/sessions") {
         if (!get) return send(errorResponse(req, ErrorCode::Protocol, "method not allowed on " + path, http::status::method_not_allowed));
     }
     // The page holds no data of any session: it asks for a token (from its own URL) to connect.
-    if (path == "/" || path == "/index.html") {
-        return send(makeResponse(req, http::status::ok, "text/html; charset=utf-8", std::string(web::asset("index.html"))));
+    if (!page.empty()) {
+        const std::string_view type = webContentType(path == "/" ? "/index.html" : path);
+        auto res = makeResponse(req, http::status::ok, type, std::string(page));
+        // The declared type is the only one a browser may take it for (no sniffing).
+        res.set("X-Content-Type-Options", "nosniff");
+        return send(std::move(res));
     }
     if (path == "/healthz") return send(makeResponse(req, http::status::ok, "text/plain", "ok\n"));
     if (path == "/metrics") {

@@ -1,0 +1,137 @@
+// The overlay: the selected light's handles (position, axis, BendyLight control points and tube
+// radii) and markers for the other lights, projected with the shot's camera and drawn as SVG in
+// screen space; who else is dragging what.
+
+import { Cam } from "./camera.js";
+import { $, SVGNS, svg } from "./dom.js";
+import { V, bezier } from "./linalg.js";
+import { selectLight } from "./panels.js";
+import { clientColor, editorsOf } from "./presence.js";
+import { frameToWorld, lightFrame } from "./rig.js";
+import { S, evaluated, findLight } from "./state.js";
+import { toScreen } from "./viewport.js";
+
+/** Redraws the overlay at the next animation frame (once however often it is asked). */
+export function scheduleOverlay() {
+  if (scheduleOverlay.pending) return;
+  scheduleOverlay.pending = true;
+  requestAnimationFrame(() => { scheduleOverlay.pending = false; drawOverlay(); });
+}
+
+/** Handle world positions of a light (pass it evaluated at the session time). */
+export function handlesOf(l) {
+  const f = lightFrame(l);
+  const d = Math.max(0.2, V.len(V.sub(l.position, Cam.pos)));
+  const out = { frame: f, position: l.position, axis: V.add(l.position, V.scale(f.uL, 0.18 * d)), points: [], radii: [] };
+  if (l.type === "bendy" && l.controlPoints?.length) {
+    out.points = [l.position, ...l.controlPoints.map((a) => frameToWorld(l, f, a))];
+    out.radii = l.radii || [];
+  }
+  return out;
+}
+// The projected radius of a sphere of radius r at p: a circle around the handle.
+function radiusHandlePoint(p, r) { return V.add(p, V.scale(Cam.right, r)); }
+
+function drawOverlay() {
+  const root = $("overlay");
+  root.innerHTML = "";
+  if (!S.rig || !Cam.W) return;
+  if (S.pickResult?.hit) {
+    const s = toScreen({ x: S.pickResult.x + 0.5, y: S.pickResult.y + 0.5 });
+    svg("path", { d: `M${s.x - 7},${s.y}h5m4,0h5M${s.x},${s.y - 7}v5m0,4v5`, stroke: "#0ff", "stroke-width": 1.5 }, root);
+  }
+  if (!S.showHandles) return;
+  // Labels of lights at (nearly) one place (a duplicate in place) are stacked, not overprinted.
+  const placed = [];
+  const labelY = (x, y) => {
+    while (placed.some((p) => Math.abs(p.x - x) < 60 && Math.abs(p.y - y) < 12)) y += 13;
+    placed.push({ x, y });
+    return y;
+  };
+  // The selected light is drawn last (its handles on top of any marker) but its label placed first.
+  const lights = [...S.rig.lights].sort((p, q) => (p.name === S.selected) - (q.name === S.selected));
+  const sel = findLight(S.selected);
+  let selectedLabelY = null;
+  if (sel) {
+    const sp = toScreen(Cam.project(evaluated(sel).position));
+    selectedLabelY = labelY(sp.x + 10, sp.y + 4);
+  }
+  for (const raw of lights) {
+    const l = evaluated(raw);
+    const selected = l.name === S.selected;
+    const others = editorsOf(l.name);
+    const color = others.length ? clientColor(others[0].id) : selected ? "#f0b34a" : "#ccc";
+    const h = handlesOf(l);
+    const P = Cam.project(h.position);
+    const ps = toScreen(P);
+    if (!selected) {
+      if (!P.front) continue;
+      // Other lights: a small marker that selects them.
+      const g = svg("g", { class: "pickable", "data-select": l.name }, root);
+      svg("circle", { cx: ps.x, cy: ps.y, r: 5, fill: "none", stroke: color, "stroke-width": 1.5, opacity: l.enabled ? 1 : 0.5 }, g);
+      svg("text", { x: ps.x + 8, y: labelY(ps.x + 8, ps.y + 4), fill: color }, g).textContent = l.name + (others.length ? ` (${others.map((c) => c.name).join(", ")})` : "");
+      g.addEventListener("pointerdown", (e) => { e.stopPropagation(); selectLight(l.name); });
+      continue;
+    }
+    const g = svg("g", { "data-light": l.name }, root);
+    const line = (a, b, attrs) => {
+      const A = Cam.project(a), B = Cam.project(b);
+      if (!A.front || !B.front) return;
+      const sa = toScreen(A), sb = toScreen(B);
+      svg("line", { x1: sa.x, y1: sa.y, x2: sb.x, y2: sb.y, stroke: color, "stroke-width": 1.5, ...attrs }, g);
+    };
+    if (h.points.length) {
+      // The spline (solid), its control polygon (dashed) and the straight extension past the end.
+      const pts = [];
+      for (let k = 0; 2 * k + 2 < h.points.length; k++) {
+        for (let i = 0; i <= 16; i++) pts.push(bezier(h.points[2 * k], h.points[2 * k + 1], h.points[2 * k + 2], i / 16));
+      }
+      const scr = pts.map((p) => Cam.project(p)).filter((p) => p.front).map(toScreen);
+      svg("polyline", { points: scr.map((p) => `${p.x},${p.y}`).join(" "), fill: "none", stroke: color, "stroke-width": 2 }, g);
+      for (let i = 0; i + 1 < h.points.length; i++) line(h.points[i], h.points[i + 1], { "stroke-dasharray": "3 3", opacity: 0.6 });
+      const n = h.points.length, end = h.points[n - 1], tan = V.norm(V.sub(end, h.points[n - 2]));
+      line(end, V.add(end, V.scale(tan, V.len(V.sub(end, h.points[0])) * 0.3)), { "stroke-dasharray": "1 4", opacity: 0.6 });
+      h.points.forEach((p, i) => {
+        const Pp = Cam.project(p);
+        if (!Pp.front) return;
+        const sp = toScreen(Pp);
+        const r = h.radii[i] ?? 0;
+        const Rp = toScreen(Cam.project(radiusHandlePoint(p, r)));
+        const rad = Math.hypot(Rp.x - sp.x, Rp.y - sp.y);
+        svg("circle", { cx: sp.x, cy: sp.y, r: rad, fill: "none", stroke: color, "stroke-width": 1, opacity: 0.45 }, g);
+        if (i > 0) {
+          const hc = svg("circle", { cx: sp.x, cy: sp.y, r: 6, fill: "#222", stroke: color, "stroke-width": 2, class: "handle", "data-handle": "cp", "data-index": i }, g);
+          hc.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: `p${i}: drag in the image plane, Shift+drag in depth` }));
+          svg("text", { x: sp.x + 8, y: sp.y - 6, fill: color }, g).textContent = `p${i}`;
+        }
+        const rh = svg("rect", { x: Rp.x - 4, y: Rp.y - 4, width: 8, height: 8, fill: "#222", stroke: color, "stroke-width": 1.5,
+                                 class: "handle", "data-handle": "radius", "data-index": i }, g);
+        rh.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: `r${i} = ${r.toFixed(3)}: drag to change the tube radius` }));
+      });
+    }
+    // Axis: the light's direction (turning it turns the whole BendyLight tube). A point light
+    // shines every way: no axis.
+    if (l.type !== "point") line(h.position, h.axis, {});
+    const A = Cam.project(h.axis);
+    if (A.front && l.type !== "point") {
+      const sa = toScreen(A);
+      const ah = svg("circle", { cx: sa.x, cy: sa.y, r: 5, fill: color, stroke: "#000", "stroke-width": 1, class: "handle", "data-handle": "axis" }, g);
+      ah.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: "axis: drag to aim the light" }));
+    }
+    if (P.front) {
+      const ph = svg("circle", { cx: ps.x, cy: ps.y, r: 7, fill: color, stroke: "#000", "stroke-width": 1.5, class: "handle", "data-handle": "position" }, g);
+      ph.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: `${l.name}: drag to move (Shift: in depth)` }));
+      const who = others.length ? ` · ✎ ${others.map((c) => c.name).join(", ")}` : "";
+      svg("text", { x: ps.x + 10, y: selectedLabelY ?? ps.y + 4, fill: color, "font-weight": "bold" }, g).textContent = l.name + who;
+    }
+    // Mark the handle another artist is dragging (their presence names it).
+    for (const c of others) {
+      const m = /\.cp\[(\d+)\]$/.exec(c.editing || "");
+      if (m && h.points[Number(m[1])]) {
+        const sp = toScreen(Cam.project(h.points[Number(m[1])]));
+        svg("circle", { cx: sp.x, cy: sp.y, r: 11, fill: "none", stroke: clientColor(c.id), "stroke-width": 2, "stroke-dasharray": "4 2" }, g);
+        svg("text", { x: sp.x - 10, y: sp.y + 22, fill: clientColor(c.id) }, g).textContent = c.name;
+      }
+    }
+  }
+}

@@ -1,0 +1,130 @@
+// The image viewport: zoom and pan (the image keeps its pixels, 1:1 is native size; the overlay
+// is drawn in screen space so handles stay the same size at every zoom), the pointer (handles
+// drag, the background pans, a click picks) and picking: what is at a pixel, and the lights that
+// reach it.
+
+import { Cam } from "./camera.js";
+import { nextSeq, send } from "./connection.js";
+import { $, div, showMessage } from "./dom.js";
+import { endDrag, moveDrag, startDrag } from "./drag.js";
+import { canEdit } from "./edits.js";
+import { scheduleOverlay } from "./overlay.js";
+import { selectLight } from "./panels.js";
+import { S } from "./state.js";
+
+export function applyTransform() {
+  $("stage").style.transform = `translate(${S.panX}px, ${S.panY}px) scale(${S.zoom})`;
+  $("frame").classList.toggle("pixelated", S.zoom >= 2);
+  $("zoomLabel").textContent = `${Math.round(S.zoom * 100)}%`;
+  scheduleOverlay();
+}
+/** Zooms to z keeping the viewport point (cx, cy) over the same image point. */
+export function zoomAt(z, cx, cy) {
+  z = Math.min(32, Math.max(0.05, z));
+  S.panX = cx - (cx - S.panX) * z / S.zoom;
+  S.panY = cy - (cy - S.panY) * z / S.zoom;
+  S.zoom = z;
+  applyTransform();
+}
+function center() {
+  const vp = $("viewport").getBoundingClientRect();
+  S.panX = Math.round((vp.width - Cam.W * S.zoom) / 2);
+  S.panY = Math.round((vp.height - Cam.H * S.zoom) / 2);
+  applyTransform();
+}
+export function zoomNative() { S.zoom = 1; center(); }
+export function zoomFit() {
+  const vp = $("viewport").getBoundingClientRect();
+  S.zoom = Math.max(0.05, Math.min((vp.width - 16) / Cam.W, (vp.height - 16) / Cam.H));
+  center();
+}
+export const vpCenter = () => { const r = $("viewport").getBoundingClientRect(); return [r.width / 2, r.height / 2]; };
+
+// Screen (viewport-relative) <-> image pixel coordinates.
+export const toScreen = (p) => ({ x: S.panX + p.x * S.zoom, y: S.panY + p.y * S.zoom });
+export function eventToImage(e) {
+  const r = $("viewport").getBoundingClientRect();
+  return { x: (e.clientX - r.left - S.panX) / S.zoom, y: (e.clientY - r.top - S.panY) / S.zoom };
+}
+
+function pickAt(p) {
+  const x = Math.floor(p.x), y = Math.floor(p.y);
+  if (!Cam.W || x < 0 || y < 0 || x >= Cam.W || y >= Cam.H) return;
+  if (!send({ type: "pick", seq: nextSeq("pick"), x, y })) showMessage("not connected: cannot pick");
+}
+/** Shows a pick answer in the Pick panel (and its marker in the overlay). */
+export function onPick(msg) {
+  S.pending.delete(msg.seq);
+  S.pickResult = msg;
+  const box = $("pick");
+  box.className = "";
+  const f3 = (v) => v.map((x) => x.toFixed(3)).join(", ");
+  if (!msg.hit) {
+    box.innerHTML = "";
+    box.append(Object.assign(div("hint"), { textContent: `pixel (${msg.x}, ${msg.y}): background, nothing was baked there` }));
+  } else {
+    box.innerHTML = `<dl><dt>pixel</dt><dd id="pickPixel"></dd><dt>object</dt><dd id="pickObject"></dd>
+      <dt>position</dt><dd id="pickPosition"></dd><dt>normal</dt><dd id="pickNormal"></dd><dt>lights</dt><dd id="pickLights"></dd></dl>`;
+    $("pickPixel").textContent = `(${msg.x}, ${msg.y})`;
+    $("pickObject").textContent = msg.object ?? `object ${msg.objectId}`;
+    $("pickPosition").textContent = f3(msg.position);
+    $("pickNormal").textContent = f3(msg.normal);
+    const lights = $("pickLights");
+    if (!msg.lights.length) lights.textContent = "none reaches it";
+    for (const l of msg.lights) {
+      const b = Object.assign(document.createElement("button"), { textContent: l.name, title: `radiance ${f3(l.radiance)}: select this light` });
+      b.className = "pickLight";
+      b.style.margin = "0 4px 2px 0";
+      b.onclick = () => selectLight(l.name);
+      lights.append(b);
+    }
+  }
+  $("pickPanel").scrollIntoView({ block: "nearest" });
+  scheduleOverlay();
+}
+
+/** The zoom buttons, the wheel and the pointer in the viewport. */
+export function initViewport() {
+  $("zoomIn").onclick = () => zoomAt(S.zoom * 1.25, ...vpCenter());
+  $("zoomOut").onclick = () => zoomAt(S.zoom / 1.25, ...vpCenter());
+  $("zoom1").onclick = zoomNative;
+  $("zoomFit").onclick = zoomFit;
+  $("handlesToggle").onclick = () => { S.showHandles = !S.showHandles; $("handlesToggle").classList.toggle("on", S.showHandles); scheduleOverlay(); };
+  $("viewport").addEventListener("wheel", (e) => {
+    e.preventDefault();
+    const r = $("viewport").getBoundingClientRect();
+    zoomAt(S.zoom * Math.exp(-e.deltaY * 0.0015), e.clientX - r.left, e.clientY - r.top);
+  }, { passive: false });
+
+  // Handles drag, background drags pan, a click picks.
+  let press = null;
+  $("viewport").addEventListener("pointerdown", (e) => {
+    const t = e.target;
+    if (t.classList?.contains("handle")) {
+      e.preventDefault();
+      if (!canEdit()) return showMessage(S.connected ? "viewers cannot move lights (this page was opened with a viewer link)" : "not connected");
+      startDrag(e, t.dataset.handle, Number(t.dataset.index ?? 0));
+      $("viewport").setPointerCapture(e.pointerId);
+      return;
+    }
+    if (e.button !== 0 && e.button !== 1) return;
+    press = { x: e.clientX, y: e.clientY, panX: S.panX, panY: S.panY, panning: false };
+    $("viewport").setPointerCapture(e.pointerId);
+  });
+  $("viewport").addEventListener("pointermove", (e) => {
+    if (S.drag) { moveDrag(e); return; }
+    if (!press) return;
+    const dx = e.clientX - press.x, dy = e.clientY - press.y;
+    if (!press.panning && Math.hypot(dx, dy) > 3) { press.panning = true; $("viewport").classList.add("panning"); }
+    if (press.panning) { S.panX = press.panX + dx; S.panY = press.panY + dy; applyTransform(); }
+  });
+  $("viewport").addEventListener("pointerup", (e) => {
+    if (S.drag) { endDrag(); return; }
+    if (!press) return;
+    const wasPan = press.panning;
+    press = null;
+    $("viewport").classList.remove("panning");
+    if (!wasPan && e.button === 0) pickAt(eventToImage(e));
+  });
+  $("viewport").addEventListener("pointercancel", () => { if (S.drag) endDrag(); press = null; });
+}

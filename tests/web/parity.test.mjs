@@ -1,0 +1,65 @@
+// Keyframe evaluation and the light frame exist once each in the page (client/web/rig.js) and
+// once in the server (protocol::evaluateRig, dfb::lightFrame): this checks that both give the
+// same values on the cases tests/unit/protocol_parity_cases_test.cpp writes (CTest runs that
+// first: fixture protocol_parity_cases; the file's path comes in DFB_PARITY_CASES).
+//
+// Tolerance: 1e-6 relative. The server stores light properties as 32-bit floats and so does the
+// page's evaluation (Math.fround), so most values agree exactly; components of a vector are
+// compared relative to the vector's length (a component near 0 after a cancellation carries the
+// rounding of the whole vector).
+
+import assert from "node:assert/strict";
+import { readFileSync } from "node:fs";
+import { test } from "node:test";
+
+import { evaluateLight, lightFrame } from "../../client/web/rig.js";
+
+const file = process.env.DFB_PARITY_CASES;
+const cases = file ? JSON.parse(readFileSync(file, "utf8")) : null;
+const REL = 1e-6;
+
+const isNumeric = (v) => typeof v === "number" || (Array.isArray(v) && v.every(isNumeric));
+const norm = (v) => Math.hypot(...v.flat(Infinity));
+// Compares a JavaScript value with the C++ one: numbers within REL of the larger magnitude,
+// arrays component by component relative to the C++ array's length; anything else equal.
+function same(js, cpp, where, scale = 0) {
+  if (typeof cpp === "number") {
+    const tol = REL * Math.max(Math.abs(cpp), Math.abs(js ?? 0), scale, 1e-30);
+    assert.ok(typeof js === "number" && Math.abs(js - cpp) <= tol, `${where}: JavaScript ${js}, C++ ${cpp}`);
+  } else if (Array.isArray(cpp) && isNumeric(cpp)) {
+    assert.ok(Array.isArray(js) && js.length === cpp.length, `${where}: JavaScript ${JSON.stringify(js)}, C++ ${JSON.stringify(cpp)}`);
+    const s = Math.max(scale, norm(cpp));
+    cpp.forEach((c, i) => same(js[i], c, `${where}[${i}]`, Array.isArray(c) ? 0 : s));
+  } else {
+    assert.deepEqual(js, cpp, where);
+  }
+}
+
+test("the cases file is there and holds cases", { skip: !file && "DFB_PARITY_CASES is not set (CTest sets it)" }, () => {
+  assert.ok(cases.keyframes.length >= 10, `${cases.keyframes.length} keyframe cases`);
+  assert.ok(cases.lightFrames.length >= 25, `${cases.lightFrames.length} light frames`);
+});
+
+test("keyframed lights evaluate as protocol::evaluateRig evaluates them", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
+  let values = 0;
+  for (const c of cases.keyframes) {
+    for (const { time, light: expected } of c.evaluations) {
+      const got = evaluateLight(c.light, time);
+      for (const [prop, v] of Object.entries(expected)) {
+        same(got[prop], v, `${c.name}, t = ${time}: ${prop}`);
+        if (isNumeric(v)) values++;
+      }
+      for (const prop of Object.keys(got)) assert.ok(prop in expected, `${c.name}, t = ${time}: ${prop} is not in the server's light`);
+    }
+  }
+  assert.ok(values > 1000, `only ${values} values compared`);
+});
+
+test("the light frame is dfb::lightFrame's, near vertical included", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
+  for (const { direction, uL, vL, wL } of cases.lightFrames) {
+    const f = lightFrame({ direction });
+    same(f.uL, uL, `uL of ${JSON.stringify(direction)}`);
+    same(f.vL, vL, `vL of ${JSON.stringify(direction)}`);
+    same(f.wL, wL, `wL of ${JSON.stringify(direction)}`);
+  }
+});
