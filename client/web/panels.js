@@ -8,11 +8,13 @@ import { hexToLinear, linearToHex, parseNumber } from "./format.js";
 import { V } from "./linalg.js";
 import { scheduleOverlay } from "./overlay.js";
 import { clientColor, editorsOf } from "./presence.js";
-import { NAME_RE, clone } from "./rig.js";
+import { NAME_RE, clone, rangeOf } from "./rig.js";
+import { lowerFirst, propertyRows } from "./rows.js";
 import { LAYERS, S, evaluated, findLight } from "./state.js";
 import { renderKeyWhat, renderTimeline } from "./timeline.js";
 
 const LIGHT_TYPES = [["spot", "spot"], ["point", "point"], ["bendy", "BendyLight"], ["directional", "directional"]];
+const typeLabel = (t) => LIGHT_TYPES.find(([v]) => v === t)?.[1] ?? t;
 
 /** Takes a whole rig from the server (welcome, undo, redo, replace, re-read). */
 export function setRig(rig) {
@@ -81,26 +83,6 @@ export function selectLight(name) {
   refreshUi(true);
 }
 
-// Property widgets of the selected light. Each descriptor: [prop, label, unit, kind, options].
-function propRows(l) {
-  const unitI = l.type === "directional" ? "lux" : "cd";
-  const rows = [["type", "type", "", "type"], ["enabled", "enabled", "", "bool"], ["color", "colour", "linear", "color"],
-                ["intensity", "intensity", unitI, "slider", { min: 0, max: 1e12, smax: Math.max(10, l.intensity * 4), log: true }]];
-  if (l.type !== "directional") rows.push(["position", "position", "u", "vec3", { min: -1e7, max: 1e7 }]);
-  if (l.type !== "point") rows.push(["direction", "direction", "", "vec3", { min: -1e7, max: 1e7 }]);
-  if (l.type === "spot" || l.type === "bendy") {
-    rows.push(["coneAngle", "cone angle", "°", "slider", { min: 0.1, max: 85 }]);
-    rows.push(["penumbra", "penumbra", "°", "slider", { min: 0, max: 85, smax: l.coneAngle }]);
-  }
-  if (l.type === "spot" && "barnDoors" in l) rows.push(["barnDoors", "barn doors", "°", "vec4", { min: 0, max: 90 }]);
-  // The rig omits an empty cookie; a server with barn doors has cookies too.
-  if (l.type === "spot" && ("cookie" in l || "barnDoors" in l)) rows.push(["cookie", "cookie", "", "text", { title: "An image in the server's asset folder projected across the cone; empty for none" }]);
-  rows.push(["shadow", "shadow", "", "bool"]);
-  rows.push(["shadowMapSize", "shadow map", "texels", "pow2"]);
-  rows.push(["shadowBias", "shadow bias", "texels", "slider", { min: 0, max: 16 }]);
-  return rows;
-}
-
 const propWidgets = new Map(); // prop -> {update(light)}
 function buildProps() {
   const box = $("props");
@@ -130,7 +112,12 @@ function buildProps() {
     propWidgets.set("name", { update: (x) => { if (document.activeElement !== input) input.value = x.name; } });
   }
   const e = evaluated(l);
-  for (const [prop, label, unit, kind, o = {}] of propRows(l)) {
+  for (const [prop, label, unit, kind, o = {}] of propertyRows(l, S.schema)) {
+    if (kind === "json") {
+      const update = genericRow(box, label, e[prop], `${l.name}.${prop}`, (v) => setLightProp(l.name, prop, v));
+      propWidgets.set(prop, { update: (x) => update(x[prop]) });
+      continue;
+    }
     const row = div("row");
     const keyed = l.keys?.[prop]?.length;
     const lab = labelEl(label);
@@ -140,7 +127,7 @@ function buildProps() {
     if (kind === "type") {
       const sel = document.createElement("select");
       sel.dataset.edit = ""; sel.id = "lightType";
-      for (const [v, t] of LIGHT_TYPES) sel.append(new Option(t, v));
+      for (const v of o.values ?? LIGHT_TYPES.map(([t]) => t)) sel.append(new Option(typeLabel(v), v));
       // A type this page does not know yet (a newer server) is still shown as it is.
       if (![...sel.options].some((o) => o.value === l.type)) sel.append(new Option(l.type, l.type));
       sel.value = l.type;
@@ -153,12 +140,14 @@ function buildProps() {
       cb.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: cb.checked }]));
       row.append(cb);
       update = (x) => { cb.checked = !!x[prop]; };
-    } else if (kind === "pow2") {
+    } else if (kind === "choice") {
       const sel = document.createElement("select");
       sel.dataset.edit = ""; sel.id = `prop-${prop}`;
-      for (let s = 64; s <= 8192; s *= 2) sel.append(new Option(String(s), String(s)));
+      for (const v of o.values) sel.append(new Option(String(v), String(v)));
       sel.value = String(e[prop]);
-      sel.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: Number(sel.value) }]));
+      // The value goes back as the type the choices have (shadow-map sizes are numbers).
+      const value = () => (typeof o.values[0] === "number" ? Number(sel.value) : sel.value);
+      sel.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: value() }]));
       row.append(sel, unitEl(unit));
       update = (x) => { sel.value = String(x[prop]); };
     } else if (kind === "color") {
@@ -166,7 +155,7 @@ function buildProps() {
       pick.dataset.edit = ""; pick.id = "prop-color";
       pick.addEventListener("input", () => setLightProp(l.name, "color", hexToLinear(pick.value), { live: true }));
       pick.addEventListener("change", () => setLightProp(l.name, "color", hexToLinear(pick.value)));
-      const nums = [0, 1, 2].map((i) => numberInput({ label: `colour ${"rgb"[i]}`, min: 0, max: 1e6, value: e.color[i], cls: "num",
+      const nums = [0, 1, 2].map((i) => numberInput({ label: `${label} ${"rgb"[i]}`, min: o.min ?? 0, max: o.max ?? 1e6, value: e.color[i], cls: "num",
         onCommit: (v) => { const c = evaluated(findLight(l.name)).color.slice(); c[i] = v; setLightProp(l.name, "color", c); } }));
       nums.forEach((n) => { n.style.width = "46px"; });
       row.append(pick, ...nums);
@@ -178,24 +167,33 @@ function buildProps() {
       t.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: t.value.trim() }]));
       row.append(t);
       update = (x) => { if (document.activeElement !== t) t.value = x[prop] ?? ""; };
-    } else if (kind === "vec3" || kind === "vec4") {
-      const nums = [...Array(kind === "vec4" ? 4 : 3).keys()].map((i) => numberInput({ label: `${label} ${kind === "vec4" ? ["left", "right", "top", "bottom"][i] : "xyz"[i]}`, min: o.min, max: o.max, value: e[prop][i],
+    } else if (kind === "vec") {
+      const nums = o.names.map((name, i) => numberInput({ label: `${label} ${name}`, min: o.min, max: o.max, value: e[prop]?.[i],
         onCommit: (v) => { const c = evaluated(findLight(l.name))[prop].slice(); c[i] = v; setLightProp(l.name, prop, c); } }));
-      nums.forEach((n, i) => { n.id = `prop-${prop}-${i}`; n.style.width = kind === "vec4" ? "44px" : "62px"; });
+      nums.forEach((n, i) => { n.id = `prop-${prop}-${i}`; n.style.width = nums.length > 3 ? "44px" : "62px"; });
       row.append(...nums, unitEl(unit));
-      update = (x) => nums.forEach((n, i) => n.setValue(x[prop][i]));
+      update = (x) => nums.forEach((n, i) => n.setValue(x[prop]?.[i]));
+    } else if (kind === "number") {
+      const num = numberInput({ label, min: o.min, max: o.max, integer: o.integer, value: e[prop], onCommit: (v) => setLightProp(l.name, prop, v) });
+      num.id = `prop-${prop}`;
+      row.append(num, unitEl(unit));
+      update = (x) => num.setValue(x[prop]);
     } else if (kind === "slider") {
       // Sliders cover the useful range (log for intensities); the typed entry takes the full range.
-      const smin = o.log ? 0 : o.min, smax = o.smax ?? o.max;
+      const smin = o.smin ?? (o.log ? 0 : o.min), smax = o.smax ?? o.max;
       const range = Object.assign(document.createElement("input"), { type: "range", min: 0, max: 1000, step: 1, id: `slider-${prop}` });
       range.dataset.edit = "";
       const toSlider = (v) => (o.log ? Math.round(1000 * Math.log1p(v) / Math.log1p(smax)) : Math.round(1000 * (v - smin) / (smax - smin)));
       const fromSlider = (s) => (o.log ? Math.expm1(s / 1000 * Math.log1p(smax)) : smin + (smax - smin) * s / 1000);
       range.value = toSlider(e[prop]);
-      const num = numberInput({ label, min: o.min, max: o.max, value: e[prop], onCommit: (v) => { range.value = toSlider(v); setLightProp(l.name, prop, v); } });
+      const num = numberInput({ label, min: o.min, max: o.max, integer: o.integer, value: e[prop], onCommit: (v) => { range.value = toSlider(v); setLightProp(l.name, prop, v); } });
       num.id = `prop-${prop}`;
       range.addEventListener("pointerdown", () => { beginGesture(); setPresence(`${l.name}.${prop}`); });
-      range.addEventListener("input", () => { const v = Number(fromSlider(Number(range.value)).toPrecision(5)); num.setValue(v); setLightProp(l.name, prop, v, { live: true }); });
+      range.addEventListener("input", () => {
+        const s = fromSlider(Number(range.value)), v = o.integer ? Math.round(s) : Number(s.toPrecision(5));
+        num.setValue(v);
+        setLightProp(l.name, prop, v, { live: true });
+      });
       range.addEventListener("change", () => { endGesture(); setPresence(null); scheduleRefetch(); });
       row.append(range, num, unitEl(unit));
       update = (x) => { if (document.activeElement !== range) range.value = toSlider(x[prop]); num.setValue(x[prop]); };
@@ -203,13 +201,14 @@ function buildProps() {
     propWidgets.set(prop, { update });
     box.append(row);
   }
-  if (l.type === "bendy" && l.controlPoints?.length) buildChain(box, l, e); // a new chain comes from the server
+  // A new chain comes from the server. The schema lists exactDirection with the other rows.
+  if (l.type === "bendy" && l.controlPoints?.length) buildChain(box, l, e, !S.schema);
   buildOtherProps(box, l, e);
   if (l.warning) box.append(Object.assign(div("warning"), { textContent: `⚠ ${l.warning}`, id: "lightWarning" }));
   buildLinking(box, l);
 }
 
-function buildChain(box, l, e) {
+function buildChain(box, l, e, withExactDirection) {
   const K = l.controlPoints.length / 2;
   const head = div("group");
   head.textContent = `BendyLight chain · ${K} segment${K === 1 ? "" : "s"} · control points in the light's frame (a along the axis, b, c across)`;
@@ -229,9 +228,12 @@ function buildChain(box, l, e) {
   const exact = Object.assign(document.createElement("input"), { type: "checkbox", checked: !!l.exactDirection, id: "prop-exactDirection" });
   exact.dataset.edit = "";
   exact.onchange = () => edit([{ path: `${l.name}.exactDirection`, value: exact.checked }]);
-  row.append(addSeg, delSeg, Object.assign(document.createElement("label"), { textContent: "exact direction", title: "Exact flow-line tangent instead of paper eq. 9", htmlFor: "prop-exactDirection", style: "width:auto;margin-left:8px" }), exact);
+  row.append(addSeg, delSeg);
+  if (withExactDirection) {
+    row.append(Object.assign(document.createElement("label"), { textContent: "exact direction", title: "Exact flow-line tangent instead of paper eq. 9", htmlFor: "prop-exactDirection", style: "width:auto;margin-left:8px" }), exact);
+    propWidgets.set("exactDirection", { update: (x) => { exact.checked = !!x.exactDirection; } });
+  }
   box.append(row);
-  propWidgets.set("exactDirection", { update: (x) => { exact.checked = !!x.exactDirection; } });
 
   const table = document.createElement("table");
   table.className = "cps";
@@ -244,14 +246,14 @@ function buildChain(box, l, e) {
     const cpInputs = [0, 1, 2].map((c) => {
       const td = document.createElement("td");
       if (i === 0) { td.textContent = "0"; td.title = "p0 is the light's position"; tr.append(td); return null; }
-      const n = numberInput({ label: `p${i}.${"abc"[c]}`, value: e.controlPoints[i - 1][c], digits: 3,
+      const n = numberInput({ label: `p${i}.${"abc"[c]}`, ...rangeOf(`cp[${i}]`), value: e.controlPoints[i - 1][c], digits: 3,
         onCommit: (v) => { const p = evaluated(findLight(l.name)).controlPoints[i - 1].slice(); p[c] = v; setLightProp(l.name, `cp[${i}]`, p); } });
       n.id = `cp-${i}-${c}`;
       td.append(n); tr.append(td);
       return n;
     });
     const rtd = document.createElement("td");
-    const r = numberInput({ label: `radius r${i}`, min: 0, max: 1e7, value: e.radii[i], onCommit: (v) => setLightProp(l.name, `r[${i}]`, v) });
+    const r = numberInput({ label: `radius r${i}`, ...rangeOf(`r[${i}]`), value: e.radii[i], onCommit: (v) => setLightProp(l.name, `r[${i}]`, v) });
     r.id = `r-${i}`;
     rtd.append(r);
     const ctd = document.createElement("td");
@@ -325,7 +327,9 @@ function genericRow(box, label, value, path, onValue) {
   return update;
 }
 function buildOtherProps(box, l, e) {
-  const extra = Object.keys(l).filter((k) => !KNOWN_PROPS.has(k));
+  // With a schema, every property it lists has its place (a row, the chain, the timeline, ...).
+  const known = S.schema ? new Set(S.schema.light.map((r) => r.path)) : KNOWN_PROPS;
+  const extra = Object.keys(l).filter((k) => !known.has(k));
   if (!extra.length) return;
   box.append(Object.assign(div("group"), { textContent: "more properties" }));
   for (const k of extra) {
@@ -347,13 +351,14 @@ function buildLinking(box, l) {
   details.append(summary);
   box.append(details);
   box = details;
+  const rowLabel = (prop, text) => lowerFirst(S.schema?.light.find((r) => r.path === prop)?.label ?? text);
   for (const [prop, text] of [["include", "lights only"], ["exclude", "never lights"]]) {
     const row = div("row");
     const sel = document.createElement("select");
     sel.multiple = true; sel.size = Math.min(4, objects.length); sel.style.flex = "1"; sel.dataset.edit = ""; sel.id = `prop-${prop}`;
     objects.forEach((o, i) => { const opt = new Option(o, String(i + 1)); opt.selected = (l[prop] || []).includes(i + 1); sel.append(opt); });
     sel.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: [...sel.selectedOptions].map((o) => Number(o.value)) }]));
-    row.append(labelEl(text), sel);
+    row.append(labelEl(rowLabel(prop, text)), sel);
     box.append(row);
   }
   box.append(Object.assign(div("hint"), { textContent: "Ctrl-click to choose several; none chosen in 'lights only' means all objects." }));
@@ -372,7 +377,7 @@ function buildRigProps() {
     const row = div("row");
     const range = Object.assign(document.createElement("input"), { type: "range", min: -6, max: 6, step: 0.1, id: "rigExposure" });
     range.dataset.edit = "";
-    const num = numberInput({ label: "rig exposure", min: -20, max: 20, value: 0, onCommit: (v) => { range.value = v; edit([{ path: "exposure", value: v }]); } });
+    const num = numberInput({ label: "rig exposure", ...rangeOf("exposure", true), value: 0, onCommit: (v) => { range.value = v; edit([{ path: "exposure", value: v }]); } });
     num.id = "rigExposureN";
     range.addEventListener("pointerdown", beginGesture);
     range.addEventListener("change", endGesture);
