@@ -85,7 +85,7 @@ const std::vector<Case>& cases() {
         {"linking",
          [](Rig& r) {
              r.lights[0].exclude = {1};
-             r.lights[1].include = {2, 3};
+             r.lights[1].exclude = {2};
              r.lights[1].color = {0.2f, 0.4f, 1.f};
          }},
         {"filmic",

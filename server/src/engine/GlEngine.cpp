@@ -3,6 +3,7 @@
 // paper 004 section 4.3) plus emission, then exposure and sRGB.
 
 #include <dfb/server/Engine.h>
+#include <dfb/protocol/Schema.h>
 
 #include "UniformBlocks.h"
 #include "WorkerPool.h"
@@ -44,35 +45,15 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 
 glm::vec3 toGlm(const Vec3& v) { return {v[0], v[1], v[2]}; }
 
-// Half-angle of a light's shadow frustum, degrees: the cone plus a degree, rounded up to 5 degrees
-// so that dragging a spot light's cone re-shades without re-rendering its shadow map until it
-// crosses a step (a BendyLight's deformed geometry depends on the exact cone, so its map is
-// re-rendered on every cone edit anyway). At most 86: a perspective projection degenerates
-// towards 90. Documented in docs/lighting.md (tests compute the receiver bias with it).
-float shadowHalfAngleDeg(const Light& l) {
-    return std::min(5.f * std::ceil((l.coneAngleDeg + 1.f) / 5.f), 86.f);
-}
+using protocol::shadowHalfAngleDeg;
 
-// What a light's shadow map depends on; any difference re-renders it.
-bool sameShadowInputs(const Light& a, const Light& b) {
-    if (a.type == LightType::Point || b.type == LightType::Point) {
-        // Omnidirectional: direction and cone play no part in a cube map.
-        return a.type == b.type && a.position == b.position && a.shadow == b.shadow && a.shadowMapSize == b.shadowMapSize;
-    }
-    return a.position == b.position && a.direction == b.direction && shadowHalfAngleDeg(a) == shadowHalfAngleDeg(b) &&
-           (a.type != LightType::Bendy || a.coneAngleDeg == b.coneAngleDeg) &&
-           a.shadow == b.shadow && a.shadowMapSize == b.shadowMapSize && a.type == b.type &&
-           (a.type != LightType::Bendy || (a.controlPoints == b.controlPoints && a.radii == b.radii));
-}
+// What a light's shadow map depends on; any difference re-renders it. Derived from the rig
+// schema's rows (protocol/Schema.h): no field is listed here by hand.
+bool sameShadowInputs(const Light& a, const Light& b) { return protocol::sameInputs(a, b, protocol::Invalidates::Shadow); }
 
 // What a light's contribution image depends on, besides its shadow map. Colour and intensity are
 // not among them: they only rescale the cached image.
-bool sameShadingInputs(const Light& a, const Light& b) {
-    return sameShadowInputs(a, b) && a.coneAngleDeg == b.coneAngleDeg && a.penumbraDeg == b.penumbraDeg && a.shadowBias == b.shadowBias && a.type == b.type &&
-           a.include == b.include && a.exclude == b.exclude && a.shadowFilter == b.shadowFilter &&
-           a.cookie == b.cookie && a.barnDoorsDeg == b.barnDoorsDeg &&
-           (a.type != LightType::Bendy || (a.colors == b.colors && a.exactDirection == b.exactDirection));
-}
+bool sameShadingInputs(const Light& a, const Light& b) { return protocol::sameInputs(a, b, protocol::Invalidates::Shade); }
 
 struct LightCache {
     Light params;
