@@ -10,21 +10,21 @@
 #include "common_uniforms.glsl"
 #include "common_bendy.glsl"
 
-layout(local_size_x = 64) in;
-layout(std430, binding = 3) writeonly buffer FlatIndices { uint flatIndices[]; };
-layout(std430, binding = 4) writeonly buffer TessIndices { uint tessIndices[]; };
-// Four DrawElementsIndirectCommand {count, instanceCount, firstIndex, baseVertex, baseInstance}:
-// plain closed, plain open, tessellated closed, tessellated open.
-layout(std430, binding = 5) coherent buffer Commands { uint commands[20]; };
+layout(local_size_x = COMPUTE_GROUP_SIZE) in;
+layout(std430, binding = SSBO_FLAT_INDICES) writeonly buffer FlatIndices { uint flatIndices[]; };
+layout(std430, binding = SSBO_TESS_INDICES) writeonly buffer TessIndices { uint tessIndices[]; };
+// BendyDrawCommands (GpuInterface.h): four DrawElementsIndirectCommand {count, instanceCount,
+// firstIndex, baseVertex, baseInstance}: plain closed, plain open, tessellated closed, tessellated open.
+layout(std430, binding = SSBO_DRAW_COMMANDS) coherent buffer Commands { uint commands[BENDY_DRAW_COMMAND_WORDS]; };
 
 // Read as buffer textures (one gather per read on llvmpipe; a storage-buffer read at a per-lane
 // index loops over the lanes).
 layout(binding = TEX_DEFORMED) uniform samplerBuffer tDeformed;
 layout(binding = TEX_CASTER_INDICES) uniform usamplerBuffer tIndices;
-layout(location = 0) uniform uint uTriangleCount;
-layout(location = 1) uniform float uMaxLevel;
-layout(location = 2) uniform float uTexelPerDistance;
-layout(location = 3) uniform uint uClosedTriangles;
+layout(location = LOC_CLASSIFY_TRIANGLE_COUNT) uniform uint uTriangleCount;
+layout(location = LOC_CLASSIFY_MAX_LEVEL) uniform float uMaxLevel;
+layout(location = LOC_CLASSIFY_TEXEL_PER_DISTANCE) uniform float uTexelPerDistance;
+layout(location = LOC_CLASSIFY_CLOSED_TRIANGLES) uniform uint uClosedTriangles;
 
 void main() {
     uint t = gl_GlobalInvocationID.x;

@@ -6,7 +6,7 @@
 #include "common_uniforms.glsl"
 layout(binding = TEX_INPUT) uniform sampler2D uSampleRadiance;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
-layout(location = 0) out vec4 oColor;
+layout(location = OUT_COLOR) out vec4 oColor;
 void main() {
     uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
     vec3 sum = vec3(0.0);

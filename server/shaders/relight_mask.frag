@@ -20,7 +20,7 @@
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
-layout(location = 2) uniform int uPixelStep;
+layout(location = LOC_RELIGHT_PIXEL_STEP) uniform int uPixelStep;
 
 // BendyLight samples in the round cones of two segments or more (relight_bendy.frag then solves all
 // segments); the others solve one (BENDY_SINGLE).

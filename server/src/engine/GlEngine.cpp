@@ -4,7 +4,7 @@
 
 #include <dfb/server/Engine.h>
 
-#include "UniformBlocks.h"
+#include "GpuInterface.h"
 #include "WorkerPool.h"
 
 #include <dfb/server/BendyChain.h>
@@ -282,15 +282,15 @@ gl::Texture uploadLayer(GLenum internalFormat, int row, int rows, const std::vec
     return t;
 }
 
-// A vertex array of vec3 positions (attribute 0) drawn through an index buffer.
+// A vertex array of vec3 positions (ATTR_POSITION) drawn through an index buffer.
 gl::VertexArray positionVao(const gl::Buffer& positions, const gl::Buffer& indices) {
     GLuint vao = 0;
     glCreateVertexArrays(1, &vao);
     glVertexArrayVertexBuffer(vao, 0, positions.id(), 0, sizeof(glm::vec3));
     glVertexArrayElementBuffer(vao, indices.id());
-    glEnableVertexArrayAttrib(vao, 0);
-    glVertexArrayAttribFormat(vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
-    glVertexArrayAttribBinding(vao, 0, 0);
+    glEnableVertexArrayAttrib(vao, engine::ATTR_POSITION);
+    glVertexArrayAttribFormat(vao, engine::ATTR_POSITION, 3, GL_FLOAT, GL_FALSE, 0);
+    glVertexArrayAttribBinding(vao, engine::ATTR_POSITION, 0);
     return gl::VertexArray(vao);
 }
 
@@ -452,7 +452,7 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
         const size_t indexBytes = std::max<size_t>(casters.indices.size(), 3) * sizeof(uint32_t);
         mFlatIndices = gl::makeBuffer(nullptr, indexBytes);
         mTessIndices = gl::makeBuffer(nullptr, indexBytes);
-        mIndirect = gl::makeBuffer(nullptr, 20 * sizeof(uint32_t), GL_DYNAMIC_STORAGE_BIT);
+        mIndirect = gl::makeBuffer(nullptr, sizeof(engine::BendyDrawCommands), GL_DYNAMIC_STORAGE_BIT);
         GLuint v = 0;
         glCreateVertexArrays(1, &v);
         mFlatVao = gl::VertexArray(v); // positions come from the deformed buffer by index
@@ -577,30 +577,30 @@ Status GlEngine::renderShadow(LightCache& c) {
         if (!tess) return tess.error();
         // Deform every caster vertex once, then draw patches that reuse it.
         glUseProgram(deform.value());
-        glUniform1ui(0, mCasterVertexCount);
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mCasterVbo.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mDeformed.id());
-        glDispatchCompute((mCasterVertexCount + 63) / 64, 1, 1);
+        glUniform1ui(engine::LOC_DEFORM_VERTEX_COUNT, mCasterVertexCount);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_CASTER_POSITIONS, mCasterVbo.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_DEFORMED, mDeformed.id());
+        glDispatchCompute((mCasterVertexCount + engine::COMPUTE_GROUP_SIZE - 1) / engine::COMPUTE_GROUP_SIZE, 1, 1);
         glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
         const float fovy = 2.f * glm::radians(shadowHalfAngleDeg(l));
         const float texelPerDistance = 2.f * std::tan(0.5f * fovy) / float(c.shadowSize);
         // Sort the triangles: plain draw where no edge needs subdividing, tessellation elsewhere.
         const auto closed = uint32_t(mClosedIndexCount);
-        const uint32_t commands[20] = {0, 1, 0, 0, 0, 0, 1, closed, 0, 0, 0, 1, 0, 0, 0, 0, 1, closed, 0, 0};
-        glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, commands);
+        const engine::BendyDrawCommands commands{{0, 1, 0, 0, 0}, {0, 1, closed, 0, 0}, {0, 1, 0, 0, 0}, {0, 1, closed, 0, 0}};
+        glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, &commands);
         glUseProgram(mBendyClassifyProgram.id());
         c.casterIndexCount = casterIndices(c);
         const GLuint triangles = GLuint(c.casterIndexCount / 3);
-        glUniform1ui(0, triangles);
-        glUniform1f(1, float(mSubdivisionLimit));
-        glUniform1f(2, texelPerDistance);
-        glUniform1ui(3, closed / 3);
+        glUniform1ui(engine::LOC_CLASSIFY_TRIANGLE_COUNT, triangles);
+        glUniform1f(engine::LOC_CLASSIFY_MAX_LEVEL, float(mSubdivisionLimit));
+        glUniform1f(engine::LOC_CLASSIFY_TEXEL_PER_DISTANCE, texelPerDistance);
+        glUniform1ui(engine::LOC_CLASSIFY_CLOSED_TRIANGLES, closed / 3);
         glBindTextureUnit(engine::TEX_DEFORMED, mDeformedTexture.id());
         glBindTextureUnit(engine::TEX_CASTER_INDICES, mCasterIndexTexture.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, mFlatIndices.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, mTessIndices.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, mIndirect.id());
-        glDispatchCompute((triangles + 63) / 64, 1, 1);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_FLAT_INDICES, mFlatIndices.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_TESS_INDICES, mTessIndices.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_DRAW_COMMANDS, mIndirect.id());
+        glDispatchCompute((triangles + engine::COMPUTE_GROUP_SIZE - 1) / engine::COMPUTE_GROUP_SIZE, 1, 1);
         glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
         glBindBuffer(GL_DRAW_INDIRECT_BUFFER, mIndirect.id());
         glUseProgram(mBendyFlatProgram.id());
@@ -608,19 +608,19 @@ Status GlEngine::renderShadow(LightCache& c) {
         // Closed meshes front-face culled, as drawCasters (the deformation keeps the winding).
         glEnable(GL_CULL_FACE);
         glCullFace(GL_FRONT);
-        glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr);
+        glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(offsetof(engine::BendyDrawCommands, plainClosed)));
         glDisable(GL_CULL_FACE);
-        glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(5 * sizeof(uint32_t)));
+        glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(offsetof(engine::BendyDrawCommands, plainOpen)));
         glUseProgram(tess.value());
         glBindVertexArray(mTessVao.id());
-        glUniform1f(0, float(mSubdivisionLimit));
-        glUniform1f(1, texelPerDistance);
+        glUniform1f(engine::LOC_TESS_MAX_LEVEL, float(mSubdivisionLimit));
+        glUniform1f(engine::LOC_TESS_TEXEL_PER_DISTANCE, texelPerDistance);
         glPatchParameteri(GL_PATCH_VERTICES, 3);
         glEnable(GL_CULL_FACE);
         glCullFace(GL_FRONT);
-        glDrawElementsIndirect(GL_PATCHES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(10 * sizeof(uint32_t)));
+        glDrawElementsIndirect(GL_PATCHES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(offsetof(engine::BendyDrawCommands, tessClosed)));
         glDisable(GL_CULL_FACE);
-        glDrawElementsIndirect(GL_PATCHES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(15 * sizeof(uint32_t)));
+        glDrawElementsIndirect(GL_PATCHES, GL_UNSIGNED_INT, reinterpret_cast<const void*>(offsetof(engine::BendyDrawCommands, tessOpen)));
         glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
         c.subdivisionLimit = mSubdivisionLimit;
     } else {
@@ -913,7 +913,7 @@ Status GlEngine::shade(LightCache& c, int output) {
         glClearNamedFramebufferfv(target, GL_COLOR, 0, zero);
         glClearNamedFramebufferfv(target, GL_DEPTH, 0, &far);
         glUseProgram(mask.value());
-        glUniform1i(2, step);
+        glUniform1i(engine::LOC_RELIGHT_PIXEL_STEP, step);
         glBindTextureUnit(engine::TEX_GBUFFER_P, mP.id());
         glBindTextureUnit(engine::TEX_GBUFFER_N, mN.id());
         glBindTextureUnit(engine::TEX_PIXEL_SAMPLES, mPixelSamples.id());
@@ -928,9 +928,9 @@ Status GlEngine::shade(LightCache& c, int output) {
         glDepthMask(GL_FALSE);
     }
     glUseProgram(shader.value());
-    glUniform1i(0, output);
-    glUniform1i(2, step);
-    glUniform1i(1, linked ? 1 : 0);
+    glUniform1i(engine::LOC_RELIGHT_OUTPUT, output);
+    glUniform1i(engine::LOC_RELIGHT_PIXEL_STEP, step);
+    glUniform1i(engine::LOC_RELIGHT_LINKED, linked ? 1 : 0);
     if (linked) {
         std::vector<uint32_t> mask((std::max(mMaxObjectId, 1u) + 32) / 32, l.include.empty() ? ~0u : 0u);
         auto setBit = [&](uint32_t id, bool on) {
@@ -970,9 +970,9 @@ Status GlEngine::shade(LightCache& c, int output) {
         glDepthRange(0.75, 0.75);
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glUseProgram(single.value());
-        glUniform1i(0, output);
-        glUniform1i(1, linked ? 1 : 0);
-        glUniform1i(2, step);
+        glUniform1i(engine::LOC_RELIGHT_OUTPUT, output);
+        glUniform1i(engine::LOC_RELIGHT_LINKED, linked ? 1 : 0);
+        glUniform1i(engine::LOC_RELIGHT_PIXEL_STEP, step);
         glDepthRange(0.25, 0.25);
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glDepthRange(0.0, 1.0);
@@ -1102,8 +1102,8 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st, bool* fused)
     glViewport(0, 0, mWidth, mHeight);
     auto addLight = [&](const std::string& name) {
         const LightCache& c = mLights[name];
-        glUniform3f(0, c.scale.x, c.scale.y, c.scale.z);
-        glUniform1i(1, c.previewShading ? 2 : 1);
+        glUniform3f(engine::LOC_COMPOSITE_SCALE, c.scale.x, c.scale.y, c.scale.z);
+        glUniform1i(engine::LOC_COMPOSITE_PIXEL_STEP, c.previewShading ? 2 : 1);
         glBindTextureUnit(engine::TEX_INPUT, c.contribution.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
     };
@@ -1142,8 +1142,8 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st, bool* fused)
         // Frame = static + the hot light: two draws whatever the number of lights.
         glDisable(GL_BLEND);
         glUseProgram(mAddProgram.id());
-        glUniform3f(0, 1.f, 1.f, 1.f);
-        glUniform1i(1, 1);
+        glUniform3f(engine::LOC_COMPOSITE_SCALE, 1.f, 1.f, 1.f);
+        glUniform1i(engine::LOC_COMPOSITE_PIXEL_STEP, 1);
         glBindTextureUnit(engine::TEX_INPUT, mStatic.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glEnable(GL_BLEND);
@@ -1186,12 +1186,12 @@ Result<Image8> GlEngine::render(const Rig& rig, FrameStats* stats) {
         const auto hot = mLights.find(mHot);
         const Light* hotLight = rig.find(mHot);
         if (hot != mLights.end() && hotLight && hotLight->enabled && hot->second.contribution) {
-            glUniform3f(0, hot->second.scale.x, hot->second.scale.y, hot->second.scale.z);
-            glUniform1i(1, hot->second.previewShading ? 2 : 1);
+            glUniform3f(engine::LOC_COMPOSITE_SCALE, hot->second.scale.x, hot->second.scale.y, hot->second.scale.z);
+            glUniform1i(engine::LOC_COMPOSITE_PIXEL_STEP, hot->second.previewShading ? 2 : 1);
             glBindTextureUnit(engine::TEX_INPUT_HOT, hot->second.contribution.id());
         } else {
-            glUniform3f(0, 0.f, 0.f, 0.f);
-            glUniform1i(1, 1);
+            glUniform3f(engine::LOC_COMPOSITE_SCALE, 0.f, 0.f, 0.f);
+            glUniform1i(engine::LOC_COMPOSITE_PIXEL_STEP, 1);
             glBindTextureUnit(engine::TEX_INPUT_HOT, mStatic.id());
         }
     } else {

@@ -28,7 +28,7 @@ constexpr int MAX_CONTROL_POINTS = 2 * MAX_SEGMENTS + 1;
 template <typename T> T saturate(T x) { return x < T(0) ? T(0) : (x > T(1) ? T(1) : x); }
 
 /// A BendyLight's chain with the derived quantities prepareChain() computes. Plain data: the GPU
-/// receives the same numbers (BendyBlock in server/src/engine/UniformBlocks.h).
+/// receives the same numbers (BendyBlock in server/src/engine/GpuInterface.h).
 template <typename T> struct Chain {
     int segments = 1;                        ///< K, 1..MAX_SEGMENTS
     vec3<T> p[MAX_CONTROL_POINTS];           ///< control points, world space; p[0] is the source
