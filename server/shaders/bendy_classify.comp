@@ -5,7 +5,7 @@
 // about a microsecond per patch even when it subdivides nothing, so most triangles skip it.
 // Triangles without any mapped vertex are dropped, and plain ones with any unmapped vertex. Closed meshes' triangles (the first
 // uClosedTriangles) and the others go to separate halves of each list, drawn with and without
-// front-face culling (GlEngine::drawCasters); the four draws are indirect commands whose index
+// front-face culling (Casters::draw); the four draws are indirect commands whose index
 // counts this pass accumulates and whose first indices the engine sets.
 #include "common_uniforms.glsl"
 #include "common_bendy.glsl"
@@ -36,7 +36,7 @@ void main() {
     bool closed = t < uClosedTriangles;
     if (closed && d0.w * d1.w * d2.w > 0.5) {
         // A closed mesh's face turned towards the light is culled by the draw anyway
-        // (GlEngine::drawCasters): dropping it here spares the draw its vertices and setup.
+        // (Casters::draw): dropping it here spares the draw its vertices and setup.
         vec4 c0 = uLight.worldToLightClip * vec4(d0.xyz, 1.0), c1 = uLight.worldToLightClip * vec4(d1.xyz, 1.0),
              c2 = uLight.worldToLightClip * vec4(d2.xyz, 1.0);
         if (c0.w > 0.0 && c1.w > 0.0 && c2.w > 0.0) {

@@ -35,9 +35,10 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
 // ---- Specialisation ----
 // llvmpipe (Mesa 22) runs every path of a shader under a lane mask, taken or not, even where the
 // condition is a uniform: a shader costs the sum of all its paths. So the engine compiles one
-// variant of each relight shader per light configuration (GlEngine::variant), defining these, and
-// the paths the light cannot take are compiled out. Without them (tests that build a shader
-// directly) the shaders decide from the uniforms at run time, with the same results.
+// variant of each relight shader per light configuration (LightShading::shadeDefines through
+// ShaderVariants), defining these, and the paths the light cannot take are compiled out. Without
+// them (tests that build a shader directly) the shaders decide from the uniforms at run time,
+// with the same results.
 #ifndef SHADE_KIND
 #define SHADE_KIND int(uLight.lightPosition.w + 0.5) // 0 directional, 1 spot, 2 point
 #endif
@@ -60,7 +61,7 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
 #define SHADE_OUTPUT uOutput
 #endif
 
-// Deep buffers' sample textures are a power of two wide (GlEngine): a mask and a shift, as integer
+// Deep buffers' sample textures are a power of two wide (GBufferTextures): a mask and a shift, as integer
 // division costs llvmpipe a loop over the lanes. (Flat buffers read samples at their pixels.)
 ivec2 sampleTexel(uint s) { return ivec2(int(s) & (uView.sampleLayout.x - 1), int(s) >> uView.sampleLayout.y); }
 

@@ -1,5 +1,5 @@
 #version 450 core
-// A light's contribution per pixel from its per-sample radiance (GlEngine::shade on a deep
+// A light's contribution per pixel from its per-sample radiance (LightShading::shade on a deep
 // buffer): the relight passes ran once per sample over the sample textures (each sample already
 // weighted by its coverage), and this sums each pixel's samples. Shading samples in a loop per
 // pixel cost llvmpipe the longest pixel's count of iterations on every lane of a group.

@@ -335,7 +335,7 @@ template <typename T> vec3<T> lightDirection(const Chain<T>& ch, const TubeCoord
 
 /// Whether the chain's light cannot meet the plane n . x = d (n unit) on its way to any point on
 /// the plane's positive side (n . x >= d), so that the plane can be left out of the deformed
-/// shadow map when every receiver lies on that side (GlEngine::casterIndices). Conservative: true
+/// shadow map when every receiver lies on that side (engine::Casters::indicesFor). Conservative: true
 /// only when proven. The light reaches a point at tube coordinates (s, v, w) along its flow line,
 /// the points (s' < s, v, w): the deformed map's ray from the source to its Q' (eq. 7). With
 /// h = n . x - d along a flow line X(t) = P(t) + R(t) (v v_hat + w w_hat), v^2 + w^2 <= rho^2:
