@@ -317,7 +317,7 @@ TEST(LightLinking, ExcludedObjectsAreUnlitByThatLightAndEverythingElseIsUnchange
     EXPECT_EQ(notTableLit, 0u);
 }
 
-// The specialised shader variants and the footprint pre-pass (GlEngine::shade) compute what the
+// The specialised shader variants and the footprint pre-pass (LightShading::shade) compute what the
 // generic shaders compute: each light alone and the sum, for spots with barn doors, a wide
 // shadow filter and light linking, a shadowed point light, a directional light and BendyLights
 // of two and three segments (both light-direction models), on a flat and on a deep shot.
