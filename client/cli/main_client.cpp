@@ -1,6 +1,6 @@
 // dfb-client: command-line client of dfb-server (protocol v1, docs/protocol.md).
 //
-//   dfb-client sessions | info | rig get|put | set | apply | frame | watch | pick | undo | redo | bench
+//   dfb-client sessions | info | rig get|put | set | apply | frame | watch | pick | undo | redo | bench | properties
 //
 // Every subcommand takes --server URL (the links dfb-server prints carry the session and the
 // token), --session ID, --token T and --timeout S; DFB_SERVER, DFB_SESSION and DFB_TOKEN are the
@@ -8,10 +8,13 @@
 // 2 cannot reach the server; 3 the server refused (its error is printed verbatim); 4 timed out or
 // the connection broke; 5 cannot read or write a local file.
 
+#include "Bench.h"
+#include "Client.h"
 #include "Connection.h"
 
 #include <dfb/core/Stats.h>
 #include <dfb/protocol/Messages.h>
+#include <dfb/protocol/Schema.h>
 
 #include <CLI/CLI.hpp>
 
@@ -29,103 +32,10 @@
 #include <thread>
 
 using namespace dfb;
+using namespace dfb::cli;
 using json = nlohmann::json;
 
 namespace {
-
-constexpr int EXIT_OK = 0, EXIT_USAGE = 1, EXIT_UNREACHABLE = 2, EXIT_REFUSED = 3, EXIT_BROKEN = 4, EXIT_FILE = 5;
-
-struct Options {
-    std::string server = "http://127.0.0.1:8080";
-    std::string session;
-    std::string token;
-    std::string name = "dfb-client";
-    double timeoutS = 30.0;
-    std::string caCert;
-};
-
-/// Thrown inside a subcommand to leave with an exit code (caught in main only).
-struct Exit {
-    int code;
-};
-
-[[noreturn]] void die(int code, const std::string& message) {
-    std::cerr << "dfb-client: " << message << "\n";
-    throw Exit{code};
-}
-
-class Client {
-public:
-    explicit Client(const Options& o) : mOpt(o) {
-        auto u = client::parseUrl(o.server);
-        if (!u) die(EXIT_USAGE, u.error().message);
-        mUrl = u.value();
-        mUrl.caFile = o.caCert;
-        mToken = !o.token.empty() ? o.token : mUrl.token;
-        mSession = !o.session.empty() ? o.session : mUrl.session;
-    }
-    std::chrono::milliseconds timeout() const { return std::chrono::milliseconds(long(mOpt.timeoutS * 1000)); }
-
-    /// One request; a refusal (non-2xx) prints the server's error verbatim and exits 3.
-    client::HttpResponse request(const std::string& method, const std::string& target, const std::string& body = "",
-                                 const std::string& ifMatch = "") {
-        auto r = client::httpRequest(mUrl, method, target, mToken, body, ifMatch, timeout());
-        if (!r) fail(r.error());
-        if (r->status / 100 != 2) {
-            die(EXIT_REFUSED, "server refused " + method + " " + target.substr(0, target.find('?')) + " (HTTP " +
-                                  std::to_string(r->status) + "): " + r->body);
-        }
-        return r.value();
-    }
-
-    [[noreturn]] void fail(const Error& e) {
-        if (e.code == ErrorCode::Network) {
-            const bool unreachable = e.message.rfind("connecting", 0) == 0 || e.message.rfind("resolving", 0) == 0;
-            die(unreachable ? EXIT_UNREACHABLE : EXIT_BROKEN, e.message);
-        }
-        die(EXIT_REFUSED, "server refused: " + e.message);
-    }
-
-    /// The session to talk to: --session, the URL's, or the only one the token opens.
-    const std::string& session() {
-        if (!mSession.empty()) return mSession;
-        auto r = request("GET", "/v1/sessions");
-        auto parsed = protocol::parseJson(r.body, 64u << 20, "GET /v1/sessions");
-        const json j = parsed ? std::move(parsed.value()) : json();
-        if (!j.is_object() || !j["sessions"].is_array()) die(EXIT_BROKEN, "GET /v1/sessions: unreadable answer");
-        if (j["sessions"].size() != 1) {
-            std::string ids;
-            for (const auto& s : j["sessions"]) ids += " " + s.value("id", "");
-            die(EXIT_USAGE, "the token opens several sessions; pick one with --session:" + ids);
-        }
-        mSession = j["sessions"][0].value("id", "");
-        return mSession;
-    }
-    std::string base() { return "/v1/sessions/" + session(); }
-
-    /// A WebSocket on the session, greeted: returns the welcome message.
-    std::unique_ptr<client::Connection> connect(json* welcome) {
-        auto c = client::Connection::open(mUrl, base() + "/ws?token=" + mToken, timeout());
-        if (!c) fail(c.error());
-        if (auto s = c.value()->sendText(protocol::encode(protocol::HelloMessage{protocol::PROTOCOL_VERSION, mOpt.name})); !s) fail(s.error());
-        for (;;) {
-            auto m = c.value()->receive();
-            if (!m) fail(m.error());
-            if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
-                if (t->json.value("type", "") == "welcome") {
-                    *welcome = t->json;
-                    return std::move(c.value());
-                }
-                if (t->json.value("type", "") == "error") die(EXIT_REFUSED, "server refused: " + t->json.dump());
-            }
-        }
-    }
-
-private:
-    Options mOpt;
-    client::Url mUrl;
-    std::string mToken, mSession;
-};
 
 std::string readFile(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
@@ -180,130 +90,30 @@ std::string urlEncode(const std::string& s) {
     return out;
 }
 
-// ---- bench ----------------------------------------------------------------------------------
-// One editing client sends edits one after another; each waits for the first frame showing its
-// version (edit-to-frame latency as this client sees it). The other clients only watch; for each
-// edit, the time until every client had a frame showing it is reported too.
-int bench(Client& cl, int edits, int clients, const std::string& lightName, int warmup) {
-    using Clock = std::chrono::steady_clock;
-    json welcome;
-    auto editor = cl.connect(&welcome);
-    const json rig = welcome["rig"];
-    json light;
-    for (const auto& l : rig["lights"]) {
-        if (l.value("name", "") == lightName || (lightName.empty() && light.is_null())) light = l;
+// ---- properties ------------------------------------------------------------------------------
+// The rig schema as a table: what `set` accepts (protocol/Schema.h is the one source).
+void printProperties(bool asJson) {
+    if (asJson) {
+        std::cout << protocol::schemaJson().dump(2) << std::endl;
+        return;
     }
-    if (light.is_null()) die(EXIT_USAGE, "no light '" + lightName + "' in the rig");
-    const std::string name = light["name"];
-    const std::vector<double> p0 = light["position"].get<std::vector<double>>();
-
-    struct Watcher {
-        std::thread thread;
-        std::unique_ptr<client::Connection> conn;
-        std::mutex mutex;
-        std::vector<std::pair<uint64_t, Clock::time_point>> frames; // (rig version, arrival)
-        std::atomic<bool> stopping{false}, dead{false};
-        std::string error;
-        uint64_t newest() {
-            std::lock_guard lock(mutex);
-            return frames.empty() ? 0 : frames.back().first;
-        }
+    auto range = [](const protocol::Property& p) -> std::string {
+        if (*p.values) return p.values;
+        if (p.min == 0 && p.max == 0) return "";
+        return "[" + json(p.min).dump() + ", " + json(p.max).dump() + "]";
     };
-    std::vector<std::unique_ptr<Watcher>> watchers;
-    std::atomic<int> ready{0};
-    for (int i = 1; i < clients; ++i) {
-        auto w = std::make_unique<Watcher>();
-        json wel;
-        w->conn = cl.connect(&wel);
-        w->thread = std::thread([w = w.get(), &ready] {
-            bool first = true;
-            for (;;) {
-                auto m = w->conn->receive();
-                if (!m) {
-                    if (!w->stopping) w->error = m.error().message; // read by main after join()
-                    w->dead = true;
-                    return;
-                }
-                if (auto* f = std::get_if<client::FrameMessage>(&m.value())) {
-                    const auto now = Clock::now();
-                    std::lock_guard lock(w->mutex);
-                    w->frames.emplace_back(f->header.rigVersion, now);
-                    if (first) {
-                        first = false;
-                        ++ready;
-                    }
-                }
-            }
-        });
-        watchers.push_back(std::move(w));
+    std::printf("%-22s %-10s %-26s %-22s %s\n", "PATH", "TYPE", "RANGE", "UNIT", "A CHANGE RE-RENDERS");
+    for (const auto& p : protocol::rigProperties()) {
+        std::printf("%-22s %-10s %-26s %-22s %s\n", p.path, std::string(protocol::toString(p.type)).c_str(), range(p).c_str(), p.unit,
+                    std::string(protocol::toString(p.invalidates)).c_str());
     }
-    // Everyone has its first frame before the clock starts.
-    const auto readyBy = Clock::now() + cl.timeout();
-    while (ready.load() < clients - 1 && Clock::now() < readyBy) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-
-    std::vector<double> mine, all;
-    std::vector<std::pair<uint64_t, Clock::time_point>> sent;
-    uint64_t seq = 0;
-    for (int i = 0; i < warmup + edits; ++i) {
-        // A small drag of the light: its shadow map is re-rendered every time, as in real use.
-        const double dx = (i % 2 == 0 ? 0.05 : -0.05) * double(1 + i % 7);
-        protocol::EditMessage e;
-        e.seq = ++seq;
-        e.changes.push_back({name + ".position", json::array({p0[0] + dx, p0[1], p0[2]})});
-        const auto t0 = Clock::now();
-        if (auto s = editor->sendText(protocol::encode(e)); !s) cl.fail(s.error());
-        uint64_t version = ~0ull;
-        for (;;) {
-            auto m = editor->receive();
-            if (!m) cl.fail(m.error());
-            if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
-                const std::string type = t->json.value("type", "");
-                if (type == "error") die(EXIT_REFUSED, "server refused the edit: " + t->json.dump());
-                if (type == "ack" && t->json.value("seq", uint64_t(0)) == e.seq) version = t->json.value("rigVersion", uint64_t(0));
-            } else if (auto* f = std::get_if<client::FrameMessage>(&m.value()); f && f->header.rigVersion >= version) {
-                if (i >= warmup) {
-                    mine.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-                    sent.emplace_back(version, t0);
-                }
-                break;
-            }
-        }
+    for (const auto& p : protocol::lightProperties()) {
+        if (p.readOnly) continue;
+        std::string path = std::string("LIGHT.") + p.path;
+        if (*p.indexOf) path.replace(path.find("[]"), 2, "[i]");
+        std::printf("%-22s %-10s %-26s %-22s %s\n", path.c_str(), std::string(protocol::toString(p.type)).c_str(), range(p).c_str(),
+                    p.unit, p.type == protocol::PropType::Keys ? "" : std::string(protocol::toString(p.invalidates)).c_str());
     }
-    // Wait until every watcher has the last version (or the timeout), then stop them.
-    const uint64_t finalVersion = sent.empty() ? 0 : sent.back().first;
-    const auto doneBy = Clock::now() + cl.timeout();
-    for (auto& w : watchers) {
-        while (w->newest() < finalVersion && !w->dead && Clock::now() < doneBy) std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    }
-    int failed = 0;
-    for (auto& w : watchers) {
-        w->stopping = true;
-        w->conn->shutdown();
-        w->thread.join();
-        if (!w->error.empty()) {
-            ++failed;
-            std::cerr << "dfb-client: bench: a watching client: " << w->error << "\n";
-        }
-    }
-    if (failed) die(EXIT_BROKEN, std::to_string(failed) + " watching client(s) lost their connection");
-    for (const auto& [version, t0] : sent) {
-        Clock::time_point last = t0;
-        bool everyone = true;
-        for (auto& w : watchers) {
-            auto it = std::find_if(w->frames.begin(), w->frames.end(), [&](const auto& f) { return f.first >= version; });
-            if (it == w->frames.end()) everyone = false;
-            else last = std::max(last, it->second);
-        }
-        if (everyone) all.push_back(std::chrono::duration<double, std::milli>(last - t0).count());
-    }
-    // Mine is the editor's; "all" adds the watchers (equal to mine with one client).
-    if (clients == 1) all = mine;
-    std::printf("clients %d, edits %zu (after %d warm-up): edit-to-frame latency, ms\n", clients, mine.size(), warmup);
-    std::printf("  %-22s p50 %8.1f  p95 %8.1f  p99 %8.1f  max %8.1f\n", "editing client", percentile(mine, 50), percentile(mine, 95),
-                percentile(mine, 99), percentile(mine, 100));
-    std::printf("  %-22s p50 %8.1f  p95 %8.1f  p99 %8.1f  max %8.1f\n", "all clients have it", percentile(all, 50), percentile(all, 95),
-                percentile(all, 99), percentile(all, 100));
-    return EXIT_OK;
 }
 
 } // namespace
@@ -380,8 +190,15 @@ int main(int argc, char** argv) {
     cBench->add_option("--clients", benchClients, "connected clients (one edits, the others watch)")->check(CLI::Range(1, 1024));
     cBench->add_option("--light", benchLight, "light to drag (default: the first)");
     cBench->add_option("--warmup", benchWarmup, "untimed edits first")->check(CLI::Range(0, 1000));
+    auto* cProperties = app.add_subcommand("properties", "the rig's property paths, their values and ranges (no server needed)");
+    bool propertiesJson = false;
+    cProperties->add_flag("--json", propertiesJson, "print the schema as the server serves it (GET /v1/schema)");
     CLI11_PARSE(app, argc, argv);
 
+    if (cProperties->parsed()) {
+        printProperties(propertiesJson);
+        return 0;
+    }
     try {
         Client cl(opt);
         if (cSessions->parsed()) {

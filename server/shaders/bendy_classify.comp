@@ -5,26 +5,26 @@
 // about a microsecond per patch even when it subdivides nothing, so most triangles skip it.
 // Triangles without any mapped vertex are dropped, and plain ones with any unmapped vertex. Closed meshes' triangles (the first
 // uClosedTriangles) and the others go to separate halves of each list, drawn with and without
-// front-face culling (GlEngine::drawCasters); the four draws are indirect commands whose index
+// front-face culling (Casters::draw); the four draws are indirect commands whose index
 // counts this pass accumulates and whose first indices the engine sets.
 #include "common_uniforms.glsl"
 #include "common_bendy.glsl"
 
-layout(local_size_x = 64) in;
-layout(std430, binding = 3) writeonly buffer FlatIndices { uint flatIndices[]; };
-layout(std430, binding = 4) writeonly buffer TessIndices { uint tessIndices[]; };
-// Four DrawElementsIndirectCommand {count, instanceCount, firstIndex, baseVertex, baseInstance}:
-// plain closed, plain open, tessellated closed, tessellated open.
-layout(std430, binding = 5) coherent buffer Commands { uint commands[20]; };
+layout(local_size_x = COMPUTE_GROUP_SIZE) in;
+layout(std430, binding = SSBO_FLAT_INDICES) writeonly buffer FlatIndices { uint flatIndices[]; };
+layout(std430, binding = SSBO_TESS_INDICES) writeonly buffer TessIndices { uint tessIndices[]; };
+// BendyDrawCommands (GpuInterface.h): four DrawElementsIndirectCommand {count, instanceCount,
+// firstIndex, baseVertex, baseInstance}: plain closed, plain open, tessellated closed, tessellated open.
+layout(std430, binding = SSBO_DRAW_COMMANDS) coherent buffer Commands { uint commands[BENDY_DRAW_COMMAND_WORDS]; };
 
 // Read as buffer textures (one gather per read on llvmpipe; a storage-buffer read at a per-lane
 // index loops over the lanes).
 layout(binding = TEX_DEFORMED) uniform samplerBuffer tDeformed;
 layout(binding = TEX_CASTER_INDICES) uniform usamplerBuffer tIndices;
-layout(location = 0) uniform uint uTriangleCount;
-layout(location = 1) uniform float uMaxLevel;
-layout(location = 2) uniform float uTexelPerDistance;
-layout(location = 3) uniform uint uClosedTriangles;
+layout(location = LOC_CLASSIFY_TRIANGLE_COUNT) uniform uint uTriangleCount;
+layout(location = LOC_CLASSIFY_MAX_LEVEL) uniform float uMaxLevel;
+layout(location = LOC_CLASSIFY_TEXEL_PER_DISTANCE) uniform float uTexelPerDistance;
+layout(location = LOC_CLASSIFY_CLOSED_TRIANGLES) uniform uint uClosedTriangles;
 
 void main() {
     uint t = gl_GlobalInvocationID.x;
@@ -36,7 +36,7 @@ void main() {
     bool closed = t < uClosedTriangles;
     if (closed && d0.w * d1.w * d2.w > 0.5) {
         // A closed mesh's face turned towards the light is culled by the draw anyway
-        // (GlEngine::drawCasters): dropping it here spares the draw its vertices and setup.
+        // (Casters::draw): dropping it here spares the draw its vertices and setup.
         vec4 c0 = uLight.worldToLightClip * vec4(d0.xyz, 1.0), c1 = uLight.worldToLightClip * vec4(d1.xyz, 1.0),
              c2 = uLight.worldToLightClip * vec4(d2.xyz, 1.0);
         if (c0.w > 0.0 && c1.w > 0.0 && c2.w > 0.0) {

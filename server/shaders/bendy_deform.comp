@@ -5,10 +5,10 @@
 #include "common_uniforms.glsl"
 #include "common_bendy.glsl"
 
-layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Casters { float casterXyz[]; };
-layout(std430, binding = 1) writeonly buffer Deformed { vec4 deformed[]; };
-layout(location = 0) uniform uint uVertexCount;
+layout(local_size_x = COMPUTE_GROUP_SIZE) in;
+layout(std430, binding = SSBO_CASTER_POSITIONS) readonly buffer Casters { float casterXyz[]; };
+layout(std430, binding = SSBO_DEFORMED) writeonly buffer Deformed { vec4 deformed[]; };
+layout(location = LOC_DEFORM_VERTEX_COUNT) uniform uint uVertexCount;
 
 void main() {
     uint v = gl_GlobalInvocationID.x;

@@ -1,13 +1,9 @@
 // BendyLight math, the GLSL mirror of server/include/dfb/lightmath/BendyLight.h (paper 000
 // sections 3-4). Keep the two in step: tests/gpu/bendy_light_parity_test.cpp runs these functions
 // through EGL on random points and compares them with the C++.
-// Chain data: BendyBlock, mirrored by dfb::engine::BendyBlock (server/src/engine/UniformBlocks.h).
-
-#define BENDY_MAX_SEGMENTS 8
-#define BENDY_MAX_POINTS 17
-#ifndef UBO_BENDY
-#define UBO_BENDY 2
-#endif
+// Chain data: BendyBlock, mirrored by dfb::engine::BendyBlock (server/src/engine/GpuInterface.h);
+// its binding and array sizes (UBO_BENDY, BENDY_MAX_SEGMENTS, BENDY_MAX_POINTS) come from there.
+#include "common_gpu_interface.glsl"
 
 layout(std140, binding = UBO_BENDY) uniform BendyBlock {
     vec4 bendyP[BENDY_MAX_POINTS];            // xyz control point (world), w radius

@@ -1,39 +1,14 @@
-// Uniform blocks and binding points. Mirror: server/src/engine/UniformBlocks.h (keep in sync;
-// the C++ side pins every offset with static_assert).
-
-// Texture units of the G-buffer and the per-pass inputs.
-// G-buffer samples live in 2D "sample textures" of width SAMPLE_ROW (uView.sampleLayout.x):
-// sample s is the texel (s % SAMPLE_ROW, s / SAMPLE_ROW) (sampleTexel). TEX_PIXEL_SAMPLES holds, per pixel,
-// the first sample and the sample count.
-#define TEX_GBUFFER_P 0       // RGBA32F: world position xyz, coverage A in w
-#define TEX_GBUFFER_N 1       // RGBA16F: shading normal xyz
-#define TEX_GBUFFER_NG 2      // RGBA16F: geometric normal xyz
-#define TEX_GBUFFER_ALBEDO 3  // RGBA16F: albedo rgb
-#define TEX_GBUFFER_BRDF 4    // RGBA16F: metallic, roughness, specular, occlusion
-#define TEX_GBUFFER_EMISSION 5 // RGBA16F: emission rgb
-#define TEX_SHADOW_MAP 6      // DEPTH32F with compare mode
-#define TEX_INPUT 7           // generic input of composite passes
-#define TEX_PIXEL_SAMPLES 8   // RG32UI: first sample, sample count
-#define TEX_GBUFFER_SHEEN 9   // RGBA16F: sheen rgb, sheen roughness
-#define TEX_GBUFFER_COAT 10   // RG16F: coat weight, coat roughness
-#define TEX_GBUFFER_ID 11     // R32UI: object id (light linking)
-#define TEX_SHADOW_CUBE 12    // DEPTH32F cube map with compare mode (point lights)
-#define TEX_COOKIE 13         // RGBA16F: a spot light's cookie image
-#define TEX_INPUT_HOT 14      // composite_tonemap.frag's second input (the edited light)
-#define TEX_DEFORMED 15       // buffer texture RGBA32F: bendy_deform.comp's output, 2 texels per caster vertex
-#define TEX_CASTER_INDICES 16 // buffer texture R32UI: the caster triangles' vertex indices
-#define SSBO_LINK_MASK 6      // per light: bit (id % 32) of word (id / 32) set = the object is lit
+// Uniform blocks. Their C++ mirrors are in server/src/engine/GpuInterface.h, which pins every
+// offset with static_assert; the texture units, bindings, locations and limits are written there
+// once and come here as the #defines of the generated common_gpu_interface.glsl.
+#include "common_gpu_interface.glsl"
 
 layout(std430, binding = SSBO_LINK_MASK) readonly buffer LinkMask { uint linkMask[]; };
-// uLinked (location 1 of the relight passes): 1 when the light has include/exclude lists.
+// uLinked (LOC_RELIGHT_LINKED): 1 when the light has include/exclude lists.
 bool objectLinked(uint id) {
     uint word = id >> 5u;
     return word < uint(linkMask.length()) && (linkMask[word] & (1u << (id & 31u))) != 0u;
 }
-
-#define UBO_LIGHT 0
-#define UBO_VIEW 1
-#define UBO_BENDY 2
 
 layout(std140, binding = UBO_LIGHT) uniform LightBlock {
     mat4 worldToLightClip;  // spot light's view-projection (shadow map space)
@@ -60,9 +35,10 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
 // ---- Specialisation ----
 // llvmpipe (Mesa 22) runs every path of a shader under a lane mask, taken or not, even where the
 // condition is a uniform: a shader costs the sum of all its paths. So the engine compiles one
-// variant of each relight shader per light configuration (GlEngine::variant), defining these, and
-// the paths the light cannot take are compiled out. Without them (tests that build a shader
-// directly) the shaders decide from the uniforms at run time, with the same results.
+// variant of each relight shader per light configuration (LightShading::shadeDefines through
+// ShaderVariants), defining these, and the paths the light cannot take are compiled out. Without
+// them (tests that build a shader directly) the shaders decide from the uniforms at run time,
+// with the same results.
 #ifndef SHADE_KIND
 #define SHADE_KIND int(uLight.lightPosition.w + 0.5) // 0 directional, 1 spot, 2 point
 #endif
@@ -85,7 +61,7 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
 #define SHADE_OUTPUT uOutput
 #endif
 
-// Deep buffers' sample textures are a power of two wide (GlEngine): a mask and a shift, as integer
+// Deep buffers' sample textures are a power of two wide (GBufferTextures): a mask and a shift, as integer
 // division costs llvmpipe a loop over the lanes. (Flat buffers read samples at their pixels.)
 ivec2 sampleTexel(uint s) { return ivec2(int(s) & (uView.sampleLayout.x - 1), int(s) >> uView.sampleLayout.y); }
 

@@ -5,7 +5,7 @@
 layout(binding = TEX_GBUFFER_EMISSION) uniform sampler2D gEmission;
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
-layout(location = 0) out vec4 oColor;
+layout(location = OUT_COLOR) out vec4 oColor;
 void main() {
 #ifdef DFB_FLAT_SAMPLES
     ivec2 t = ivec2(gl_FragCoord.xy);

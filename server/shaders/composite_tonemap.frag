@@ -1,16 +1,16 @@
 #version 450 core
 // Exposure and the view transform (none, or the filmic curve); the sRGB transfer function
 // (IEC 61966-2-1) to 8 bits is applied by the GL as it stores into the sRGB target
-// (GL_FRAMEBUFFER_SRGB, GlEngine::render).
+// (GL_FRAMEBUFFER_SRGB, Compositor::toneMap).
 #include "common_uniforms.glsl"
 layout(binding = TEX_INPUT) uniform sampler2D uInput;
-layout(location = 0) out vec4 oColor;
+layout(location = OUT_COLOR) out vec4 oColor;
 #ifdef TONEMAP_ADD_HOT
-// The usual frame of an edit in one pass (GlEngine::render): the static sum of every other light
+// The usual frame of an edit in one pass (Compositor::toneMap): the static sum of every other light
 // (uInput) plus the edited light's contribution times its rescale, as composite_add.frag adds it.
 layout(binding = TEX_INPUT_HOT) uniform sampler2D uHot;
-layout(location = 0) uniform vec3 uScale;
-layout(location = 1) uniform int uPixelStep;
+layout(location = LOC_COMPOSITE_SCALE) uniform vec3 uScale;
+layout(location = LOC_COMPOSITE_PIXEL_STEP) uniform int uPixelStep;
 #endif
 // The ACES filmic curve fitted by K. Narkowicz ("ACES Filmic Tone Mapping Curve", 2016): a toe
 // and a shoulder that roll highlights off instead of clipping them. Mirror: Outputs.cpp.

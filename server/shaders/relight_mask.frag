@@ -1,5 +1,5 @@
 #version 450 core
-// The light's footprint, before its shading pass (GlEngine::shade): keeps (writes the depth of)
+// The light's footprint, before its shading pass (LightShading::shade): keeps (writes the depth of)
 // the pixels with a sample the light may reach and discards the others, whose depth stays cleared
 // so that the shading pass's depth test rejects them. llvmpipe runs a fragment shader on every
 // pixel of a 4x4 block unless the early depth test rejects the whole block, so the costly shading
@@ -10,7 +10,7 @@
 //   BendyLight: inside the round cone around one segment's chord that holds its tube
 //   (segmentFootprintContains), or inside the tube around the extension past the last control
 //   point. Its kept pixels get depth 0.75 where a sample lies in two segments' cones or more,
-//   0.25 elsewhere: GlEngine::shade shades the latter with a variant that solves one segment
+//   0.25 elsewhere: LightShading::shade shades the latter with a variant that solves one segment
 //   (BENDY_SINGLE).
 #include "common_uniforms.glsl"
 #ifdef SHADE_BENDY
@@ -20,7 +20,7 @@
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
-layout(location = 2) uniform int uPixelStep;
+layout(location = LOC_RELIGHT_PIXEL_STEP) uniform int uPixelStep;
 
 // BendyLight samples in the round cones of two segments or more (relight_bendy.frag then solves all
 // segments); the others solve one (BENDY_SINGLE).

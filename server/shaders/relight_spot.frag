@@ -19,16 +19,16 @@ layout(binding = TEX_SHADOW_MAP) uniform sampler2DShadow shadowMap;
 layout(binding = TEX_SHADOW_CUBE) uniform samplerCubeShadow shadowCube;
 layout(binding = TEX_COOKIE) uniform sampler2D cookie;
 
-layout(location = 0) out vec4 oColor;
+layout(location = OUT_COLOR) out vec4 oColor;
 // Outside the light's footprint the depth test (relight_mask.frag) rejects pixels before shading.
 layout(early_fragment_tests) in;
 // 0: the light's radiance. 1: its shadow mask: r = coverage-weighted visibility of the samples the
 // light reaches (inside the cone, facing it), g = their coverage.
-layout(location = 0) uniform int uOutput;
-layout(location = 1) uniform int uLinked;
+layout(location = LOC_RELIGHT_OUTPUT) uniform int uOutput;
+layout(location = LOC_RELIGHT_LINKED) uniform int uLinked;
 // Preview shading (progressive refinement): 2 shades every second pixel of every second row into
 // a half-size image; 1 shades every pixel.
-layout(location = 2) uniform int uPixelStep;
+layout(location = LOC_RELIGHT_PIXEL_STEP) uniform int uPixelStep;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 const int KIND_DIRECTIONAL = 0, KIND_POINT = 2;

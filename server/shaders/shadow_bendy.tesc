@@ -14,8 +14,8 @@ in float vKappa[];
 out vec3 tcWorld[];
 out vec4 tcDeformed[];
 
-layout(location = 0) uniform float uMaxLevel;         // 1 = no subdivision (coarse, for comparison)
-layout(location = 1) uniform float uTexelPerDistance; // shadow-map texel size at unit distance
+layout(location = LOC_TESS_MAX_LEVEL) uniform float uMaxLevel; // 1 = no subdivision (coarse, for comparison)
+layout(location = LOC_TESS_TEXEL_PER_DISTANCE) uniform float uTexelPerDistance; // shadow-map texel size at unit distance
 
 float edgeLevel(int a, int b) {
     return bendyEdgeLevel(vDeformed[a], vDeformed[b], max(vKappa[a], vKappa[b]), uTexelPerDistance, uMaxLevel);

@@ -3,7 +3,7 @@
 // brings its world position and its deformed position, computed once per chain edit by
 // bendy_deform.comp; the tessellation stages subdivide where the deformation bends edges.
 #include "common_uniforms.glsl"
-layout(location = 0) in vec3 aPosition;
+layout(location = ATTR_POSITION) in vec3 aPosition;
 layout(binding = TEX_DEFORMED) uniform samplerBuffer tDeformed; // (as bendy_classify.comp)
 out vec3 vWorld;
 out vec4 vDeformed; // xyz Q', w 1 if mapped

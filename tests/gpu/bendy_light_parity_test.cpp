@@ -2,7 +2,7 @@
 // in a compute shader through headless EGL on random points of random chains, and must agree with
 // the C++ model (server/include/dfb/lightmath/BendyLight.h) evaluated in double.
 
-#include "engine/UniformBlocks.h"
+#include "engine/GpuInterface.h"
 
 #include <dfb/gl/Context.h>
 #include <dfb/gl/Objects.h>
@@ -22,9 +22,10 @@ using namespace dfb::lightmath;
 namespace {
 
 const char* KERNEL = R"(
-layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Points { vec4 points[]; };
-layout(std430, binding = 1) writeonly buffer Results { vec4 results[]; };
+// Points in and results out where the deform pass has its caster vertices and their images.
+layout(local_size_x = COMPUTE_GROUP_SIZE) in;
+layout(std430, binding = SSBO_CASTER_POSITIONS) readonly buffer Points { vec4 points[]; };
+layout(std430, binding = SSBO_DEFORMED) writeonly buffer Results { vec4 results[]; };
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= uint(points.length())) return;
@@ -80,8 +81,8 @@ template <typename To, typename From> Chain<To> convert(const Chain<From>& a) {
     return b;
 }
 
-// Runs a kernel over `points` (storage binding 0) with `block` as the BendyBlock; returns its
-// `perPoint` results of type R per point (storage binding 1).
+// Runs a kernel over `points` (SSBO_CASTER_POSITIONS) with `block` as the BendyBlock; returns its
+// `perPoint` results of type R per point (SSBO_DEFORMED).
 template <typename R>
 std::vector<R> runKernel(GLuint program, const gl::Buffer& ubo, const engine::BendyBlock& block,
                          const std::vector<glm::vec4>& points, size_t perPoint) {
@@ -91,9 +92,9 @@ std::vector<R> runKernel(GLuint program, const gl::Buffer& ubo, const engine::Be
     gl::Buffer out = gl::makeBuffer(nullptr, results.size() * sizeof(R), GL_DYNAMIC_STORAGE_BIT);
     glUseProgram(program);
     glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, ubo.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
-    glDispatchCompute(GLuint((points.size() + 63) / 64), 1, 1);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_CASTER_POSITIONS, in.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_DEFORMED, out.id());
+    glDispatchCompute(GLuint((points.size() + engine::COMPUTE_GROUP_SIZE - 1) / engine::COMPUTE_GROUP_SIZE), 1, 1);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(results.size() * sizeof(R)), results.data());
     return results;
@@ -195,9 +196,9 @@ TEST(BendyParity, GlslAgreesWithCppOnRandomPointsAndChains) {
 namespace {
 
 const char* FOOTPRINT_KERNEL = R"(
-layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Points { vec4 points[]; };
-layout(std430, binding = 1) writeonly buffer Results { uint results[]; };
+layout(local_size_x = COMPUTE_GROUP_SIZE) in;
+layout(std430, binding = SSBO_CASTER_POSITIONS) readonly buffer Points { vec4 points[]; };
+layout(std430, binding = SSBO_DEFORMED) writeonly buffer Results { uint results[]; };
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= uint(points.length())) return;

@@ -5,9 +5,16 @@
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/server/Engine.h>
 
+#include "support/SchemaEdits.h"
+
 #include <gtest/gtest.h>
 
+#include <OpenImageIO/imageio.h>
+
+#include <filesystem>
+#include <map>
 #include <random>
+#include <unistd.h>
 
 using namespace dfb;
 
@@ -165,6 +172,106 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
     EXPECT_EQ(checks, 5);
 }
 
+// Writes a 32x32 RGB cookie: checks of `cell` pixels in two colours.
+void writeCookie(const std::string& path, int cell) {
+    std::vector<uint8_t> px(32 * 32 * 3);
+    for (int y = 0; y < 32; ++y)
+        for (int x = 0; x < 32; ++x) {
+            const bool on = ((x / cell) + (y / cell)) % 2 == 0;
+            uint8_t* p = &px[size_t(y * 32 + x) * 3];
+            p[0] = on ? 255 : 30, p[1] = on ? 200 : 60, p[2] = on ? 150 : 255;
+        }
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out && out->open(path, OIIO::ImageSpec(32, 32, 3, OIIO::TypeDesc::UINT8)) &&
+                out->write_image(OIIO::TypeDesc::UINT8, px.data()) && out->close())
+        << path;
+}
+
+// Issue 15: the cache keys are derived from the rig schema, so this test edits every row of the
+// schema (through the protocol's own path edits, as a client would), in turn, on a random light
+// the row applies to, and compares with a from-scratch render along the way. A new row is edited
+// here without touching this file (tests/support/SchemaEdits.h makes the values).
+TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
+    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
+    ASSERT_TRUE(scene.ok()) << scene.error().toString();
+    BakeOptions o;
+    o.width = 96;
+    o.height = 54;
+    o.samples = 2;
+    auto shot = bake(scene.value(), o);
+    ASSERT_TRUE(shot.ok()) << shot.error().toString();
+    const ShadowGeometry casters = shadowCasters(scene.value());
+    auto cached = Engine::create(shot.value(), casters);
+    ASSERT_TRUE(cached.ok()) << cached.error().toString();
+    const auto assets = std::filesystem::temp_directory_path() / ("dfb_schema_cache_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(assets);
+    writeCookie((assets / "checks.png").string(), 4);
+    writeCookie((assets / "coarse.png").string(), 16);
+    cached.value()->setAssetDirectory(assets.string());
+
+    const Bounds& b = scene->bounds;
+    Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+    Light bendy = bentLight(rig.lights[0]);
+    rig.lights.push_back(bendy);
+    rig.lights.push_back(bulbLight(rig.lights[1], 256));
+    rig.lights.push_back(sunLight(rig.lights[1], 256));
+    for (Light& l : rig.lights) l.shadowMapSize = std::min(l.shadowMapSize, 512);
+
+    test::SchemaEditOptions opt;
+    opt.objectCount = uint32_t(shot->objectNames.size());
+    opt.cookies = {"", "checks.png", "coarse.png"};
+    std::mt19937 rng(2024);
+    std::map<std::string, int> edited; // schema row -> edits applied
+    std::map<LightType, int> byType;
+    const auto& rows = protocol::lightProperties();
+    int checks = 0, edits = 0;
+    double worst = 0;
+    for (int round = 0; edits < 240; ++round) {
+        const protocol::Property& row = rows[size_t(round) % rows.size()];
+        std::vector<Light*> candidates;
+        for (Light& l : rig.lights)
+            if (row.appliesTo & (1u << unsigned(l.type))) candidates.push_back(&l);
+        if (candidates.empty()) continue;
+        Light& l = *candidates[rng() % candidates.size()];
+        auto edit = test::randomEdit(row, l, rng, opt);
+        if (!edit) continue;
+        const LightType type = l.type;
+        const std::string path = l.name + "." + edit->first;
+        auto s = protocol::applyChange(rig, {path, edit->second});
+        ASSERT_TRUE(s.ok()) << path << " = " << edit->second.dump() << ": " << s.error().toString();
+        ++edited[row.path];
+        ++byType[type];
+        ++edits;
+        ++rig.version;
+        if (rng() % 8 == 0) cached.value()->setPreview(rng() % 2 == 0); // a drag starts or stops
+        ASSERT_TRUE(cached.value()->render(rig).ok()) << "after " << path;
+        if (edits % 30 == 0) {
+            cached.value()->setPreview(false); // the comparison is with full quality
+            auto a = cached.value()->renderLinear(rig);
+            auto fresh = Engine::create(shot.value(), casters);
+            ASSERT_TRUE(fresh.ok());
+            fresh.value()->setAssetDirectory(assets.string());
+            auto c = fresh.value()->renderLinear(rig);
+            ASSERT_TRUE(a.ok() && c.ok());
+            const double d = relativeDifference(c.value(), a.value());
+            EXPECT_LT(d, 2e-3) << "after edit " << edits << " (" << path << ")";
+            worst = std::max(worst, d);
+            ++checks;
+        }
+    }
+    std::printf("%d edits of %zu schema rows, %d comparisons: worst difference %.2e relative\n", edits, edited.size(), checks, worst);
+    for (const protocol::Property& row : rows) {
+        const bool editable = !row.readOnly && row.type != protocol::PropType::Keys && std::string(row.path) != "name";
+        if (editable) {
+            EXPECT_GT(edited[row.path], 0) << "schema row '" << row.path << "' was never edited";
+        }
+    }
+    for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional})
+        EXPECT_GT(byType[t], 10) << "light type " << protocol::lightTypeName(t);
+    EXPECT_EQ(checks, 8);
+    std::filesystem::remove_all(assets);
+}
+
 TEST(LightLinking, ExcludedObjectsAreUnlitByThatLightAndEverythingElseIsUnchanged) {
     auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
     ASSERT_TRUE(scene.ok()) << scene.error().toString();
@@ -210,7 +317,7 @@ TEST(LightLinking, ExcludedObjectsAreUnlitByThatLightAndEverythingElseIsUnchange
     EXPECT_EQ(notTableLit, 0u);
 }
 
-// The specialised shader variants and the footprint pre-pass (GlEngine::shade) compute what the
+// The specialised shader variants and the footprint pre-pass (LightShading::shade) compute what the
 // generic shaders compute: each light alone and the sum, for spots with barn doors, a wide
 // shadow filter and light linking, a shadowed point light, a directional light and BendyLights
 // of two and three segments (both light-direction models), on a flat and on a deep shot.

@@ -85,7 +85,7 @@ const std::vector<Case>& cases() {
         {"linking",
          [](Rig& r) {
              r.lights[0].exclude = {1};
-             r.lights[1].include = {2, 3};
+             r.lights[1].exclude = {2};
              r.lights[1].color = {0.2f, 0.4f, 1.f};
          }},
         {"filmic",
@@ -188,7 +188,9 @@ TEST(EngineGolden, FixedRigsRenderTheKeptImagesWithinOneCodeValue) {
             lit += want->rgba[i] > 8;
         }
         EXPECT_LE(worst, 1) << off << " channel values differ by more than 1 code value";
-        EXPECT_GT(lit, want->rgba.size() / 8) << "the golden image is mostly black: it checks little";
+        // 1 in 16 colour values lit: the linking case leaves the table dark by design (excluded
+        // from the key light) and lights about 1 in 13; an all-black image would check nothing.
+        EXPECT_GT(lit, want->rgba.size() / 4 * 3 / 16) << "the golden image is mostly black: it checks little";
         if (worst > 1) writePng((std::filesystem::path(DFB_TEST_DATA) / (std::string(c.name) + "_got.png")).string(), img.value());
     }
     std::filesystem::remove_all(assets);

@@ -243,8 +243,8 @@ int main(int argc, char** argv) {
     }
     std::printf("\nscaling with triangles: asset scenes at 480x270 (automatic framing), default rig, median of %d edits\n", n);
     std::printf("%-34s %10s | %10s %10s %10s %12s\n", "scene", "triangles", "intensity", "cone", "position", "BendyLight cp");
-    for (const char* name : {"Box.glb", "stanford-bunny-lowres.glb", "utah-teapot.glb", "DamagedHelmet.glb", "stanford-dragon-48k.glb",
-                             "stanford-bunny.glb", "2CylinderEngine.glb", "MetalRoughSpheresNoTextures.glb"}) {
+    for (const char* name : {"Box.glb", "stanford-bunny-lowres.glb", "utah-teapot.glb", "WaterBottle.glb", "stanford-dragon-48k.glb",
+                             "stanford-bunny.glb", "FlightHelmet-notex.glb", "MetalRoughSpheresNoTextures.glb"}) {
         const std::string path = (std::filesystem::path(assets) / name).string();
         auto sc = loadScene(path);
         if (!sc) {

@@ -6,7 +6,7 @@
 //
 //   dfb-bendy-bench [--shot SHOT.exr] [--assets DIR] [--edits N]
 
-#include "engine/UniformBlocks.h"
+#include "engine/GpuInterface.h"
 
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/ExrIO.h>
@@ -154,9 +154,9 @@ int main(int argc, char** argv) {
         auto ctx = gl::Context::create();
         if (!ctx) return 3;
         const std::string src = "#version 450 core\n" + std::string(shaders::serverShader("common_bendy.glsl")) + R"(
-layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Points { vec4 points[]; };
-layout(std430, binding = 1) writeonly buffer Results { vec4 results[]; };
+layout(local_size_x = COMPUTE_GROUP_SIZE) in; // the deform pass's shape and bindings
+layout(std430, binding = SSBO_CASTER_POSITIONS) readonly buffer Points { vec4 points[]; };
+layout(std430, binding = SSBO_DEFORMED) writeonly buffer Results { vec4 results[]; };
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= uint(points.length())) return;
@@ -174,12 +174,12 @@ void main() {
         gl::Buffer out = gl::makeBuffer(nullptr, pts.size() * sizeof(glm::vec4));
         glUseProgram(program->id());
         glBindBufferBase(GL_UNIFORM_BUFFER, engine::UBO_BENDY, ubo.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_CASTER_POSITIONS, in.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, engine::SSBO_DEFORMED, out.id());
         std::vector<double> runs;
         for (int r = 0; r < 4; ++r) {
             auto a = Clock::now();
-            glDispatchCompute(GLuint(N / 64), 1, 1);
+            glDispatchCompute(GLuint(N / engine::COMPUTE_GROUP_SIZE), 1, 1);
             glFinish();
             runs.push_back(ms(a, Clock::now()));
         }

@@ -4,6 +4,7 @@
 
 #include <dfb/protocol/Codec.h>
 #include <dfb/protocol/Messages.h>
+#include <dfb/protocol/Schema.h>
 
 #include <cctype>
 #include <cstdlib>
@@ -232,7 +233,8 @@ void HttpSession::handle(Request&& req) {
     const std::string path = target.substr(0, q), query = q == std::string::npos ? "" : target.substr(q + 1);
     const bool get = req.method() == http::verb::get || req.method() == http::verb::head;
     const std::string_view page = webFile(path);
-    if (!page.empty() || path == "/healthz" || path == "/metrics" || path == "/favicon.ico" || path == "/v1/sessions") {
+    if (!page.empty() || path == "/healthz" || path == "/metrics" || path == "/favicon.ico" || path == "/v1/sessions" ||
+        path == "/v1/schema") {
         if (!get) return send(errorResponse(req, ErrorCode::Protocol, "method not allowed on " + path, http::status::method_not_allowed));
     }
     // The page holds no data of any session: it asks for a token (from its own URL) to connect.
@@ -248,6 +250,11 @@ void HttpSession::handle(Request&& req) {
         return send(makeResponse(req, http::status::ok, "text/plain; version=0.0.4", mState->metrics().text(mState->limits().metricsSessionNames)));
     }
     if (path == "/favicon.ico") return send(makeResponse(req, http::status::no_content, "image/x-icon", ""));
+    // The rig schema: the same for every session and free of any session's data.
+    if (path == "/v1/schema") {
+        static const std::string schema = protocol::schemaJson().dump();
+        return send(makeResponse(req, http::status::ok, "application/json", schema));
+    }
 
     const std::string token = tokenOf(req, query);
     if (path == "/v1/sessions") {

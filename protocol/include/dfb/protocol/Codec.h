@@ -1,6 +1,7 @@
 #pragma once
-// Protocol codec, shared by server and clients (docs/protocol.md): the rig as JSON, property
-// paths, and the fixed binary header before each encoded frame. The v1 messages are in Messages.h. Every decoder validates and
+// Protocol codec, shared by server and clients (docs/protocol.md): the rig as JSON (RigJson.cpp),
+// property-path edits (Edits.cpp), keyframes (Keyframes.cpp), limits (Limits.cpp), command-line
+// paths (CliPaths.cpp) and the fixed binary header before each encoded frame. The v1 messages are in Messages.h. Every decoder validates and
 // returns an Error naming the offending field instead of throwing.
 
 #include <dfb/core/Result.h>
@@ -42,6 +43,11 @@ Status applyChanges(Rig& rig, const std::vector<Change>& changes);
 /// (keys whose value the property refuses are skipped). Unkeyed properties are unchanged.
 Rig evaluateRig(const Rig& rig);
 
+/// The value of one property's keys at `time`: the first key's value before it, the last's after
+/// it, else from the key before `time` to the next one, linearly or (interp "smooth") by
+/// Catmull-Rom with tangents from the neighbours' time spacing. Null for no keys.
+nlohmann::json interpolateKeys(const std::vector<Key>& keys, double time);
+
 // ---- limits ---------------------------------------------------------------------------------------
 /// What one session's rig may hold (DESIGN section 9; docs/operations.md "Limits"). Each bounds
 /// memory the server would otherwise grow without end: a 10,000-light rig once allocated ~17 MB
@@ -66,7 +72,11 @@ uint64_t lightMemoryBytes(const Light& light, const RigLimits& limits);
 /// Control points per chain are limited by the codec itself (MAX_BENDY_SEGMENTS).
 Status checkRigLimits(const Rig& rig, const RigLimits& limits);
 
-/// Parses "PATH=VALUE" from a command line. VALUE is JSON if it parses as JSON, else a
+/// InvalidValue unless `path` names a settable property: a rig-level one or LIGHT.PROPERTY with a
+/// property of the schema (the light itself is not checked: only the server knows the rig).
+Status checkPropertyPath(std::string_view path);
+
+/// Parses "PATH=VALUE" from a command line (the path checked by checkPropertyPath). VALUE is JSON if it parses as JSON, else a
 /// comma-separated list of numbers ("1,2,3"), else a string.
 Result<Change> parseAssignment(std::string_view text);
 

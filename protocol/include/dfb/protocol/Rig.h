@@ -40,7 +40,7 @@ struct Light {
     LightType type = LightType::Spot;
     bool enabled = true;
     Vec3 position{0.f, 3.f, 3.f};     ///< world space, scene units
-    Vec3 direction{0.f, -0.7071f, -0.7071f}; ///< world space, towards where the light points; normalised on set
+    Vec3 direction{0.f, -0.70710678f, -0.70710678f}; ///< world space, towards where the light points; normalised on set
     Vec3 color{1.f, 1.f, 1.f};        ///< linear RGB, each >= 0
     float intensityCd = 50.f;         ///< candela (spot, BendyLight) or lux (directional), >= 0
     float coneAngleDeg = 35.f;        ///< outer half-angle of the cone, (0, 85] degrees

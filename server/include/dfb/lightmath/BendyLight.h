@@ -28,7 +28,7 @@ constexpr int MAX_CONTROL_POINTS = 2 * MAX_SEGMENTS + 1;
 template <typename T> T saturate(T x) { return x < T(0) ? T(0) : (x > T(1) ? T(1) : x); }
 
 /// A BendyLight's chain with the derived quantities prepareChain() computes. Plain data: the GPU
-/// receives the same numbers (BendyBlock in server/src/engine/UniformBlocks.h).
+/// receives the same numbers (BendyBlock in server/src/engine/GpuInterface.h).
 template <typename T> struct Chain {
     int segments = 1;                        ///< K, 1..MAX_SEGMENTS
     vec3<T> p[MAX_CONTROL_POINTS];           ///< control points, world space; p[0] is the source
@@ -335,7 +335,7 @@ template <typename T> vec3<T> lightDirection(const Chain<T>& ch, const TubeCoord
 
 /// Whether the chain's light cannot meet the plane n . x = d (n unit) on its way to any point on
 /// the plane's positive side (n . x >= d), so that the plane can be left out of the deformed
-/// shadow map when every receiver lies on that side (GlEngine::casterIndices). Conservative: true
+/// shadow map when every receiver lies on that side (engine::Casters::indicesFor). Conservative: true
 /// only when proven. The light reaches a point at tube coordinates (s, v, w) along its flow line,
 /// the points (s' < s, v, w): the deformed map's ray from the source to its Q' (eq. 7). With
 /// h = n . x - d along a flow line X(t) = P(t) + R(t) (v v_hat + w w_hat), v^2 + w^2 <= rho^2:

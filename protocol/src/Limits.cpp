@@ -1,0 +1,42 @@
+// What one session's rig may hold (RigLimits; docs/operations.md "Limits").
+
+#include <dfb/protocol/Codec.h>
+
+namespace dfb::protocol {
+
+uint64_t lightMemoryBytes(const Light& l, const RigLimits& limits) {
+    if (!l.enabled) return 0;
+    uint64_t bytes = limits.imagePixels * 8; // its contribution image, RGBA16F
+    if (l.shadow) {
+        const uint64_t side = uint64_t(l.shadowMapSize);
+        bytes += side * side * 4 * (l.type == LightType::Point ? 6 : 1);
+    }
+    return bytes;
+}
+
+Status checkRigLimits(const Rig& rig, const RigLimits& limits) {
+    auto over = [](const std::string& what) { return makeError(ErrorCode::LimitExceeded, what); };
+    if (rig.lights.size() > limits.maxLights) {
+        return over("the rig would have " + std::to_string(rig.lights.size()) + " lights; the limit is " +
+                    std::to_string(limits.maxLights) + " lights per rig (--max-lights)");
+    }
+    uint64_t bytes = 0;
+    for (const Light& l : rig.lights) {
+        for (const auto& [prop, ks] : l.keys) {
+            if (ks.size() > limits.maxKeysPerProperty) {
+                return over(l.name + ".keys." + prop + ": " + std::to_string(ks.size()) + " keyframes; the limit is " +
+                            std::to_string(limits.maxKeysPerProperty) + " per property (--max-keys)");
+            }
+        }
+        bytes += lightMemoryBytes(l, limits);
+    }
+    if (bytes > limits.maxLightMemoryBytes) {
+        const auto mb = [](uint64_t b) { return std::to_string((b + (1u << 20) - 1) >> 20); };
+        return over("the lights' shadow maps and cached images would need " + mb(bytes) + " MB; the limit is " +
+                    mb(limits.maxLightMemoryBytes) + " MB per session (--max-light-memory-mb); use smaller shadow maps "
+                    "(shadowMapSize), fewer shadowed lights, or disable lights");
+    }
+    return okStatus();
+}
+
+} // namespace dfb::protocol

@@ -1,0 +1,572 @@
+// The rig schema's rows (Schema.h): what every property is, how it is validated and stored, and
+// what a change of it invalidates. The only list of light properties in the code base.
+
+#include "Validate.h"
+
+#include <dfb/protocol/Schema.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <type_traits>
+
+namespace dfb::protocol {
+namespace {
+
+using namespace detail;
+
+Status ok() { return okStatus(); }
+
+// ---- generic setters, comparisons and getters by field ------------------------------------------
+
+template <auto M> bool sameField(const Light& a, const Light& b) { return a.*M == b.*M; }
+template <auto M> json getField(const Light& l) { return json(l.*M); }
+
+template <float Light::*M> Status setNumber(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    auto n = getNumber(v, path, p.min, p.max);
+    if (!n) return n.error();
+    l.*M = n.value();
+    return ok();
+}
+
+template <int Light::*M> Status setInteger(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_number_integer() || v.get<double>() < p.min || v.get<double>() > p.max) {
+        return invalid(path + ": must be an integer in [" + json(p.min).dump() + ", " + json(p.max).dump() + "]" +
+                       (*p.unit ? std::string(" (") + p.unit + ")" : std::string()));
+    }
+    l.*M = int(v.get<int64_t>());
+    return ok();
+}
+
+template <bool Light::*M> Status setBool(const Property&, Light& l, const json& v, const std::string& path, int) {
+    auto b = getBool(v, path);
+    if (!b) return b.error();
+    l.*M = b.value();
+    return ok();
+}
+
+template <Vec3 Light::*M> Status setVec3(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    auto c = getVec3(v, path, p.min, p.max);
+    if (!c) return c.error();
+    l.*M = c.value();
+    return ok();
+}
+
+template <std::vector<uint32_t> Light::*M> Status setIds(const Property&, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_array() || v.size() > 4096) return invalid(path + ": expected an array of object ids (at most 4096)");
+    std::vector<uint32_t> ids;
+    for (size_t i = 0; i < v.size(); ++i) {
+        if (!v[i].is_number_unsigned() || v[i].get<uint64_t>() < 1 || v[i].get<uint64_t>() > (1u << 24)) {
+            return invalid(path + "[" + std::to_string(i) + "]: object ids are integers from 1");
+        }
+        ids.push_back(uint32_t(v[i].get<uint64_t>()));
+    }
+    l.*M = std::move(ids);
+    return ok();
+}
+
+// ---- the special rows --------------------------------------------------------------------------
+
+Status setName(const Property&, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_string() || !validName(v.get<std::string>())) return invalid(path + ": a name is 1-64 characters of letters, digits, '_' or '-'");
+    l.name = v.get<std::string>();
+    return ok();
+}
+
+Status setType(const Property&, Light& l, const json& v, const std::string& path, int) {
+    const auto t = v.is_string() ? lightTypeFromName(v.get<std::string>()) : std::nullopt;
+    if (!t) return invalid(path + ": unknown light type " + excerpt(v) + " (\"spot\", \"point\", \"bendy\" or \"directional\")");
+    // A new chain starts straight along the axis, matching the cone: it looks like the spot.
+    if (*t == LightType::Bendy && l.controlPoints.empty()) makeStraightChain(l, 4.f);
+    l.type = *t;
+    return ok();
+}
+
+Status setDirection(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    auto d = getVec3(v, path, p.min, p.max);
+    if (!d) return d.error();
+    const Vec3 a = d.value();
+    const float len = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    if (!(len > 1e-12f) || !std::isfinite(len)) return invalid(path + ": direction must not be zero");
+    // Already-unit directions are kept bit for bit, so a rig survives a JSON round trip.
+    l.direction = std::abs(len - 1.f) < 1e-6f ? a : Vec3{a[0] / len, a[1] / len, a[2] / len};
+    return ok();
+}
+
+Status setCone(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    auto n = getNumber(v, path, p.min, p.max);
+    if (!n) return n.error();
+    l.coneAngleDeg = n.value();
+    l.penumbraDeg = std::min(l.penumbraDeg, l.coneAngleDeg); // the penumbra shrinks to fit
+    return ok();
+}
+
+Status setPenumbra(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    auto n = getNumber(v, path, p.min, p.max);
+    if (!n) return n.error();
+    if (n.value() > l.coneAngleDeg) return invalid(path + ": penumbra must not exceed coneAngle");
+    l.penumbraDeg = n.value();
+    return ok();
+}
+
+Status setMapSize(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_number_integer()) return invalid(path + ": expected an integer");
+    const int64_t s = v.get<int64_t>();
+    if (s < int64_t(p.min) || s > int64_t(p.max) || (s & (s - 1)) != 0) return invalid(path + ": must be a power of two in [64, 8192]");
+    l.shadowMapSize = int(s);
+    return ok();
+}
+
+Status setCookie(const Property&, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_string()) return invalid(path + ": expected a file name (string)");
+    const std::string c = v.get<std::string>();
+    // A name inside the asset folder: no absolute paths, no way out of it.
+    if (c.size() > 255 || (!c.empty() && (c[0] == '/' || c.find("..") != std::string::npos || c.find('\\') != std::string::npos ||
+                                          c.find('\0') != std::string::npos))) {
+        return invalid(path + ": a cookie is a relative file name inside the asset folder (no '/' at the start, no '..')");
+    }
+    l.cookie = c;
+    return ok();
+}
+
+Status setBarnDoors(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_array() || v.size() != size_t(p.size)) return invalid(path + ": expected [left, right, top, bottom] in degrees");
+    std::array<float, 4> doors{};
+    for (size_t i = 0; i < 4; ++i) {
+        auto n = getNumber(v[i], path + "[" + std::to_string(i) + "]", p.min, p.max);
+        if (!n) return n.error();
+        doors[i] = n.value();
+    }
+    l.barnDoorsDeg = doors;
+    return ok();
+}
+
+Status setWarning(const Property&, Light&, const json& v, const std::string& path, int) {
+    // Server-computed: accepted in a whole rig (round trips) but not meaningful to set.
+    if (!v.is_string()) return invalid(path + ": expected a string");
+    return ok();
+}
+
+// ---- BendyLight chains ---------------------------------------------------------------------------
+
+Status needsChain(const Light& l, const Property& p, const std::string& path) {
+    if (l.type != LightType::Bendy) {
+        return invalid(path + ": '" + std::string(p.path).substr(0, std::string(p.path).find('[')) +
+                       "' applies to BendyLights only (set type to \"bendy\")");
+    }
+    return ok();
+}
+
+// Resamples a per-control-point list to n entries (linear in the index), when a chain's segment
+// count changes.
+template <typename V> std::vector<V> resample(const std::vector<V>& in, size_t n) {
+    std::vector<V> out(n);
+    for (size_t i = 0; i < n; ++i) {
+        if (in.empty()) break;
+        const double x = n > 1 ? double(i) * double(in.size() - 1) / double(n - 1) : 0.0;
+        const size_t a = size_t(x), b = std::min(a + 1, in.size() - 1);
+        const float f = float(x - double(a));
+        if constexpr (std::is_same_v<V, float>) out[i] = in[a] + (in[b] - in[a]) * f;
+        else for (int c = 0; c < 3; ++c) out[i][size_t(c)] = in[a][size_t(c)] + (in[b][size_t(c)] - in[a][size_t(c)]) * f;
+    }
+    return out;
+}
+
+Status setControlPoints(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (auto s = needsChain(l, p, path); !s) return s;
+    if (v.is_array() && v.size() > size_t(2 * MAX_BENDY_SEGMENTS)) {
+        return makeError(ErrorCode::LimitExceeded, path + ": " + std::to_string(v.size()) + " control points; the limit is " +
+                                                       std::to_string(2 * MAX_BENDY_SEGMENTS) + " per chain (" +
+                                                       std::to_string(MAX_BENDY_SEGMENTS) + " segments)");
+    }
+    if (!v.is_array() || v.size() < 2 || v.size() % 2 != 0) {
+        return invalid(path + ": expected an even number (2.." + std::to_string(2 * MAX_BENDY_SEGMENTS) +
+                       ") of [a, b, c] points in the light's frame");
+    }
+    std::vector<Vec3> pts;
+    for (size_t i = 0; i < v.size(); ++i) {
+        auto q = getVec3(v[i], path + "[" + std::to_string(i) + "]", p.min, p.max);
+        if (!q) return q.error();
+        pts.push_back(q.value());
+    }
+    if (pts.size() != l.controlPoints.size()) {
+        l.radii = resample(l.radii, pts.size() + 1);
+        l.colors = resample(l.colors, pts.size() + 1);
+    }
+    l.controlPoints = std::move(pts);
+    return ok();
+}
+
+Status setRadii(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (auto s = needsChain(l, p, path); !s) return s;
+    const size_t n = size_t(2 * l.segments() + 1);
+    if (!v.is_array() || v.size() != n) return invalid(path + ": expected " + std::to_string(n) + " radii");
+    std::vector<float> radii(n);
+    for (size_t i = 0; i < n; ++i) {
+        auto r = getNumber(v[i], path + "[" + std::to_string(i) + "]", p.min, p.max);
+        if (!r) return r.error();
+        radii[i] = r.value();
+    }
+    l.radii = std::move(radii);
+    return ok();
+}
+
+Status setColors(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (auto s = needsChain(l, p, path); !s) return s;
+    const size_t n = size_t(2 * l.segments() + 1);
+    if (!v.is_array() || v.size() != n) return invalid(path + ": expected " + std::to_string(n) + " colours");
+    std::vector<Vec3> colors(n);
+    for (size_t i = 0; i < n; ++i) {
+        auto c = getVec3(v[i], path + "[" + std::to_string(i) + "]", p.min, p.max);
+        if (!c) return c.error();
+        colors[i] = c.value();
+    }
+    l.colors = std::move(colors);
+    return ok();
+}
+
+Status setCp(const Property& p, Light& l, const json& v, const std::string& path, int index) {
+    if (auto s = needsChain(l, p, path); !s) return s;
+    const int K = l.segments();
+    if (index == 0) return invalid(path + ": cp[0] is the light's source; move the light instead");
+    if (index < 1 || index > 2 * K) return invalid(path + ": index out of range 1.." + std::to_string(2 * K));
+    auto q = getVec3(v, path, p.min, p.max);
+    if (!q) return q.error();
+    l.controlPoints[size_t(index - 1)] = q.value();
+    return ok();
+}
+
+Status setR(const Property& p, Light& l, const json& v, const std::string& path, int index) {
+    if (auto s = needsChain(l, p, path); !s) return s;
+    const int K = l.segments();
+    if (index < 0 || index > 2 * K) return invalid(path + ": index out of range 0.." + std::to_string(2 * K));
+    auto r = getNumber(v, path, p.min, p.max);
+    if (!r) return r.error();
+    l.radii[size_t(index)] = r.value();
+    return ok();
+}
+
+Status setCpColor(const Property& p, Light& l, const json& v, const std::string& path, int index) {
+    if (auto s = needsChain(l, p, path); !s) return s;
+    const int K = l.segments();
+    if (index < 0 || index > 2 * K) return invalid(path + ": index out of range 0.." + std::to_string(2 * K));
+    auto c = getVec3(v, path, p.min, p.max);
+    if (!c) return c.error();
+    l.colors[size_t(index)] = c.value();
+    return ok();
+}
+
+Status setKeysRow(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    return setKeys(l, p.path, v, path);
+}
+
+bool hasChain(const Light& l) { return l.type == LightType::Bendy || !l.controlPoints.empty(); }
+
+json getType(const Light& l) { return lightTypeName(l.type); }
+json getKeys(const Light& l) {
+    json keys = json::object();
+    for (const auto& [prop, ks] : l.keys) {
+        json arr = json::array();
+        for (const Key& k : ks) {
+            arr.push_back(json{{"t", k.time}, {"value", k.value}, {"interp", k.interp == Interp::Smooth ? "smooth" : "linear"}});
+        }
+        keys[prop] = arr;
+    }
+    return keys;
+}
+
+bool sameConeForShadow(const Light& a, const Light& b) {
+    // A BendyLight's deformed geometry depends on the exact cone (its tube radii follow it).
+    if (a.type == LightType::Bendy) return a.coneAngleDeg == b.coneAngleDeg;
+    return shadowHalfAngleDeg(a) == shadowHalfAngleDeg(b);
+}
+
+constexpr unsigned LOCATED = APPLIES_SPOT | APPLIES_POINT | APPLIES_BENDY;  // has a position
+constexpr unsigned AIMED = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL; // has a direction
+constexpr unsigned CONED = APPLIES_SPOT | APPLIES_BENDY;                    // has a cone
+
+using enum PropType;
+using enum Invalidates;
+
+const std::vector<Property> LIGHT_PROPERTIES = {
+    {.path = "name", .label = "Name", .type = String, .unit = "", .invalidates = Shadow, .valueDoc = "string",
+     .doc = "1-64 of `[A-Za-z0-9_-]`, unique in the rig", .set = setName, .same = sameField<&Light::name>,
+     .get = getField<&Light::name>},
+    {.path = "type", .label = "Type", .type = Enum, .unit = "", .invalidates = Shadow, .values = "spot,point,directional,bendy",
+     .valueDoc = "string",
+     .doc = "`\"spot\"`, `\"point\"` (every direction from `position`, candela, cube-map shadows; `direction` and the cone "
+            "unused), `\"directional\"` (parallel light along `direction`, `intensity` in lux, no cone; `position` unused) or "
+            "`\"bendy\"`; switching a light without a chain to `bendy` gives it a straight 4-unit chain matching its cone (it "
+            "looks unchanged)",
+     .set = setType, .same = sameField<&Light::type>, .get = getType},
+    {.path = "enabled", .label = "Enabled", .type = Boolean, .unit = "", .invalidates = Composite, .valueDoc = "bool",
+     .doc = "", .set = setBool<&Light::enabled>, .same = sameField<&Light::enabled>, .get = getField<&Light::enabled>},
+    {.path = "position", .label = "Position", .type = Vec3, .unit = "scene units", .min = -MAX_COORD, .max = MAX_COORD,
+     .keyframable = true, .invalidates = Shadow, .appliesTo = LOCATED, .valueDoc = "[x, y, z]",
+     .doc = "world space, scene units, each within ±1e7", .set = setVec3<&Light::position>,
+     .same = sameField<&Light::position>, .get = getField<&Light::position>},
+    {.path = "direction", .label = "Direction", .type = Direction, .unit = "", .min = -MAX_COORD, .max = MAX_COORD,
+     .keyframable = true, .invalidates = Shadow, .appliesTo = AIMED, .valueDoc = "[x, y, z]",
+     .doc = "where the light points, world space; normalised by the server; not zero", .set = setDirection,
+     .same = sameField<&Light::direction>, .get = getField<&Light::direction>},
+    {.path = "color", .label = "Colour", .type = Color, .unit = "linear RGB", .min = 0, .max = 1e6, .uiMin = 0, .uiMax = 1,
+     .step = 0.01, .keyframable = true, .invalidates = Scale, .valueDoc = "[r, g, b]", .doc = "linear RGB, each in [0, 1e6]",
+     .set = setVec3<&Light::color>, .same = sameField<&Light::color>, .get = getField<&Light::color>},
+    {.path = "intensity", .label = "Intensity", .type = Number, .unit = "cd (lux for directional)", .min = 0, .max = 1e12,
+     .uiMin = 0, .uiMax = 1000, .step = 0.1, .keyframable = true, .invalidates = Scale, .valueDoc = "number",
+     .doc = "candela for spot, point and BendyLights, lux for directional lights (glTF `KHR_lights_punctual`), [0, 1e12]",
+     .set = setNumber<&Light::intensityCd>, .same = sameField<&Light::intensityCd>, .get = getField<&Light::intensityCd>},
+    {.path = "coneAngle", .label = "Cone angle", .type = Number, .unit = "degrees", .min = 0.1, .max = 85, .uiMin = 1,
+     .uiMax = 85, .step = 0.5, .keyframable = true, .invalidates = Shadow, .appliesTo = CONED, .valueDoc = "number",
+     .doc = "outer half-angle, degrees, [0.1, 85]; the penumbra shrinks to fit", .set = setCone,
+     .same = sameField<&Light::coneAngleDeg>, .sameShadow = sameConeForShadow, .get = getField<&Light::coneAngleDeg>},
+    {.path = "penumbra", .label = "Penumbra", .type = Number, .unit = "degrees", .min = 0, .max = 85, .uiMin = 0, .uiMax = 30,
+     .step = 0.5, .keyframable = true, .invalidates = Shade, .appliesTo = CONED, .valueDoc = "number",
+     .doc = "degrees of soft edge inside the cone, [0, coneAngle]", .set = setPenumbra,
+     .same = sameField<&Light::penumbraDeg>, .get = getField<&Light::penumbraDeg>},
+    {.path = "shadow", .label = "Shadow", .type = Boolean, .unit = "", .invalidates = Shadow, .valueDoc = "bool",
+     .doc = "casts shadows", .set = setBool<&Light::shadow>, .same = sameField<&Light::shadow>, .get = getField<&Light::shadow>},
+    {.path = "shadowMapSize", .label = "Shadow map", .type = Integer, .unit = "texels", .min = 64, .max = 8192,
+     .invalidates = Shadow, .values = "64,128,256,512,1024,2048,4096,8192", .valueDoc = "integer",
+     .doc = "power of two in [64, 8192]", .set = setMapSize, .same = sameField<&Light::shadowMapSize>,
+     .get = getField<&Light::shadowMapSize>},
+    {.path = "shadowBias", .label = "Shadow bias", .type = Number, .unit = "shadow-map texels", .min = 0, .max = 16,
+     .uiMin = 0, .uiMax = 8, .step = 0.1, .keyframable = true, .invalidates = Shade, .valueDoc = "number",
+     .doc = "receiver offset along the geometric normal, in shadow-map texels, [0, 16]", .set = setNumber<&Light::shadowBias>,
+     .same = sameField<&Light::shadowBias>, .get = getField<&Light::shadowBias>},
+    {.path = "shadowFilter", .label = "Shadow softness", .type = Integer, .unit = "shadow-map texels", .min = 0, .max = 4,
+     .uiMin = 0, .uiMax = 4, .step = 1, .invalidates = Shade, .valueDoc = "integer",
+     .doc = "soft-shadow filter radius in shadow-map texels, [0, 4] ((2r+1)² percentage-closer taps; default 1)",
+     .set = setInteger<&Light::shadowFilter>, .same = sameField<&Light::shadowFilter>, .get = getField<&Light::shadowFilter>},
+    {.path = "barnDoors", .label = "Barn doors", .type = Numbers, .unit = "degrees", .min = 0, .max = 90, .uiMin = 0,
+     .uiMax = 90, .step = 1, .keyframable = true, .invalidates = Shade, .appliesTo = APPLIES_SPOT, .size = 4,
+     .valueDoc = "[left, right, top, bottom]",
+     .doc = "spot lights: the four flaps' angles from the axis, degrees, each in [0, 90] (90 = open; default all open); in the "
+            "light's frame (docs/lighting.md)",
+     .set = setBarnDoors, .same = sameField<&Light::barnDoorsDeg>, .get = getField<&Light::barnDoorsDeg>},
+    {.path = "cookie", .label = "Cookie", .type = String, .unit = "", .invalidates = Shade, .appliesTo = APPLIES_SPOT,
+     .valueDoc = "string",
+     .doc = "spot lights: an image file in the server's asset folder (`--assets`, default the shot's folder) projected across "
+            "the cone, multiplying the colour; `\"\"` = none. Relative, no `..`, at most 255 characters; an edit naming a file "
+            "that is not a readable image is refused (`invalid_value`)",
+     .set = setCookie, .same = sameField<&Light::cookie>, .present = [](const Light& l) { return !l.cookie.empty(); },
+     .get = getField<&Light::cookie>},
+    {.path = "include", .label = "Lights only", .type = IdList, .unit = "object ids", .invalidates = Shade, .valueDoc = "[ids]",
+     .doc = "light linking: when not empty, the light lights only these objects (1-based ids of the shot's manifest, "
+            "`welcome.session.objects[id-1]`)",
+     .set = setIds<&Light::include>, .same = sameField<&Light::include>,
+     .present = [](const Light& l) { return !l.include.empty(); }, .get = getField<&Light::include>},
+    {.path = "exclude", .label = "Never lights", .type = IdList, .unit = "object ids", .invalidates = Shade, .valueDoc = "[ids]",
+     .doc = "light linking: objects the light never lights (shading only: they still cast shadows)",
+     .set = setIds<&Light::exclude>, .same = sameField<&Light::exclude>,
+     .present = [](const Light& l) { return !l.exclude.empty(); }, .get = getField<&Light::exclude>},
+    {.path = "controlPoints", .label = "Control points", .type = Points, .unit = "scene units", .min = -MAX_COORD,
+     .max = MAX_COORD, .invalidates = Shadow, .appliesTo = APPLIES_BENDY, .valueDoc = "[[a, b, c], ...]",
+     .doc = "BendyLight: the 2K control points p1..p2K (K = 1..8) in the light's frame: position + a uL + b vL + c wL "
+            "(docs/lighting.md); changing K resamples `radii` and `colors`",
+     .set = setControlPoints, .same = sameField<&Light::controlPoints>, .present = hasChain,
+     .get = getField<&Light::controlPoints>},
+    {.path = "cp[]", .label = "Control point", .type = Vec3, .unit = "scene units", .min = -MAX_COORD, .max = MAX_COORD,
+     .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_BENDY, .indexOf = "controlPoints", .valueDoc = "[a, b, c]",
+     .doc = "BendyLight: one control point, i = 1..2K (cp[0] is the light's position)", .set = setCp},
+    {.path = "radii", .label = "Radii", .type = Numbers, .unit = "scene units", .min = 0, .max = MAX_COORD,
+     .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_BENDY, .valueDoc = "[r0, ..., r2K]",
+     .doc = "BendyLight: tube radii, scene units, >= 0", .set = setRadii, .same = sameField<&Light::radii>,
+     .present = hasChain, .get = getField<&Light::radii>},
+    {.path = "r[]", .label = "Radius", .type = Number, .unit = "scene units", .min = 0, .max = MAX_COORD, .keyframable = true,
+     .invalidates = Shadow, .appliesTo = APPLIES_BENDY, .indexOf = "radii", .valueDoc = "number",
+     .doc = "BendyLight: one radius, i = 0..2K", .set = setR},
+    {.path = "colors", .label = "Chain colours", .type = Colors, .unit = "linear RGB", .min = 0, .max = 1e6,
+     .invalidates = Shade, .appliesTo = APPLIES_BENDY, .valueDoc = "[[r, g, b], ...]",
+     .doc = "BendyLight: 2K+1 linear colour multipliers along the chain", .set = setColors, .same = sameField<&Light::colors>,
+     .present = hasChain, .get = getField<&Light::colors>},
+    {.path = "cpColor[]", .label = "Chain colour", .type = Color, .unit = "linear RGB", .min = 0, .max = 1e6,
+     .keyframable = true, .invalidates = Shade, .appliesTo = APPLIES_BENDY, .indexOf = "colors", .valueDoc = "[r, g, b]",
+     .doc = "BendyLight: one of them", .set = setCpColor},
+    {.path = "exactDirection", .label = "Exact direction", .type = Boolean, .unit = "", .invalidates = Shade,
+     .appliesTo = APPLIES_BENDY, .valueDoc = "bool", .doc = "BendyLight: the exact flow-line tangent instead of paper eq. 9",
+     .set = setBool<&Light::exactDirection>, .same = sameField<&Light::exactDirection>, .present = hasChain,
+     .get = getField<&Light::exactDirection>},
+    {.path = "keys", .label = "Keys", .type = Keys, .unit = "", .valueDoc = "object",
+     .doc = "all keyframes: `{\"PROPERTY\": [{\"t\": s, \"value\": v, \"interp\": \"linear\"|\"smooth\"}, ...]}`; PROPERTY is "
+            "any keyframable property path of the light (`intensity`, `position`, `cp[2]`, ...: `keyframable` in the schema)",
+     .set = setKeysRow, .present = [](const Light& l) { return !l.keys.empty(); }, .get = getKeys},
+    {.path = "key", .label = "Key", .type = Keys, .unit = "", .valueDoc = "object",
+     .doc = "add or replace one key: `{\"path\": \"cp[2]\", \"t\": 1.5, \"value\": [3, 0, 1], \"interp\": \"smooth\"}`",
+     .set = setKeysRow},
+    {.path = "unkey", .label = "Unkey", .type = Keys, .unit = "", .valueDoc = "object",
+     .doc = "remove one: `{\"path\": \"cp[2]\", \"t\": 1.5}`", .set = setKeysRow},
+    {.path = "warning", .label = "Warning", .type = String, .unit = "", .readOnly = true, .valueDoc = "string",
+     .doc = "written by the server: why a BendyLight's chain is doubtful (a cusp, a fold inside a bend, a self-intersecting "
+            "tube); absent when fine; clients cannot set it",
+     .set = setWarning, .present = [](const Light& l) { return !l.warning.empty(); }, .get = getField<&Light::warning>},
+};
+
+const std::vector<Property> RIG_PROPERTIES = {
+    {.path = "exposure", .label = "Exposure", .type = Number, .unit = "stops", .min = -20, .max = 20, .uiMin = -10,
+     .uiMax = 10, .step = 0.1, .invalidates = Composite, .valueDoc = "number",
+     .doc = "stops, [-20, 20]; the image is multiplied by 2^exposure"},
+    {.path = "time", .label = "Time", .type = Number, .unit = "seconds", .step = 0.04,
+     .invalidates = None, .valueDoc = "number",
+     .doc = "the session clock, seconds: where keyframes are evaluated (a keyed property's change invalidates what its row says)"},
+    {.path = "viewTransform", .label = "View", .type = Enum, .unit = "", .invalidates = Composite, .values = "srgb,filmic",
+     .valueDoc = "string",
+     .doc = "`\"srgb\"` (default: the sRGB transfer function alone) or `\"filmic\"` (the ACES fitted curve, then sRGB: "
+            "highlights roll off instead of clipping)"},
+};
+
+json rigDefault(const Property& p) {
+    const Rig r;
+    const std::string path = p.path;
+    if (path == "exposure") return r.exposureStops;
+    if (path == "time") return r.time;
+    if (path == "viewTransform") return r.viewTransform == ViewTransform::Filmic ? "filmic" : "srgb";
+    return nullptr;
+}
+
+json rowJson(const Property& p, bool rigLevel) {
+    json j{{"path", p.path}, {"label", p.label}, {"type", toString(p.type)}, {"keyframable", p.keyframable},
+           {"invalidates", toString(p.invalidates)}};
+    if (*p.unit) j["unit"] = p.unit;
+    if (p.min != 0 || p.max != 0) j["min"] = p.min, j["max"] = p.max;
+    if (p.uiMin != 0 || p.uiMax != 0) j["uiMin"] = p.uiMin, j["uiMax"] = p.uiMax;
+    if (p.step != 0) j["step"] = p.step;
+    if (p.size) j["size"] = p.size;
+    if (*p.indexOf) j["indexOf"] = p.indexOf;
+    if (p.readOnly) j["readOnly"] = true;
+    if (*p.values) {
+        json values = json::array();
+        std::stringstream ss(p.values);
+        for (std::string v; std::getline(ss, v, ',');) {
+            if (p.type == PropType::Integer) values.push_back(std::stoi(v));
+            else values.push_back(v);
+        }
+        j["values"] = values;
+    }
+    if (!rigLevel) {
+        json types = json::array();
+        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional}) {
+            if (p.appliesTo & (1u << unsigned(t))) types.push_back(lightTypeName(t));
+        }
+        j["appliesTo"] = types;
+        if (p.get && p.type != PropType::Keys && !p.readOnly) j["default"] = p.get(Light{});
+    } else {
+        j["default"] = rigDefault(p);
+    }
+    std::string doc = p.doc;
+    j["doc"] = doc;
+    return j;
+}
+
+} // namespace
+
+const std::vector<Property>& lightProperties() { return LIGHT_PROPERTIES; }
+const std::vector<Property>& rigProperties() { return RIG_PROPERTIES; }
+
+const Property* findLightProperty(std::string_view prop, int* index) {
+    if (index) *index = -1;
+    const size_t open = prop.find('[');
+    if (open != std::string_view::npos) {
+        const std::string_view digits = prop.substr(open + 1, prop.size() >= open + 2 ? prop.size() - open - 2 : 0);
+        if (prop.back() != ']' || digits.empty() || digits.size() > 3 || digits.find_first_not_of("0123456789") != std::string_view::npos) {
+            if (index) *index = -2;
+            return nullptr;
+        }
+        if (index) *index = std::stoi(std::string(digits));
+        const std::string row = std::string(prop.substr(0, open)) + "[]";
+        for (const Property& p : LIGHT_PROPERTIES) {
+            if (*p.indexOf && row == p.path) return &p;
+        }
+        return nullptr;
+    }
+    for (const Property& p : LIGHT_PROPERTIES) {
+        if (!*p.indexOf && prop == p.path) return &p;
+    }
+    return nullptr;
+}
+
+const Property* findRigProperty(std::string_view path) {
+    for (const Property& p : RIG_PROPERTIES) {
+        if (path == p.path) return &p;
+    }
+    return nullptr;
+}
+
+float shadowHalfAngleDeg(const Light& l) { return std::min(5.f * std::ceil((l.coneAngleDeg + 1.f) / 5.f), 86.f); }
+
+bool sameInputs(const Light& a, const Light& b, Invalidates level) {
+    if (a.type != b.type) return false;
+    const unsigned type = 1u << unsigned(a.type);
+    for (const Property& p : LIGHT_PROPERTIES) {
+        if (!p.same || p.invalidates < level || !(p.appliesTo & type)) continue;
+        const bool same = level == Invalidates::Shadow && p.sameShadow ? p.sameShadow(a, b) : p.same(a, b);
+        if (!same) return false;
+    }
+    return true;
+}
+
+std::string_view toString(PropType t) {
+    switch (t) {
+    case Number: return "number";
+    case Integer: return "integer";
+    case Boolean: return "boolean";
+    case String: return "string";
+    case Enum: return "enum";
+    case PropType::Vec3: return "vec3";
+    case Color: return "color";
+    case Direction: return "direction";
+    case Numbers: return "numbers";
+    case IdList: return "idList";
+    case Points: return "points";
+    case Colors: return "colors";
+    case Keys: return "keys";
+    }
+    return "?";
+}
+
+std::string_view toString(Invalidates i) {
+    switch (i) {
+    case None: return "none";
+    case Composite: return "composite";
+    case Scale: return "scale";
+    case Shade: return "shade";
+    case Shadow: return "shadow";
+    }
+    return "?";
+}
+
+std::string lightTypeName(LightType t) {
+    return t == LightType::Bendy ? "bendy" : t == LightType::Directional ? "directional" : t == LightType::Point ? "point" : "spot";
+}
+
+std::optional<LightType> lightTypeFromName(std::string_view n) {
+    if (n == "spot") return LightType::Spot;
+    if (n == "point") return LightType::Point;
+    if (n == "directional") return LightType::Directional;
+    if (n == "bendy") return LightType::Bendy;
+    return std::nullopt;
+}
+
+json schemaJson() {
+    json rig = json::array(), light = json::array();
+    for (const Property& p : RIG_PROPERTIES) rig.push_back(rowJson(p, true));
+    for (const Property& p : LIGHT_PROPERTIES) light.push_back(rowJson(p, false));
+    return json{{"schema", 1}, {"lightTypes", {"spot", "point", "bendy", "directional"}}, {"rig", rig}, {"light", light}};
+}
+
+std::string markdownTable() {
+    std::string out = "| path | value | unit, range | keyframable | a change re-renders |\n|---|---|---|---|---|\n";
+    auto row = [&](const Property& p, const std::string& path) {
+        std::string name = path;
+        if (*p.indexOf) name.replace(name.find("[]"), 2, "[i]");
+        static const char* what[] = {"nothing", "the final sum", "a rescale of the light's image", "the light's shading",
+                                     "its shadow map and shading"};
+        out += "| `" + name + "` | " + p.valueDoc + " | " + p.doc + " | " + (p.keyframable ? "yes" : "") + " | " +
+               (p.readOnly || p.type == PropType::Keys ? "" : what[int(p.invalidates)]) + " |\n";
+    };
+    for (const Property& p : RIG_PROPERTIES) row(p, p.path);
+    for (const Property& p : LIGHT_PROPERTIES) row(p, std::string("L.") + p.path);
+    return out;
+}
+
+} // namespace dfb::protocol

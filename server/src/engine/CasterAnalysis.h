@@ -1,0 +1,58 @@
+#pragma once
+// Shadow casters: the CPU analysis that sorts a scene's meshes for the shadow maps (closed meshes
+// first, then open ones, then open planar ones; runs of triangles with their boxes; Engine.h's
+// shadowCasters, isClosedMesh and meshPlane live in CasterAnalysis.cpp), and their upload as one
+// vertex and index buffer with what a shadow map needs to leave parts out.
+
+#include "LightFrustum.h"
+
+#include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/gl/Objects.h>
+#include <dfb/lightmath/BendyLight.h>
+#include <dfb/server/Engine.h>
+
+#include <vector>
+
+namespace dfb::engine {
+
+/// A vertex array of vec3 positions (ATTR_POSITION) drawn through an index buffer.
+gl::VertexArray positionVao(const gl::Buffer& positions, const gl::Buffer& indices);
+
+class Casters {
+public:
+    /// Uploads the casters (GL thread). The shot's covered samples bound the scene too, and orient
+    /// the planes of open planar meshes towards the receivers.
+    void upload(const ShadowGeometry& casters, const DeepBuffer& shot);
+
+    /// Casters and covered receivers, and the receivers alone (zero boxes when there are none).
+    const Box& scene() const { return mScene; }
+    const Box& receivers() const { return mReceivers; }
+
+    /// How many indices a light's shadow map needs: all, or all but the open planar meshes when
+    /// none of them can occlude anything for this light (`chain`: a BendyLight's, as uploaded).
+    GLsizei indicesFor(const Light& l, const lightmath::Chain<float>& chain) const;
+
+    /// Draws the undeformed casters up to index `count` into the bound depth target, leaving out
+    /// runs whose box lies outside the sides of `worldToClip`'s frustum.
+    void draw(GLsizei count, const glm::mat4& worldToClip) const;
+
+    const gl::Buffer& positions() const { return mVbo; }
+    const gl::Buffer& indices() const { return mIbo; }
+    GLuint vertexCount() const { return mVertexCount; }
+    GLsizei indexCount() const { return mIndexCount; }
+    GLsizei closedIndexCount() const { return mClosedIndexCount; }
+
+private:
+    Box mScene, mReceivers;
+    gl::Buffer mVbo, mIbo;
+    gl::VertexArray mVao;
+    GLuint mVertexCount = 0;
+    GLsizei mIndexCount = 0;
+    GLsizei mClosedIndexCount = 0; // indices[0, this) are closed meshes (ShadowGeometry)
+    std::vector<ShadowGeometry::Part> mParts; // the meshes' index ranges and boxes, in index order
+    GLsizei mPlanarStart = 0;       // indices[this, end) are open planar meshes, with these planes:
+    std::vector<glm::vec4> mPlanes; // oriented so that every receiver is on the positive side
+    bool mPlanesSkippable = false;  // ... which holds for all of them (else never left out)
+};
+
+} // namespace dfb::engine

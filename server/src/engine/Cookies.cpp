@@ -1,0 +1,39 @@
+#include "Cookies.h"
+
+#include <dfb/server/ImageCodec.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <vector>
+
+namespace dfb::engine {
+
+Result<GLuint> Cookies::texture(const Light& l) {
+    auto it = mTextures.find(l.cookie);
+    if (it != mTextures.end()) return it->second.id();
+    const std::string path = (std::filesystem::path(mDirectory) / l.cookie).string();
+    auto img = readLinearImage(path);
+    if (!img) {
+        return makeError(img.error().code, "light '" + l.name + "': cookie '" + l.cookie + "': " + img.error().message);
+    }
+    const int levels = 1 + int(std::floor(std::log2(double(std::max(img->width, img->height)))));
+    GLuint id = 0;
+    glCreateTextures(GL_TEXTURE_2D, 1, &id);
+    gl::Texture t(id);
+    glTextureStorage2D(id, levels, GL_RGBA16F, img->width, img->height);
+    // Row 0 of the image (its top) goes to t = 1, the light's up (relight_spot.frag).
+    std::vector<float> flipped(img->rgba.size());
+    const size_t row = size_t(img->width) * 4;
+    for (int y = 0; y < img->height; ++y)
+        std::copy_n(img->rgba.begin() + ptrdiff_t(size_t(y) * row), row, flipped.begin() + ptrdiff_t(size_t(img->height - 1 - y) * row));
+    glTextureSubImage2D(id, 0, 0, 0, img->width, img->height, GL_RGBA, GL_FLOAT, flipped.data());
+    glGenerateTextureMipmap(id);
+    glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return mTextures.emplace(l.cookie, std::move(t)).first->second.id();
+}
+
+} // namespace dfb::engine

@@ -1,0 +1,79 @@
+// GlEngine's non-beauty outputs: one light's linear contribution, its shadow mask, the light
+// layers and the linear beauty, all read from the per-light caches (Outputs.cpp encodes them for
+// requests).
+
+#include "GlEngine.h"
+
+namespace dfb::engine {
+namespace {
+
+// Outputs that read single lights' contributions are always full quality, even mid-drag.
+struct FullQuality {
+    bool& preview;
+    bool saved;
+    explicit FullQuality(bool& p) : preview(p), saved(p) { preview = false; }
+    ~FullQuality() { preview = saved; }
+    FullQuality(const FullQuality&) = delete;
+    FullQuality& operator=(const FullQuality&) = delete;
+};
+
+} // namespace
+
+Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& lightName) {
+    const Light* l = rig.find(lightName);
+    if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    FullQuality full(mPreview);
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error();
+    if (!l->enabled) {
+        ImageF black;
+        black.width = mGBuffer.width;
+        black.height = mGBuffer.height;
+        black.rgba.assign(size_t(black.width) * size_t(black.height) * 4, 0.f);
+        return black;
+    }
+    const LightCache& c = mLights[lightName];
+    return readFloat(c.contribution.id(), "light alone", c.scale);
+}
+
+Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lightName) {
+    const Light* l = rig.find(lightName);
+    if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    FullQuality full(mPreview);
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error(); // brings the light's shadow map up to date
+    if (!l->enabled) return makeError(ErrorCode::InvalidValue, "light '" + lightName + "' is disabled");
+    LightCache& c = mLights[lightName];
+    // Shade the mask into the light's contribution target, then mark the contribution stale.
+    if (auto s = mShading.shade(c, 1, mPreview); !s) return s.error();
+    c.hasContribution = false; // the next frame re-shades it (and rebuilds the sums that hold it)
+    ++c.version;
+    return readFloat(c.contribution.id(), "shadow mask");
+}
+
+Result<std::vector<NamedImageF>> GlEngine::renderLayers(const Rig& rig) {
+    FullQuality full(mPreview);
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error();
+    std::vector<NamedImageF> layers;
+    auto beauty = readFloat(mCompositor.accumulation(), "beauty layer");
+    if (!beauty) return beauty.error();
+    for (size_t i = 3; i < beauty->rgba.size(); i += 4) beauty->rgba[i] = 1.f;
+    layers.push_back({"", std::move(beauty.value())});
+    for (const Light& l : rig.lights) {
+        if (!l.enabled) continue;
+        const LightCache& c = mLights[l.name];
+        auto img = readFloat(c.contribution.id(), "light layer", c.scale);
+        if (!img) return img.error();
+        layers.push_back({l.name, std::move(img.value())});
+    }
+    return layers;
+}
+
+Result<ImageF> GlEngine::renderLinear(const Rig& rig) {
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error();
+    return readFloat(mCompositor.accumulation(), "relight frame (linear)");
+}
+
+} // namespace dfb::engine

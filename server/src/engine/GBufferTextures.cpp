@@ -1,0 +1,89 @@
+#include "GBufferTextures.h"
+
+#include "GpuInterface.h"
+
+#include <algorithm>
+#include <bit>
+#include <vector>
+
+namespace dfb::engine {
+namespace {
+
+// Uploads one per-sample layer into a sample texture, padded to RGBA (three-component float
+// textures are slow paths on some drivers).
+gl::Texture uploadLayer(GLenum internalFormat, int row, int rows, const std::vector<float>& data, int comps,
+                        const std::vector<float>* alpha) {
+    const size_t n = data.size() / size_t(comps);
+    std::vector<float> rgba(size_t(row) * size_t(rows) * 4, 0.f);
+    for (size_t i = 0; i < n; ++i) {
+        for (int c = 0; c < comps; ++c) rgba[i * 4 + size_t(c)] = data[i * size_t(comps) + size_t(c)];
+        if (alpha) rgba[i * 4 + 3] = (*alpha)[i];
+    }
+    gl::Texture t = gl::makeTexture2D(internalFormat, row, rows);
+    glTextureSubImage2D(t.id(), 0, 0, 0, row, rows, GL_RGBA, GL_FLOAT, rgba.data());
+    return t;
+}
+
+} // namespace
+
+Status GBufferTextures::upload(const DeepBuffer& g) {
+    width = g.width;
+    height = g.height;
+    flat = g.isFlat();
+    // Sample textures: as wide as the image (so a flat buffer's sample texture is the image); a
+    // deep buffer's are a power of two wide (sampleTexel: a mask and a shift), wider still when
+    // its rows would exceed GL's minimum maximum texture size.
+    constexpr int MAX_SIDE = 16384;
+    const size_t samples = std::max<size_t>(g.sampleCount(), 1);
+    sampleRow = flat ? width : std::min(int(std::bit_ceil(unsigned(std::max(width, 1)))), MAX_SIDE);
+    if ((samples + size_t(sampleRow) - 1) / size_t(sampleRow) > size_t(MAX_SIDE)) sampleRow = MAX_SIDE;
+    const int rows = int((samples + size_t(sampleRow) - 1) / size_t(sampleRow));
+    sampleRows = rows;
+    if (rows > MAX_SIDE) return makeError(ErrorCode::InvalidValue, "engine: too many samples for the GPU's textures");
+    flat = flat && sampleRow == width; // the flat shaders read sample (x, y) at pixel (x, y)
+    P = uploadLayer(GL_RGBA32F, sampleRow, rows, g.P, 3, &g.A);
+    N = uploadLayer(GL_RGBA16F, sampleRow, rows, g.N, 3, nullptr);
+    Ng = uploadLayer(GL_RGBA16F, sampleRow, rows, g.Ng, 3, nullptr);
+    albedo = uploadLayer(GL_RGBA16F, sampleRow, rows, g.albedo, 3, nullptr);
+    brdf = uploadLayer(GL_RGBA16F, sampleRow, rows, g.brdf, 4, nullptr);
+    emission = uploadLayer(GL_RGBA16F, sampleRow, rows, g.emission, 3, nullptr);
+    sheen = uploadLayer(GL_RGBA16F, sampleRow, rows, g.sheen, 4, nullptr);
+    coat = uploadLayer(GL_RGBA16F, sampleRow, rows, g.coat, 2, nullptr);
+    for (size_t i = 0; i < g.sampleCount() && !hasSheen; ++i) {
+        hasSheen = g.sheen[i * 4] > 0.f || g.sheen[i * 4 + 1] > 0.f || g.sheen[i * 4 + 2] > 0.f;
+    }
+    for (size_t i = 0; i < g.sampleCount() && !hasCoat; ++i) hasCoat = g.coat[i * 2] > 0.f;
+    {
+        std::vector<uint32_t> objectIds(size_t(sampleRow) * size_t(rows), 0);
+        for (size_t i = 0; i < g.sampleCount(); ++i) {
+            objectIds[i] = g.objectId[i];
+            maxObjectId = std::max(maxObjectId, g.objectId[i]);
+        }
+        ids = gl::makeTexture2D(GL_R32UI, sampleRow, rows);
+        glTextureSubImage2D(ids.id(), 0, 0, 0, sampleRow, rows, GL_RED_INTEGER, GL_UNSIGNED_INT, objectIds.data());
+    }
+    // Per pixel: first sample and count. Row 0 of the deep buffer (top) goes to GL row 0: every
+    // pass is per pixel, so the image is rendered top-down and read back without a flip.
+    std::vector<uint32_t> ranges(g.pixelCount() * 2);
+    for (size_t p = 0; p < g.pixelCount(); ++p) {
+        ranges[p * 2] = g.sampleOffset[p];
+        ranges[p * 2 + 1] = g.sampleOffset[p + 1] - g.sampleOffset[p];
+    }
+    pixelSamples = gl::makeTexture2D(GL_RG32UI, width, height);
+    glTextureSubImage2D(pixelSamples.id(), 0, 0, 0, width, height, GL_RG_INTEGER, GL_UNSIGNED_INT, ranges.data());
+    return okStatus();
+}
+
+void GBufferTextures::bindForShading() const {
+    glBindTextureUnit(TEX_GBUFFER_ID, ids.id());
+    glBindTextureUnit(TEX_GBUFFER_P, P.id());
+    glBindTextureUnit(TEX_GBUFFER_N, N.id());
+    glBindTextureUnit(TEX_GBUFFER_NG, Ng.id());
+    glBindTextureUnit(TEX_GBUFFER_ALBEDO, albedo.id());
+    glBindTextureUnit(TEX_GBUFFER_BRDF, brdf.id());
+    glBindTextureUnit(TEX_GBUFFER_SHEEN, sheen.id());
+    glBindTextureUnit(TEX_GBUFFER_COAT, coat.id());
+    glBindTextureUnit(TEX_PIXEL_SAMPLES, pixelSamples.id());
+}
+
+} // namespace dfb::engine

@@ -1,0 +1,31 @@
+#pragma once
+// The shot's G-buffer on the GPU, uploaded once: every per-sample layer as a "sample texture"
+// (sample s at texel (s % sampleRow, s / sampleRow), common_uniforms.glsl's sampleTexel) and per
+// pixel its first sample and sample count.
+
+#include <dfb/core/Result.h>
+#include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/gl/Objects.h>
+
+#include <cstdint>
+
+namespace dfb::engine {
+
+struct GBufferTextures {
+    /// Uploads `g` (GL thread, context current). InvalidValue when its samples do not fit the
+    /// GPU's textures.
+    Status upload(const DeepBuffer& g);
+
+    /// Binds the layers the relight passes read at their texture units (GpuInterface.h).
+    void bindForShading() const;
+
+    int width = 0, height = 0;
+    int sampleRow = 0;  // width of the sample textures: the image's (flat) or a power of two (deep)
+    int sampleRows = 0; // their height
+    bool flat = false;  // one sample per pixel, stored at the pixel: specialised shaders
+    bool hasSheen = false, hasCoat = false; // any sample with a sheen / clear-coat lobe
+    uint32_t maxObjectId = 0;
+    gl::Texture P, N, Ng, albedo, brdf, emission, sheen, coat, pixelSamples, ids;
+};
+
+} // namespace dfb::engine

@@ -1,0 +1,50 @@
+#pragma once
+// What the engine keeps per light between frames: its shadow map, its contribution image and the
+// parameters both were made with (docs/architecture.md, "The engine").
+
+#include "GpuInterface.h"
+#include "LightFrustum.h"
+#include "UniformBuffer.h"
+
+#include <dfb/gl/Objects.h>
+#include <dfb/lightmath/BendyLight.h>
+#include <dfb/protocol/Rig.h>
+
+#include <cstdint>
+
+namespace dfb::engine {
+
+struct LightCache {
+    Light params;
+    bool hasShadow = false;
+    bool hasContribution = false;
+    bool shadowIsCube = false;     // a point light's cube map (GL_TEXTURE_CUBE_MAP)
+    bool previewShadow = false;    // rendered at preview size: re-render at full size when refining
+    bool previewShading = false;   // contribution shaded at half resolution (top-left quarter)
+    glm::vec2 cubeNearFar{0.f};    // the cube faces' projection planes
+    int shadowSize = 0;
+    gl::Texture shadowMap;
+    gl::Framebuffer shadowFb;
+    gl::Texture contribution;
+    gl::Framebuffer contributionFb;
+    glm::mat4 worldToLightClip{1.f};
+    BendyUniforms bendyUbo;        // BendyBlock of a BendyLight
+    lightmath::Chain<float> chain; // its chain as last uploaded,
+    BendyBlock bendy{};            // and as the shaders see it (segments: the variants' BENDY_K)
+    int bendySegments() const { return int(bendy.axisV.w + 0.5f); }
+    GLsizei casterIndexCount = 0; // Casters::indicesFor when its shadow map was last rendered
+    gl::Buffer linkMask; // light linking: one bit per object id
+    int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
+    glm::vec3 shadedRadiance{0.f}; // colour x intensity the contribution was shaded with
+    glm::vec3 scale{1.f};          // current colour x intensity / shadedRadiance
+    uint64_t version = 0;          // bumped whenever the contribution or its scale changes
+    uint64_t compositedVersion = ~0ull;
+};
+
+/// Colour x intensity: what a contribution is shaded with and rescaled by.
+inline glm::vec3 radiance(const Light& l) { return toGlm(l.color) * l.intensityCd; }
+
+/// Converts c.params' chain (a BendyLight's) into c.chain and c.bendy and binds it at UBO_BENDY.
+void uploadBendy(LightCache& c);
+
+} // namespace dfb::engine

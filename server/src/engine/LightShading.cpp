@@ -1,0 +1,242 @@
+#include "LightShading.h"
+
+#include "GpuInterface.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace dfb::engine {
+namespace {
+
+// The light as the relight shaders see it (common_uniforms.glsl's LightBlock).
+LightBlock lightBlock(const LightCache& c, bool cookie) {
+    const Light& l = c.params;
+    LightBlock block{};
+    block.worldToLightClip = c.worldToLightClip;
+    // w = 0 marks a directional light: parallel rays, no distance or cone falloff.
+    block.lightPosition = glm::vec4(toGlm(l.position), l.type == LightType::Directional ? 0.f
+                                                       : l.type == LightType::Point     ? 2.f
+                                                                                        : 1.f);
+    const glm::vec3 axis = glm::normalize(toGlm(l.direction));
+    block.lightAxis = glm::vec4(axis, 0.f);
+    block.lightRadiance = glm::vec4(radiance(l), 0.f);
+    const float outer = glm::radians(l.coneAngleDeg);
+    const float inner = glm::radians(std::max(l.coneAngleDeg - l.penumbraDeg, 0.f));
+    // Normal offset: `shadowBias` shadow-map texels, whose world size grows linearly with distance.
+    const int mapSize = c.hasShadow ? c.shadowSize : l.shadowMapSize;
+    float normalOffset = l.shadowBias * texelPerDistance(l, mapSize);
+    if (l.type == LightType::Directional) {
+        // Orthographic texels have one world size: the frustum's width over the map's.
+        const glm::mat4 m = glm::inverse(c.worldToLightClip);
+        const float width = glm::length(glm::vec3(m * glm::vec4(1, 0, 0, 1)) / (m * glm::vec4(1, 0, 0, 1)).w -
+                                        glm::vec3(m * glm::vec4(-1, 0, 0, 1)) / (m * glm::vec4(-1, 0, 0, 1)).w);
+        normalOffset = l.shadowBias * width / float(std::max(mapSize, 1));
+    }
+    block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
+                                l.shadow ? 1.f : 0.f, normalOffset);
+    block.lightShadow = glm::vec4(1.f / float(std::max(mapSize, 1)), float(l.shadowFilter), c.shadowIsCube ? 1.f : 0.f, 0.f);
+    // The spot's frame, as its shadow frustum's (lightViewProj): barn doors and cookie.
+    const glm::vec3 right = glm::normalize(glm::cross(axis, frustumUp(axis)));
+    block.lightRight = glm::vec4(right, cookie ? 1.f : 0.f);
+    block.lightUp = glm::vec4(glm::cross(right, axis), std::tan(outer));
+    // An open door (90 degrees) must never cut: put it out of atan's reach.
+    auto door = [&](int i) { return l.barnDoorsDeg[size_t(i)] >= 90.f ? 10.f : glm::radians(l.barnDoorsDeg[size_t(i)]); };
+    block.lightDoors = l.type == LightType::Spot ? glm::vec4(door(0), door(1), door(2), door(3)) : glm::vec4(10.f);
+    block.lightCube = glm::vec4(c.cubeNearFar, 0.f, 0.f);
+    return block;
+}
+
+void setRelightUniforms(int output, bool linked, int step) {
+    glUniform1i(LOC_RELIGHT_OUTPUT, output);
+    glUniform1i(LOC_RELIGHT_LINKED, linked ? 1 : 0);
+    glUniform1i(LOC_RELIGHT_PIXEL_STEP, step);
+}
+
+} // namespace
+
+Status LightShading::init() {
+    auto resolve = mShaders.variant({"common_fullscreen.vert", "composite_resolve.frag"});
+    if (!resolve) return resolve.error();
+    mResolveProgram = resolve.value();
+    GLuint vao = 0;
+    glCreateVertexArrays(1, &vao);
+    mEmptyVao = gl::VertexArray(vao);
+    return okStatus();
+}
+
+// The relight shaders' specialisation for this light (see common_uniforms.glsl): every define
+// fixes a path the light takes or cannot take, so each variant computes what the generic shader
+// would, without the others' cost.
+std::string LightShading::shadeDefines(const LightCache& c, int output, bool cookie, bool linked) const {
+    if (mShaders.generic()) return "";
+    const Light& l = c.params;
+    std::string d;
+    auto def = [&d](const char* name, const std::string& value) { d += std::string("#define ") + name + " " + value + "\n"; };
+    auto flag = [&def](const char* name, bool on) { def(name, on ? "true" : "false"); };
+    def("SHADE_KIND", l.type == LightType::Directional ? "0" : l.type == LightType::Point ? "2" : "1");
+    flag("SHADE_SHADOWED", l.shadow);
+    def("SHADE_PCF_RADIUS", std::to_string(l.shadowFilter));
+    flag("SHADE_COOKIE", cookie);
+    bool doors = false;
+    for (float a : l.barnDoorsDeg) doors = doors || a < 90.f;
+    flag("SHADE_DOORS", l.type == LightType::Spot && doors);
+    flag("SHADE_LINKED", linked);
+    def("SHADE_OUTPUT", std::to_string(output));
+    flag("SHADE_SHEEN", mGBuffer.hasSheen);
+    flag("SHADE_COAT", mGBuffer.hasCoat);
+    if (l.type == LightType::Bendy) {
+        def("BENDY_K", std::to_string(c.bendySegments()));
+        flag("BENDY_EXACT", l.exactDirection);
+    }
+    return d;
+}
+
+// A deep buffer's full frames shade once per sample over the sample textures' layout (the flat
+// shaders, DFB_FLAT_SAMPLES, read the sample at their fragment) and then sum each pixel's
+// samples: no per-pixel loop whose longest pixel every lane of a group waits for.
+Result<GLuint> LightShading::target(LightCache& c, bool perSample) {
+    if (!c.contribution) {
+        c.contribution = gl::makeTexture2D(GL_RGBA16F, mGBuffer.width, mGBuffer.height);
+        if (!mMaskDepth) mMaskDepth = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, mGBuffer.width, mGBuffer.height);
+        auto fb = gl::makeFramebuffer(c.contribution.id(), mMaskDepth.id(), "contribution of light '" + c.params.name + "'");
+        if (!fb) return fb.error();
+        c.contributionFb = std::move(fb.value());
+    }
+    if (!perSample) return c.contributionFb.id();
+    if (!mSampleFb) {
+        mSampleRadiance = gl::makeTexture2D(GL_RGBA32F, mGBuffer.sampleRow, mGBuffer.sampleRows);
+        mSampleDepth = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, mGBuffer.sampleRow, mGBuffer.sampleRows);
+        auto fb = gl::makeFramebuffer(mSampleRadiance.id(), mSampleDepth.id(), "per-sample radiance");
+        if (!fb) return fb.error();
+        mSampleFb = std::move(fb.value());
+    }
+    return mSampleFb.id();
+}
+
+// A light reaches part of the frame (the surfaces facing it; a spot's cone; a BendyLight's tubes):
+// mark that footprint in the depth buffer first, and the shading pass's early depth test skips
+// the rest (relight_mask.frag). Leaves the depth test on, equal, without writes.
+Status LightShading::markFootprint(GLuint target, const std::string& defines, bool bendy, int step) {
+    auto mask = mShaders.variant({"common_fullscreen.vert", "relight_mask.frag"}, defines + (bendy ? "#define SHADE_BENDY 1\n" : ""));
+    if (!mask) return mask.error();
+    const float zero[4] = {0.f, 0.f, 0.f, 0.f}, far = 1.f;
+    glClearNamedFramebufferfv(target, GL_COLOR, 0, zero);
+    glClearNamedFramebufferfv(target, GL_DEPTH, 0, &far);
+    glUseProgram(mask.value());
+    glUniform1i(LOC_RELIGHT_PIXEL_STEP, step);
+    glBindTextureUnit(TEX_GBUFFER_P, mGBuffer.P.id());
+    glBindTextureUnit(TEX_GBUFFER_N, mGBuffer.N.id());
+    glBindTextureUnit(TEX_PIXEL_SAMPLES, mGBuffer.pixelSamples.id());
+    glBindVertexArray(mEmptyVao.id());
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_ALWAYS);
+    glDepthMask(GL_TRUE);
+    glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glDepthFunc(GL_EQUAL);
+    glDepthMask(GL_FALSE);
+    return okStatus();
+}
+
+// Light linking: a bit per object id, lit where set.
+void LightShading::bindLinkMask(LightCache& c, bool linked) {
+    const Light& l = c.params;
+    if (linked) {
+        std::vector<uint32_t> mask((std::max(mGBuffer.maxObjectId, 1u) + 32) / 32, l.include.empty() ? ~0u : 0u);
+        auto setBit = [&](uint32_t id, bool on) {
+            if (id / 32 >= mask.size()) return;
+            if (on) mask[id / 32] |= 1u << (id % 32);
+            else mask[id / 32] &= ~(1u << (id % 32));
+        };
+        for (uint32_t id : l.include) setBit(id, true);
+        for (uint32_t id : l.exclude) setBit(id, false);
+        c.linkMask = gl::makeBuffer(mask.data(), mask.size() * sizeof(uint32_t));
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_LINK_MASK, c.linkMask.id());
+        return;
+    }
+    if (!mNoLink) {
+        const uint32_t all = ~0u;
+        mNoLink = gl::makeBuffer(&all, sizeof all);
+    }
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_LINK_MASK, mNoLink.id());
+}
+
+Status LightShading::shade(LightCache& c, int output, bool preview) {
+    const Light& l = c.params;
+    const bool bendy = l.type == LightType::Bendy;
+    GLuint cookie = 0;
+    if (l.type == LightType::Spot && !l.cookie.empty()) {
+        auto t = mCookies.texture(l);
+        if (!t) return t.error();
+        cookie = t.value();
+    }
+    glBindTextureUnit(TEX_COOKIE, cookie);
+    mLight.upload(lightBlock(c, cookie != 0));
+
+    // Preview frames shade every second pixel into a half-size image (progressive refinement);
+    // shadow masks and full frames shade every pixel.
+    const int step = preview && output == 0 ? 2 : 1;
+    const bool perSample = !mGBuffer.flat && !mShaders.generic() && step == 1;
+    auto target = this->target(c, perSample);
+    if (!target) return target.error();
+    glBindFramebuffer(GL_FRAMEBUFFER, target.value());
+    if (perSample) glViewport(0, 0, mGBuffer.sampleRow, mGBuffer.sampleRows);
+    else glViewport(0, 0, (mGBuffer.width + step - 1) / step, (mGBuffer.height + step - 1) / step);
+    glDisable(GL_BLEND);
+    glDisable(GL_DEPTH_TEST);
+    const bool linked = !l.include.empty() || !l.exclude.empty();
+    if (bendy) uploadBendy(c);
+    const std::string defines = shadeDefines(c, output, cookie != 0, linked) + (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "");
+    auto shader = mShaders.variant({"common_fullscreen.vert", bendy ? "relight_bendy.frag" : "relight_spot.frag"}, defines);
+    if (!shader) return shader.error();
+    const bool footprint = !mShaders.generic();
+    if (footprint) {
+        if (auto s = markFootprint(target.value(), defines, bendy, step); !s) return s;
+    }
+    glUseProgram(shader.value());
+    setRelightUniforms(output, linked, step);
+    bindLinkMask(c, linked);
+    mGBuffer.bindForShading();
+    // An unshadowed light still needs a complete texture on the shadow unit: reuse its own or any.
+    glBindTextureUnit(TEX_SHADOW_MAP, c.shadowMap && !c.shadowIsCube ? c.shadowMap.id() : 0);
+    glBindTextureUnit(TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube ? c.shadowMap.id() : 0);
+    glBindVertexArray(mEmptyVao.id());
+    if (footprint && bendy) {
+        // Pixels whose samples lie in at most one segment's round cone (depth 0.25, relight_mask.frag)
+        // with the variant that solves one segment; the others (0.75) solve every segment.
+        auto single = mShaders.variant({"common_fullscreen.vert", "relight_bendy.frag"}, defines + "#define BENDY_SINGLE 1\n");
+        if (!single) return single.error();
+        glDepthRange(0.75, 0.75);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glUseProgram(single.value());
+        setRelightUniforms(output, linked, step);
+        glDepthRange(0.25, 0.25);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glDepthRange(0.0, 1.0);
+    } else {
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
+    glDisable(GL_DEPTH_TEST);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_LESS);
+    if (perSample) {
+        glBindFramebuffer(GL_FRAMEBUFFER, c.contributionFb.id());
+        glViewport(0, 0, mGBuffer.width, mGBuffer.height);
+        glUseProgram(mResolveProgram);
+        glBindTextureUnit(TEX_INPUT, mSampleRadiance.id());
+        glBindTextureUnit(TEX_PIXEL_SAMPLES, mGBuffer.pixelSamples.id());
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
+    c.hasContribution = true;
+    if (output == 0) {
+        c.previewShading = step != 1;
+        c.shadedRadiance = radiance(l);
+        c.scale = glm::vec3(1.f);
+        ++c.version;
+    }
+    return okStatus();
+}
+
+} // namespace dfb::engine

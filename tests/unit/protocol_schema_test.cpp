@@ -1,0 +1,198 @@
+// The rig schema (protocol/Schema.h) is the one source of truth for the rig's properties: the
+// docs table is generated from it, every row validates what it claims, and the cache keys the
+// engine derives from it tell every row's edits apart.
+
+#include "support/SchemaEdits.h"
+
+#include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Schema.h>
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+using namespace dfb;
+using namespace dfb::protocol;
+using json = nlohmann::json;
+
+namespace {
+
+const std::string DOCS = DFB_SOURCE_DIR "/docs/protocol.md";
+const std::string BEGIN = "<!-- schema:properties:begin -->\n", END = "<!-- schema:properties:end -->";
+
+bool editable(const Property& p) { return !p.readOnly && p.type != PropType::Keys; }
+
+Light lightOfType(LightType t) {
+    Light l;
+    l.name = "l";
+    if (t == LightType::Bendy) makeStraightChain(l, 3.f, 2);
+    l.type = t;
+    return l;
+}
+
+} // namespace
+
+TEST(Schema, DocsPropertyTableIsGeneratedFromTheSchema) {
+    std::ifstream in(DOCS);
+    ASSERT_TRUE(in) << DOCS;
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::string text = ss.str();
+    const size_t b = text.find(BEGIN), e = text.find(END);
+    ASSERT_NE(b, std::string::npos) << "docs/protocol.md lacks " << BEGIN;
+    ASSERT_NE(e, std::string::npos) << "docs/protocol.md lacks " << END;
+    const std::string table = markdownTable();
+    if (std::getenv("DFB_UPDATE_DOCS")) {
+        text = text.substr(0, b + BEGIN.size()) + table + text.substr(e);
+        std::ofstream(DOCS) << text;
+        return;
+    }
+    EXPECT_EQ(text.substr(b + BEGIN.size(), e - b - BEGIN.size()), table)
+        << "docs/protocol.md's property table differs from the schema: run DFB_UPDATE_DOCS=1 " << "build/tests/protocol_schema_test";
+}
+
+TEST(Schema, ToJsonWritesExactlyTheRowsWithValuesAndTheyRoundTrip) {
+    for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional}) {
+        Light l = lightOfType(t);
+        l.cookie = "c.png";
+        l.include = {1};
+        l.exclude = {2};
+        const json j = toJson(l);
+        std::set<std::string> rows;
+        for (const Property& p : lightProperties())
+            if (p.get && (!p.present || p.present(l))) rows.insert(p.path);
+        std::set<std::string> written;
+        for (auto it = j.begin(); it != j.end(); ++it) written.insert(it.key());
+        EXPECT_EQ(written, rows) << lightTypeName(t);
+        Rig rig;
+        rig.lights = {l};
+        auto back = rigFromJson(toJson(rig));
+        ASSERT_TRUE(back.ok()) << back.error().toString();
+        EXPECT_EQ(toJson(back->lights[0]), j) << lightTypeName(t);
+    }
+}
+
+TEST(Schema, EveryRowRefusesWrongTypesAndOutOfRangeValuesNamingThePath) {
+    for (const Property& p : lightProperties()) {
+        if (!editable(p) || p.type == PropType::String) continue;
+        SCOPED_TRACE(p.path);
+        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional}) {
+            if (!(p.appliesTo & (1u << unsigned(t)))) continue;
+            Rig rig;
+            rig.lights = {lightOfType(t)};
+            std::string path = std::string("l.") + p.path;
+            if (*p.indexOf) path.replace(path.find("[]"), 2, "[1]");
+            std::vector<json> bad = {json("x"), json::object()};
+            if (p.type == PropType::Number || p.type == PropType::Integer) bad.insert(bad.end(), {p.min - 1, p.max + 1, json()});
+            if (p.type == PropType::Vec3 || p.type == PropType::Color) bad.push_back(json{p.min - 1, 0, 0});
+            for (const json& v : bad) {
+                const Rig before = rig;
+                auto s = applyChange(rig, {path, v});
+                ASSERT_FALSE(s.ok()) << path << " = " << v.dump() << " was accepted";
+                EXPECT_NE(s.error().message.find(path), std::string::npos) << s.error().message;
+                EXPECT_EQ(toJson(rig), toJson(before)) << "a refused edit changed the rig";
+            }
+        }
+    }
+}
+
+TEST(Schema, KeyframableRowsTakeKeysAndTheOthersRefuseThem) {
+    std::mt19937 rng(7);
+    for (const Property& p : lightProperties()) {
+        if (!editable(p) || (!p.get && !*p.indexOf)) continue;
+        SCOPED_TRACE(p.path);
+        const LightType t = (p.appliesTo & APPLIES_BENDY) ? LightType::Bendy : LightType::Spot;
+        Rig rig;
+        rig.lights = {lightOfType(t)};
+        auto edit = test::randomEdit(p, rig.lights[0], rng, {});
+        if (!edit) continue;
+        auto s = applyChange(rig, {"l.key", json{{"path", edit->first}, {"t", 1.0}, {"value", edit->second}}});
+        if (p.keyframable) {
+            EXPECT_TRUE(s.ok()) << s.error().toString();
+        } else {
+            EXPECT_FALSE(s.ok()) << edit->first << " took a key";
+        }
+    }
+}
+
+TEST(Schema, EveryRowsEditChangesTheCacheKeysItsRowNames) {
+    std::mt19937 rng(11);
+    test::SchemaEditOptions opt;
+    opt.objectCount = 4;
+    opt.cookies = {"a.png", "b.png"};
+    for (const Property& p : lightProperties()) {
+        if (!editable(p) || std::string(p.path) == "name" || std::string(p.path) == "type") continue;
+        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional}) {
+            if (!(p.appliesTo & (1u << unsigned(t)))) continue;
+            SCOPED_TRACE(std::string(p.path) + " on " + lightTypeName(t));
+            Rig rig;
+            rig.lights = {lightOfType(t)};
+            rig.lights[0].coneAngleDeg = 30.f;
+            const Light before = rig.lights[0];
+            // An edit that changes the value (a few tries: a random value may equal the old one).
+            for (int tries = 0; tries < 20 && toJson(rig.lights[0]) == toJson(before); ++tries) {
+                auto edit = test::randomEdit(p, rig.lights[0], rng, opt);
+                ASSERT_TRUE(edit);
+                if (std::string(p.path) == "coneAngle") edit->second = 41.0; // across a shadow-frustum step
+                ASSERT_TRUE(applyChange(rig, {"l." + edit->first, edit->second}).ok());
+            }
+            const Light& after = rig.lights[0];
+            ASSERT_NE(toJson(after), toJson(before)) << "no edit changed the value";
+            EXPECT_EQ(sameInputs(before, after, Invalidates::Shadow), p.invalidates < Invalidates::Shadow);
+            EXPECT_EQ(sameInputs(before, after, Invalidates::Shade), p.invalidates < Invalidates::Shade);
+            EXPECT_EQ(sameInputs(before, after, Invalidates::Scale), p.invalidates < Invalidates::Scale);
+        }
+    }
+    // A spot's cone inside one 5-degree shadow-frustum step re-shades but keeps its shadow map.
+    Light a = lightOfType(LightType::Spot), b = a;
+    a.coneAngleDeg = 31.f;
+    b.coneAngleDeg = 32.f;
+    EXPECT_TRUE(sameInputs(a, b, Invalidates::Shadow));
+    EXPECT_FALSE(sameInputs(a, b, Invalidates::Shade));
+    a.type = b.type = LightType::Bendy;
+    makeStraightChain(a, 3.f, 2);
+    b.controlPoints = a.controlPoints, b.radii = a.radii, b.colors = a.colors;
+    EXPECT_FALSE(sameInputs(a, b, Invalidates::Shadow)) << "a BendyLight's deformed map follows the exact cone";
+}
+
+TEST(Schema, ServedJsonListsEveryRowWithItsRangeAndDefault) {
+    const json s = schemaJson();
+    EXPECT_EQ(s["schema"], 1);
+    ASSERT_EQ(s["light"].size(), lightProperties().size());
+    ASSERT_EQ(s["rig"].size(), rigProperties().size());
+    const Light def;
+    for (const json& row : s["light"]) {
+        const Property* p = findLightProperty(row["path"].get<std::string>() == "cp[]" ? "cp[1]"
+                                              : row["path"].get<std::string>() == "r[]" ? "r[0]"
+                                              : row["path"].get<std::string>() == "cpColor[]" ? "cpColor[0]"
+                                                                                               : row["path"].get<std::string>());
+        ASSERT_NE(p, nullptr) << row.dump();
+        if (row.contains("default")) {
+            EXPECT_EQ(row["default"], p->get(def)) << p->path;
+        }
+        EXPECT_FALSE(row["appliesTo"].empty()) << p->path;
+    }
+    EXPECT_EQ(s["light"][6]["path"], "intensity");
+    EXPECT_EQ(s["light"][6]["max"], 1e12);
+    EXPECT_EQ(s["rig"][0]["default"], 0.0);
+}
+
+TEST(Schema, PathsAreCheckedAsTheCommandLineTypesThem) {
+    EXPECT_TRUE(checkPropertyPath("key.intensity").ok());
+    EXPECT_TRUE(checkPropertyPath("exposure").ok());
+    EXPECT_TRUE(checkPropertyPath("bendy.cp[3]").ok());
+    EXPECT_FALSE(checkPropertyPath("key.intensty").ok());
+    EXPECT_FALSE(checkPropertyPath("key.warning").ok()) << "read-only";
+    EXPECT_FALSE(checkPropertyPath("key.cp[x]").ok());
+    auto c = parseAssignment("key.intensty=5");
+    ASSERT_FALSE(c.ok());
+    EXPECT_NE(c.error().message.find("intensty"), std::string::npos) << c.error().message;
+    int index = 0;
+    EXPECT_EQ(findLightProperty("cp[]", &index), nullptr);
+    EXPECT_EQ(index, -2);
+    EXPECT_EQ(findLightProperty("cp[12]", &index)->path, std::string("cp[]"));
+    EXPECT_EQ(index, 12);
+}
