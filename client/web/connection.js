@@ -9,6 +9,7 @@ import { endDrag } from "./drag.js";
 import { scheduleOverlay } from "./overlay.js";
 import { refreshUi, renderLights, renderView, setRig, updateEditable } from "./panels.js";
 import { renderClients, renderShare } from "./presence.js";
+import { setSchema } from "./rig.js";
 import { S, findLight } from "./state.js";
 import { onPick, zoomNative } from "./viewport.js";
 
@@ -99,6 +100,7 @@ function onWelcome(msg) {
   $("frame").width = msg.session.width;
   $("frame").height = msg.session.height;
   setRig(msg.rig);
+  if (!S.schemaLoaded) loadSchema().then((ok) => ok && refreshUi(true)); // the server was down when the page asked
   if (!S.fitted) { S.fitted = true; zoomNative(); }
   // A reconnect keeps this page's own view (the server starts every client on its default view).
   const view = {};
@@ -263,3 +265,19 @@ export async function api(method, resource, body, headers = {}) {
   }));
 }
 
+/**
+ * Reads GET /v1/schema (public, the same for every session) into the rig model (rig.js
+ * setSchema), where the panels' rows and the value ranges come from. True once it has; until
+ * then the model's built-in rows serve.
+ */
+export async function loadSchema() {
+  try {
+    const schema = await jsonOf(await fetch("/v1/schema"));
+    if (schema?.schema !== 1 || !Array.isArray(schema.light)) return false; // a version this page does not read
+    setSchema(schema);
+    S.schemaLoaded = true;
+    return true;
+  } catch (e) {
+    return false; // unreachable: the welcome asks again
+  }
+}

@@ -1,9 +1,9 @@
 // dfb browser client, entry point (docs/browser-client.md; the modules: docs/architecture.md).
-// Wires the buttons and keyboard shortcuts and connects. Modules only define
+// Wires the buttons and keyboard shortcuts, reads the rig schema and connects. Modules only define
 // functions when they load; everything that touches the page starts here, after the whole
 // document is parsed (module scripts are deferred).
 
-import { connect, renderStats, send } from "./connection.js";
+import { connect, loadSchema, renderStats, send } from "./connection.js";
 import { $, showMessage } from "./dom.js";
 import { addLight, canEdit, deleteLight, duplicateLight, redo, undo } from "./edits.js";
 import { scheduleOverlay } from "./overlay.js";
@@ -57,4 +57,5 @@ document.addEventListener("change", (e) => { if (e.target instanceof HTMLSelectE
 // module keeps out of the page's global scope.
 window.dfb = { S, send };
 
-connect();
+// The rig schema first (public, one small GET): the light's property rows and ranges come from it.
+loadSchema().then(connect);

@@ -8,13 +8,12 @@ import { hexToLinear, linearToHex, parseNumber } from "./format.js";
 import { V } from "./linalg.js";
 import { scheduleOverlay } from "./overlay.js";
 import { clientColor, editorsOf } from "./presence.js";
-import { NAME_RE, clone, rangeOf } from "./rig.js";
+import { NAME_RE, clone, rangeOf, schemaRows } from "./rig.js";
 import { lowerFirst, propertyRows } from "./rows.js";
 import { LAYERS, S, evaluated, findLight } from "./state.js";
 import { renderKeyWhat, renderTimeline } from "./timeline.js";
 
-const LIGHT_TYPES = [["spot", "spot"], ["point", "point"], ["bendy", "BendyLight"], ["directional", "directional"]];
-const typeLabel = (t) => LIGHT_TYPES.find(([v]) => v === t)?.[1] ?? t;
+const typeLabel = (t) => (t === "bendy" ? "BendyLight" : t);
 
 /** Takes a whole rig from the server (welcome, undo, redo, replace, re-read). */
 export function setRig(rig) {
@@ -55,7 +54,7 @@ export function renderLights() {
     en.addEventListener("click", (e) => e.stopPropagation());
     en.addEventListener("change", () => edit([{ path: `${l.name}.enabled`, value: en.checked }]));
     const name = Object.assign(document.createElement("span"), { className: "lname", textContent: l.name });
-    const type = Object.assign(document.createElement("span"), { className: "ltype", textContent: l.type === "bendy" ? "BendyLight" : l.type });
+    const type = Object.assign(document.createElement("span"), { className: "ltype", textContent: typeLabel(l.type) });
     li.append(en, name, type);
     if (l.warning) li.append(Object.assign(document.createElement("span"), { className: "warning", textContent: "⚠", title: l.warning }));
     for (const c of editorsOf(l.name)) {
@@ -112,7 +111,7 @@ function buildProps() {
     propWidgets.set("name", { update: (x) => { if (document.activeElement !== input) input.value = x.name; } });
   }
   const e = evaluated(l);
-  for (const [prop, label, unit, kind, o = {}] of propertyRows(l, S.schema)) {
+  for (const [prop, label, unit, kind, o = {}] of propertyRows(l)) {
     if (kind === "json") {
       const update = genericRow(box, label, e[prop], `${l.name}.${prop}`, (v) => setLightProp(l.name, prop, v));
       propWidgets.set(prop, { update: (x) => update(x[prop]) });
@@ -127,7 +126,7 @@ function buildProps() {
     if (kind === "type") {
       const sel = document.createElement("select");
       sel.dataset.edit = ""; sel.id = "lightType";
-      for (const v of o.values ?? LIGHT_TYPES.map(([t]) => t)) sel.append(new Option(typeLabel(v), v));
+      for (const v of o.values) sel.append(new Option(typeLabel(v), v));
       // A type this page does not know yet (a newer server) is still shown as it is.
       if (![...sel.options].some((o) => o.value === l.type)) sel.append(new Option(l.type, l.type));
       sel.value = l.type;
@@ -201,14 +200,13 @@ function buildProps() {
     propWidgets.set(prop, { update });
     box.append(row);
   }
-  // A new chain comes from the server. The schema lists exactDirection with the other rows.
-  if (l.type === "bendy" && l.controlPoints?.length) buildChain(box, l, e, !S.schema);
+  if (l.type === "bendy" && l.controlPoints?.length) buildChain(box, l, e); // a new chain comes from the server
   buildOtherProps(box, l, e);
   if (l.warning) box.append(Object.assign(div("warning"), { textContent: `⚠ ${l.warning}`, id: "lightWarning" }));
   buildLinking(box, l);
 }
 
-function buildChain(box, l, e, withExactDirection) {
+function buildChain(box, l, e) {
   const K = l.controlPoints.length / 2;
   const head = div("group");
   head.textContent = `BendyLight chain · ${K} segment${K === 1 ? "" : "s"} · control points in the light's frame (a along the axis, b, c across)`;
@@ -225,14 +223,7 @@ function buildChain(box, l, e, withExactDirection) {
     edit([{ path: `${l.name}.controlPoints`, value: cps }], { refetch: true });
   };
   delSeg.onclick = () => edit([{ path: `${l.name}.controlPoints`, value: findLight(l.name).controlPoints.slice(0, -2) }], { refetch: true });
-  const exact = Object.assign(document.createElement("input"), { type: "checkbox", checked: !!l.exactDirection, id: "prop-exactDirection" });
-  exact.dataset.edit = "";
-  exact.onchange = () => edit([{ path: `${l.name}.exactDirection`, value: exact.checked }]);
   row.append(addSeg, delSeg);
-  if (withExactDirection) {
-    row.append(Object.assign(document.createElement("label"), { textContent: "exact direction", title: "Exact flow-line tangent instead of paper eq. 9", htmlFor: "prop-exactDirection", style: "width:auto;margin-left:8px" }), exact);
-    propWidgets.set("exactDirection", { update: (x) => { exact.checked = !!x.exactDirection; } });
-  }
   box.append(row);
 
   const table = document.createElement("table");
@@ -277,11 +268,8 @@ function buildChain(box, l, e, withExactDirection) {
   });
 }
 
-// Properties this page has no dedicated widget for (a newer server's, e.g. cookies or barn doors)
-// are still shown and editable: numbers, booleans, number lists, and anything else as JSON.
-const KNOWN_PROPS = new Set(["name", "type", "enabled", "position", "direction", "color", "intensity", "coneAngle", "penumbra",
-  "shadow", "shadowMapSize", "shadowBias", "include", "exclude", "controlPoints", "radii", "colors", "exactDirection", "keys", "warning",
-  "barnDoors", "cookie"]);
+// Properties of a light the schema does not list are still shown and editable: numbers, booleans,
+// number lists, and anything else as JSON.
 function genericRow(box, label, value, path, onValue) {
   const row = div("row");
   row.append(labelEl(label));
@@ -327,8 +315,8 @@ function genericRow(box, label, value, path, onValue) {
   return update;
 }
 function buildOtherProps(box, l, e) {
-  // With a schema, every property it lists has its place (a row, the chain, the timeline, ...).
-  const known = S.schema ? new Set(S.schema.light.map((r) => r.path)) : KNOWN_PROPS;
+  // Every property the schema lists has its place (a row, the chain, the timeline, ...).
+  const known = new Set(schemaRows().light.map((r) => r.path));
   const extra = Object.keys(l).filter((k) => !known.has(k));
   if (!extra.length) return;
   box.append(Object.assign(div("group"), { textContent: "more properties" }));
@@ -351,14 +339,14 @@ function buildLinking(box, l) {
   details.append(summary);
   box.append(details);
   box = details;
-  const rowLabel = (prop, text) => lowerFirst(S.schema?.light.find((r) => r.path === prop)?.label ?? text);
-  for (const [prop, text] of [["include", "lights only"], ["exclude", "never lights"]]) {
+  const rows = schemaRows().light.filter((r) => r.type === "idList" && (!r.appliesTo || r.appliesTo.includes(l.type)));
+  for (const { path: prop, label } of rows) {
     const row = div("row");
     const sel = document.createElement("select");
     sel.multiple = true; sel.size = Math.min(4, objects.length); sel.style.flex = "1"; sel.dataset.edit = ""; sel.id = `prop-${prop}`;
     objects.forEach((o, i) => { const opt = new Option(o, String(i + 1)); opt.selected = (l[prop] || []).includes(i + 1); sel.append(opt); });
     sel.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: [...sel.selectedOptions].map((o) => Number(o.value)) }]));
-    row.append(labelEl(rowLabel(prop, text)), sel);
+    row.append(labelEl(lowerFirst(label ?? prop)), sel);
     box.append(row);
   }
   box.append(Object.assign(div("hint"), { textContent: "Ctrl-click to choose several; none chosen in 'lights only' means all objects." }));

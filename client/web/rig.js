@@ -1,8 +1,9 @@
 // The rig model on the client (docs/protocol.md "The rig"): property paths, the light frame, value
 // ranges, keyframes (insertion, interpolation, evaluation) and the optimistic application of
-// changes. Keyframe evaluation mirrors protocol::evaluateRig (protocol/src/Codec.cpp) step for step,
-// so that the panel and the handles show what the server renders; tests/web/parity.test.mjs checks
-// both on cases the C++ writes (tests/unit/protocol_parity_cases_test.cpp).
+// changes. Keyframe evaluation mirrors protocol::evaluateRig step for step
+// (protocol/src/Keyframes.cpp), so that the panel and the handles show what the server renders;
+// tests/web/parity.test.mjs checks both on cases the C++ writes
+// (tests/unit/protocol_parity_cases_test.cpp).
 // Pure: no DOM, so that node can import it (tests/web/).
 
 import { V } from "./linalg.js";
@@ -18,60 +19,70 @@ export const lightNamed = (rig, name) => rig?.lights.find((l) => l.name === name
 const f32 = Math.fround;
 
 // ---- value ranges ------------------------------------------------------------------------------
-// Rows in the format of the rig schema (path, type, validation range per component; the schema
-// the server is to serve at GET /v1/schema). These mirror protocol/src/Codec.cpp and serve until
-// setSchema() gives the server's own rows (and in node, where there is no server).
-const MAX_COORD = 1e7; // Codec.cpp MAX_COORD
+// The rig schema's rows (GET /v1/schema, docs/protocol.md; protocol/src/Schema.cpp): path, type,
+// validation range per component, the light types a row applies to. The page reads the server's
+// before it connects (main.js: setSchema); these built-in rows hold the fields this model and
+// rows.js need, for node and for a page that could not read the schema. web_parity checks that
+// they equal the server's.
+const MAX_COORD = 1e7; // Schema.cpp MAX_COORD
+const ALL = ["spot", "point", "bendy", "directional"];
+const LOCATED = ["spot", "point", "bendy"], AIMED = ["spot", "bendy", "directional"], CONED = ["spot", "bendy"];
+const BUILTIN_LIGHT_TYPES = ["spot", "point", "bendy", "directional"];
 const BUILTIN_LIGHT_ROWS = [
-  { path: "name", type: "string" },
-  { path: "type", type: "enum", values: ["spot", "point", "bendy", "directional"] },
-  { path: "enabled", type: "boolean" },
-  { path: "position", type: "vec3", min: -MAX_COORD, max: MAX_COORD },
-  { path: "direction", type: "direction", min: -MAX_COORD, max: MAX_COORD },
-  { path: "color", type: "color", min: 0, max: 1e6 },
-  { path: "intensity", type: "number", min: 0, max: 1e12 },
-  { path: "coneAngle", type: "number", min: 0.1, max: 85 },
-  { path: "penumbra", type: "number", min: 0, max: 85 },
-  { path: "shadow", type: "boolean" },
-  { path: "shadowMapSize", type: "integer", min: 64, max: 8192 },
-  { path: "shadowBias", type: "number", min: 0, max: 16 },
-  { path: "shadowFilter", type: "integer", min: 0, max: 4 },
-  { path: "barnDoors", type: "numbers", size: 4, min: 0, max: 90 },
-  { path: "cookie", type: "string" },
-  { path: "include", type: "idList" },
-  { path: "exclude", type: "idList" },
-  { path: "controlPoints", type: "points", min: -MAX_COORD, max: MAX_COORD },
-  { path: "cp[]", type: "vec3", indexOf: "controlPoints", min: -MAX_COORD, max: MAX_COORD },
-  { path: "radii", type: "numbers", min: 0, max: MAX_COORD },
-  { path: "r[]", type: "number", indexOf: "radii", min: 0, max: MAX_COORD },
-  { path: "colors", type: "points", min: 0, max: 1e6 },
-  { path: "cpColor[]", type: "color", indexOf: "colors", min: 0, max: 1e6 },
-  { path: "exactDirection", type: "boolean" },
-  { path: "keys", type: "keys" }, { path: "key", type: "keys" }, { path: "unkey", type: "keys" },
-  { path: "warning", type: "string", readOnly: true },
+  { path: "name", type: "string", appliesTo: ALL },
+  { path: "type", type: "enum", values: ["spot", "point", "directional", "bendy"], appliesTo: ALL },
+  { path: "enabled", type: "boolean", appliesTo: ALL },
+  { path: "position", type: "vec3", min: -MAX_COORD, max: MAX_COORD, appliesTo: LOCATED },
+  { path: "direction", type: "direction", min: -MAX_COORD, max: MAX_COORD, appliesTo: AIMED },
+  { path: "color", type: "color", min: 0, max: 1e6, appliesTo: ALL },
+  { path: "intensity", type: "number", min: 0, max: 1e12, appliesTo: ALL },
+  { path: "coneAngle", type: "number", min: 0.1, max: 85, appliesTo: CONED },
+  { path: "penumbra", type: "number", min: 0, max: 85, appliesTo: CONED },
+  { path: "shadow", type: "boolean", appliesTo: ALL },
+  { path: "shadowMapSize", type: "integer", min: 64, max: 8192, values: [64, 128, 256, 512, 1024, 2048, 4096, 8192], appliesTo: ALL },
+  { path: "shadowBias", type: "number", min: 0, max: 16, appliesTo: ALL },
+  { path: "shadowFilter", type: "integer", min: 0, max: 4, appliesTo: ALL },
+  { path: "barnDoors", type: "numbers", size: 4, min: 0, max: 90, appliesTo: ["spot"] },
+  { path: "cookie", type: "string", appliesTo: ["spot"] },
+  { path: "include", type: "idList", appliesTo: ALL },
+  { path: "exclude", type: "idList", appliesTo: ALL },
+  { path: "controlPoints", type: "points", min: -MAX_COORD, max: MAX_COORD, appliesTo: ["bendy"] },
+  { path: "cp[]", type: "vec3", indexOf: "controlPoints", min: -MAX_COORD, max: MAX_COORD, appliesTo: ["bendy"] },
+  { path: "radii", type: "numbers", min: 0, max: MAX_COORD, appliesTo: ["bendy"] },
+  { path: "r[]", type: "number", indexOf: "radii", min: 0, max: MAX_COORD, appliesTo: ["bendy"] },
+  { path: "colors", type: "colors", min: 0, max: 1e6, appliesTo: ["bendy"] },
+  { path: "cpColor[]", type: "color", indexOf: "colors", min: 0, max: 1e6, appliesTo: ["bendy"] },
+  { path: "exactDirection", type: "boolean", appliesTo: ["bendy"] },
+  { path: "keys", type: "keys", appliesTo: ALL },
+  { path: "key", type: "keys", appliesTo: ALL },
+  { path: "unkey", type: "keys", appliesTo: ALL },
+  { path: "warning", type: "string", readOnly: true, appliesTo: ALL },
 ];
 const BUILTIN_RIG_ROWS = [
   { path: "exposure", type: "number", min: -20, max: 20 },
-  { path: "viewTransform", type: "enum", values: ["srgb", "filmic"] },
   { path: "time", type: "number" },
+  { path: "viewTransform", type: "enum", values: ["srgb", "filmic"] },
 ];
+let lightTypeList = BUILTIN_LIGHT_TYPES;
 let lightRows = new Map(BUILTIN_LIGHT_ROWS.map((r) => [r.path, r]));
 let rigRows = new Map(BUILTIN_RIG_ROWS.map((r) => [r.path, r]));
 
-/** Uses the rows of a schema ({light: [ROW], rig: [ROW]}) from now on. */
+/** Uses the rows of a schema ({lightTypes, light: [ROW], rig: [ROW]}, as GET /v1/schema) from now on. */
 export function setSchema(schema) {
   if (Array.isArray(schema?.light)) lightRows = new Map(schema.light.map((r) => [r.path, r]));
   if (Array.isArray(schema?.rig)) rigRows = new Map(schema.rig.map((r) => [r.path, r]));
+  if (Array.isArray(schema?.lightTypes)) lightTypeList = schema.lightTypes;
 }
-/** The rows in use (the server's after setSchema, else the built-in ones). */
-export const schemaRows = () => ({ light: [...lightRows.values()], rig: [...rigRows.values()] });
-export const builtinRows = () => ({ light: BUILTIN_LIGHT_ROWS, rig: BUILTIN_RIG_ROWS });
+/** The schema in use (the server's after setSchema, else the built-in rows), in its row order. */
+export const schemaRows = () => ({ lightTypes: lightTypeList, light: [...lightRows.values()], rig: [...rigRows.values()] });
+export const builtinRows = () => ({ lightTypes: BUILTIN_LIGHT_TYPES, light: BUILTIN_LIGHT_ROWS, rig: BUILTIN_RIG_ROWS });
 
 /** The row of a light property ("intensity"; "cp[3]" -> the "cp[]" row), or null. */
 export function lightRow(prop) {
   const [base, index] = splitIndex(prop);
   if (index === -2) return null;
-  return lightRows.get(index >= 0 ? `${base}[]` : base) ?? null;
+  const row = lightRows.get(index >= 0 ? `${base}[]` : base);
+  return row && !!row.indexOf === index >= 0 ? row : null;
 }
 export const rigRow = (path) => rigRows.get(path) ?? null;
 /** {min, max} of a property per component, or the widest a number may be where it has none. */
@@ -84,7 +95,7 @@ export function rangeOf(prop, rig = false) {
 
 /**
  * "cp[3]" -> ["cp", 3]; no index -> [prop, -1]; a malformed index -> [base, -2], refused as
- * Codec.cpp's splitIndex refuses it: anything but 1-3 ASCII digits between "[" and a final "]"
+ * the server's findLightProperty (Schema.cpp) refuses it: anything but 1-3 ASCII digits between "[" and a final "]"
  * ("cp[]", "cp[x]", "cp[-1]", "cp[1.5]", "cp[1000]", "cp[1", "cp[1]x", "cp[1][2]").
  */
 export function splitIndex(prop) {
@@ -97,21 +108,21 @@ export function splitIndex(prop) {
   return [base, Number(digits)];
 }
 
-const INDEXED = new Set(["cp", "r", "cpColor"]);
+// The properties whose setters need a chain (Schema.cpp needsChain): BendyLights only.
 const CHAIN = new Set(["controlPoints", "radii", "colors", "cp", "r", "cpColor"]);
 const RIG_LEVEL = new Set(["exposure", "time", "viewTransform"]);
 
 /**
  * Why the server would refuse `prop` as a property of a light whatever the value, or null:
- * a malformed index, an index on a property that takes none, an unknown property (Codec.cpp
+ * a malformed index, an index on a property that takes none, an unknown property (Edits.cpp
  * setLightProperty; element indices are checked against the chain when a value is set).
  */
 export function checkLightProp(prop) {
   const [base, index] = splitIndex(prop);
   if (index === -2) return `${prop}: malformed index (expected NAME[integer])`;
-  if (index >= 0 && !INDEXED.has(base)) return `${prop}: '${base}' takes no index`;
-  if (!lightRow(prop)) return `${prop}: unknown light property '${prop}'`;
-  return null;
+  if (lightRow(prop)) return null;
+  if (index >= 0 && lightRows.get(base) && !lightRows.get(base).indexOf) return `${prop}: '${base}' takes no index`;
+  return `${prop}: unknown light property '${prop}'`;
 }
 
 /**
@@ -181,7 +192,7 @@ export const worldToFrame = (l, f, p) => { const d = V.sub(p, l.position); retur
 
 /**
  * Adds `key` ({t, value, interp}) to the time-sorted `keys`, replacing a key at exactly the same
- * time (Codec.cpp insertKey: equal times only; a key 1e-12 s later is a second key).
+ * time (Keyframes.cpp insertKey: equal times only; a key 1e-12 s later is a second key).
  */
 export function insertKey(keys, key) {
   const i = keys.findIndex((k) => k.t >= key.t);
@@ -189,7 +200,7 @@ export function insertKey(keys, key) {
   else if (i >= 0) keys.splice(i, 0, key);
   else keys.push(key);
 }
-/** Removes the keys of `prop` within 1e-9 s of t (Codec.cpp unkey); drops an emptied list. */
+/** Removes the keys of `prop` within 1e-9 s of t (Keyframes.cpp unkey); drops an emptied list. */
 export function removeKey(l, prop, t) {
   const ks = l.keys?.[prop];
   if (!ks) return;
@@ -198,7 +209,7 @@ export function removeKey(l, prop, t) {
 }
 
 // Catmull-Rom on scalars: p1 at s = 0, p2 at s = 1, with the neighbours p0, p3 (non-uniform in
-// time: tangents from the neighbours' time spacing). Term for term as Codec.cpp, so that both
+// time: tangents from the neighbours' time spacing). Term for term as Keyframes.cpp, so that both
 // round alike.
 export function catmullRom(p0, p1, p2, p3, t0, t1, t2, t3, s) {
   const dt = t2 - t1;
@@ -273,7 +284,7 @@ export function setKeyedValue(l, prop, v, fromKey = false) {
       l.radii = v.map(f32);
     } else {
       // controlPoints, colors: lists of [x, y, z], never a key's value (keys hold numbers or
-      // flat arrays of numbers: Codec.cpp keyFromJson), so the server refuses what a key holds.
+      // flat arrays of numbers: Keyframes.cpp keyFromJson), so the server refuses what a key holds.
       return refuse("expected a list of [x, y, z]");
     }
     return null;
@@ -297,7 +308,7 @@ export function setKeyedValue(l, prop, v, fromKey = false) {
     return null;
   case "direction": {
     if (!isVec(v, 3, lo, hi)) return refuse("expected [x, y, z] in range");
-    // In floats, as Codec.cpp: already-unit directions are kept bit for bit.
+    // In floats, as Schema.cpp setDirection: already-unit directions are kept bit for bit.
     const a = v.map(f32);
     const len = f32(Math.sqrt(f32(f32(f32(a[0] * a[0]) + f32(a[1] * a[1])) + f32(a[2] * a[2]))));
     if (!(len > f32(1e-12)) || !Number.isFinite(len)) return refuse("direction must not be zero");

@@ -1,14 +1,16 @@
-// The rows of the selected light's property panel (panels.js builds a widget for each): from the
-// rig schema the server serves (GET /v1/schema) when the page has it, else the page's own list.
-// Each row is a descriptor [prop, label, unit, kind, options]; kinds: type, bool, choice
-// (options.values), color, text, vec (options.names: one number per component), slider (with
-// typed entry), number (typed entry), json (anything else).
+// The rows of the selected light's property panel (panels.js builds a widget for each), from the
+// rig schema's light rows (GET /v1/schema, as rig.js holds them). Each row is a descriptor
+// [prop, label, unit, kind, options]; kinds: type, bool, choice (options.values), color, text,
+// vec (options.names: one number per component), slider (with typed entry), number (typed
+// entry), json (anything else).
 // Pure: no DOM, so that node can import it (tests/web/).
+
+import { schemaRows } from "./rig.js";
 
 // Names of the components of fixed-size number lists (the schema gives their number only).
 const COMPONENTS = { barnDoors: ["left", "right", "top", "bottom"] };
 // A slider's upper end bounded by another property: the server refuses a penumbra wider than the
-// cone (Codec.cpp), which a row's own range cannot say.
+// cone (Schema.cpp setPenumbra), which a row's own range cannot say.
 const BOUNDED_BY = { penumbra: "coneAngle" };
 // Rows not listed with the others: edited in a field of their own (name), in the chain table and
 // with the handles (chain lists and elements), on the timeline (keys), in the linking section, or
@@ -23,39 +25,21 @@ function shortUnit(unit = "", type) {
   return { "scene units": "u", degrees: "°", "shadow-map texels": "texels", "linear RGB": "linear" }[unit] ?? unit;
 }
 
-
-// The page's own rows, for a server without a schema.
-function builtinRows(l) {
-  const unitI = l.type === "directional" ? "lux" : "cd";
-  const rows = [["type", "type", "", "type"], ["enabled", "enabled", "", "bool"], ["color", "colour", "linear", "color"],
-                ["intensity", "intensity", unitI, "slider", { min: 0, max: 1e12, smax: Math.max(10, l.intensity * 4), log: true }]];
-  if (l.type !== "directional") rows.push(["position", "position", "u", "vec", { min: -1e7, max: 1e7, names: ["x", "y", "z"] }]);
-  if (l.type !== "point") rows.push(["direction", "direction", "", "vec", { min: -1e7, max: 1e7, names: ["x", "y", "z"] }]);
-  if (l.type === "spot" || l.type === "bendy") {
-    rows.push(["coneAngle", "cone angle", "°", "slider", { min: 0.1, max: 85 }]);
-    rows.push(["penumbra", "penumbra", "°", "slider", { min: 0, max: 85, smax: l.coneAngle }]);
-  }
-  if (l.type === "spot" && "barnDoors" in l) rows.push(["barnDoors", "barn doors", "°", "vec", { min: 0, max: 90, names: COMPONENTS.barnDoors }]);
-  // The rig omits an empty cookie; a server with barn doors has cookies too.
-  if (l.type === "spot" && ("cookie" in l || "barnDoors" in l)) rows.push(["cookie", "cookie", "", "text", { title: "An image in the server's asset folder projected across the cone; empty for none" }]);
-  rows.push(["shadow", "shadow", "", "bool"]);
-  rows.push(["shadowMapSize", "shadow map", "texels", "choice", { values: [64, 128, 256, 512, 1024, 2048, 4096, 8192] }]);
-  rows.push(["shadowBias", "shadow bias", "texels", "slider", { min: 0, max: 16 }]);
-  return rows;
-}
-
-// The descriptors from the server's schema (GET /v1/schema): its light rows that apply to the
-// light's type, in the schema's order, with its labels, units and ranges. Sliders span the row's
-// uiMin..uiMax (stretched to show a value beyond it), on a log scale where that spans four
-// decades of the row's step (intensities).
-function schemaRows(l, schema) {
+/**
+ * The panel's rows for light `l`: the schema's light rows that apply to its type, in the schema's
+ * order, with their labels, units and ranges. Sliders span a row's uiMin..uiMax (stretched to
+ * show a value beyond it), on a log scale where that spans four decades of the row's step
+ * (intensities); rows without a ui range get a typed entry only.
+ */
+export function propertyRows(l) {
+  const schema = schemaRows();
   const rows = [];
   for (const r of schema.light) {
     if ((r.appliesTo && !r.appliesTo.includes(l.type)) || skipRow(r)) continue;
     const label = lowerFirst(r.label ?? r.path), unit = shortUnit(r.unit, l.type);
     const o = { min: r.min ?? -1e12, max: r.max ?? 1e12, title: r.doc ?? "", integer: r.type === "integer" };
     const ui = typeof r.uiMin === "number" && typeof r.uiMax === "number" && r.uiMax > r.uiMin;
-    if (r.path === "type") rows.push([r.path, label, "", "type", { values: schema.lightTypes ?? r.values }]);
+    if (r.path === "type") rows.push([r.path, label, "", "type", { values: schema.lightTypes }]);
     else if (r.type === "boolean") rows.push([r.path, label, unit, "bool", o]);
     else if (r.values) rows.push([r.path, label, unit, "choice", { ...o, values: r.values }]);
     else if (r.type === "number" || r.type === "integer") {
@@ -74,8 +58,3 @@ function schemaRows(l, schema) {
   return rows;
 }
 
-/**
- * The panel's rows for light `l`: descriptors [prop, label, unit, kind, options] (see above) from
- * `schema` (GET /v1/schema) when given, else the page's own.
- */
-export const propertyRows = (l, schema) => (schema ? schemaRows(l, schema) : builtinRows(l));

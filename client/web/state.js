@@ -19,6 +19,7 @@ export const S = {
   live: { inFlight: false, queued: null }, // one live (drag/slider) edit in flight, the newest queued
   drag: null, gesture: null, zoom: 1, panX: 0, panY: 0, fitted: false, showHandles: true,
   pickResult: null, timeEnd: 4, refetchTimer: null,
+  schemaLoaded: false, // GET /v1/schema read into rig.js (connection.js loadSchema)
 };
 
 // The G-buffer layers the server shows as images (gbuffer/src/LayerImage.cpp, dfb-bake --layer).

@@ -1,6 +1,7 @@
 // Browser tests of the web client (issue 7) in real headless Chromium (Debian's /usr/bin/chromium,
 // driven by playwright-core) against a real dfb-server over loopback:
-//   the page loads the stream; typed input is checked and server errors are shown verbatim;
+//   the page loads the stream; typed input is checked and server errors are shown verbatim; the
+//   light's rows are the schema's;
 //   dragging a BendyLight control point moves it in the image plane (and Shift in depth), changing
 //   the image and the rig; an edit from a second browser appears in the first, with presence;
 //   a viewer cannot edit; picking; undo/redo; keyframes and scrubbing; after the server restarts
@@ -284,6 +285,26 @@ try {
     assert(rig.lights.some((l) => l.name === "key"), "key was renamed");
     await a.waitForFunction(() => document.getElementById("lightName").value === "key", null, WAIT);
     await shot(a, "02-input-errors.png");
+  });
+
+  await check("the light's property rows are the server's schema rows for its type (GET /v1/schema)", async () => {
+    const res = await fetch(new URL("/v1/schema", server.base));
+    assert(res.ok, `GET /v1/schema: HTTP ${res.status}`);
+    const schema = await res.json();
+    await a.click('#lights li[data-light="key"] .lname'); // a spot light
+    const ids = await a.$$eval("#props [id]", (els) => els.map((e) => e.id));
+    const shown = (p) => ids.some((id) => id === `prop-${p}` || id.startsWith(`prop-${p}-`) || id === `slider-${p}`);
+    // Not in the rows: edited elsewhere (name and type have fields of their own, keys the
+    // timeline, chain lists and elements the chain table and handles) or set by the server.
+    const listed = schema.light.filter((r) => !r.readOnly && !r.indexOf && !["keys", "points", "colors"].includes(r.type) &&
+                                              !(r.type === "numbers" && !r.size) && r.path !== "name" && r.path !== "type");
+    for (const r of listed) {
+      assert(shown(r.path) === r.appliesTo.includes("spot"), `${r.path} (applies to ${r.appliesTo}) ${shown(r.path) ? "shown" : "missing"} for a spot light`);
+    }
+    const labels = await a.$$eval("#props .row > label:first-child", (els) => els.map((e) => e.textContent.replace(" ◆", "")));
+    for (const r of listed.filter((r) => r.appliesTo.includes("spot") && r.type !== "idList")) {
+      assert(labels.includes(r.label.charAt(0).toLowerCase() + r.label.slice(1)), `no row labelled '${r.label}' (labels: ${labels})`);
+    }
   });
 
   await check("dragging a BendyLight control point moves it in the image plane and changes the image", async () => {

@@ -1,12 +1,14 @@
 // Cases for the browser's mirror of the rig model (client/web/rig.js): keyframed lights evaluated
-// by protocol::evaluateRig at times before, at, between and after their keys, and the light frame
-// dfb::lightFrame gives for directions around the near-vertical switch of its up vector. They are
-// written to DFB_TEST_DATA/protocol_parity_cases.json; tests/web/parity.test.mjs (CTest
-// web_parity, which requires this test's fixture) checks that the JavaScript gives the same values.
+// by protocol::evaluateRig at times before, at, between and after their keys, the light frame
+// dfb::lightFrame gives for directions around the near-vertical switch of its up vector, and the
+// rig schema (GET /v1/schema) the page takes its rows from. They are written to
+// DFB_TEST_DATA/protocol_parity_cases.json; tests/web/parity.test.mjs (CTest web_parity, which
+// requires this test's fixture) checks that the JavaScript gives the same values.
 // The page shows keyed values and places handles with its own copy of the math, so a difference
 // would show the artist something else than the server renders.
 
 #include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Schema.h>
 #include <dfb/server/BendyChain.h>
 
 #include <gtest/gtest.h>
@@ -133,7 +135,7 @@ json vecJson(const glm::dvec3& v) { return json{v.x, v.y, v.z}; }
 
 TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
     json out{{"about", "written by tests/unit/protocol_parity_cases_test.cpp; read by tests/web/parity.test.mjs"},
-             {"keyframes", json::array()}, {"lightFrames", json::array()}};
+             {"keyframes", json::array()}, {"lightFrames", json::array()}, {"schema", protocol::schemaJson()}};
     for (const KeyCase& c : keyCases()) {
         auto rig = protocol::rigFromJson(json{{"lights", {c.light}}});
         ASSERT_TRUE(rig.ok()) << c.name << ": " << rig.error().toString();

@@ -1,5 +1,5 @@
 // The browser's rig model (client/web/rig.js) in node: property paths refused as the server's
-// codec refuses them (protocol/src/Codec.cpp), key insertion, interpolation values worked out by
+// schema refuses them (findLightProperty, protocol/src/Schema.cpp), key insertion, interpolation values worked out by
 // hand, evaluation (refused values skipped, as protocol::evaluateRig does), optimistic changes.
 // The values the C++ itself gives are checked by parity.test.mjs.
 
@@ -26,7 +26,7 @@ describe("property paths", () => {
     assert.deepEqual(splitIndex("r[999]"), ["r", 999]);
     assert.deepEqual(splitIndex("cp[01]"), ["cp", 1]); // std::stoi("01"): the server reads it as 1
   });
-  test("a malformed index is refused, as Codec.cpp refuses it", () => {
+  test("a malformed index is refused, as the server refuses it", () => {
     for (const p of ["cp[]", "cp[x]", "cp[-1]", "cp[1.5]", "cp[1000]", "cp[1", "cp[1]x", "cp[1][2]", "cp[ 1]", "cp[1 ]", "cp[+1]",
                      "cp[１]", "cp[٣]", "cp[0x1]", "cp[1e2]", "["]) {
       assert.equal(splitIndex(p)[1], -2, p);
@@ -37,6 +37,8 @@ describe("property paths", () => {
     assert.match(checkLightProp("intensity[0]"), /'intensity' takes no index/);
     assert.match(checkLightProp("controlPoints[1]"), /takes no index/);
     assert.match(checkLightProp("intensty"), /unknown light property/);
+    assert.match(checkLightProp("foo[1]"), /unknown light property/);
+    assert.match(checkLightProp("cp"), /unknown light property/); // only its elements: cp[i]
     for (const p of ["cp[0]", "cp[16]", "r[0]", "cpColor[4]", "intensity", "keys", "key", "unkey", "barnDoors"]) assert.equal(checkLightProp(p), null, p);
   });
   test("paths split at the first dot; rig-level names stand alone", () => {
@@ -69,7 +71,7 @@ describe("property paths", () => {
     assert.deepEqual(rangeOf("exposure", true), { min: -20, max: 20 });
     const saved = schemaRows();
     try {
-      setSchema({ light: [{ path: "intensity", type: "number", min: 1, max: 2 }], rig: [] });
+      setSchema({ lightTypes: ["spot"], light: [{ path: "intensity", type: "number", min: 1, max: 2 }], rig: [] });
       assert.deepEqual(rangeOf("intensity"), { min: 1, max: 2 });
       assert.match(checkLightProp("coneAngle"), /unknown light property/);
     } finally {
@@ -89,7 +91,7 @@ describe("keys", () => {
     assert.deepEqual(ks.map((x) => x.t), [0, 1, 2, 3]);
     insertKey(ks, k(2, 99, "smooth"));
     assert.deepEqual(ks.map((x) => [x.t, x.value, x.interp]), [[0, 5, "linear"], [1, 10, "linear"], [2, 99, "smooth"], [3, 30, "linear"]]);
-    // Equal means equal (Codec.cpp insertKey): a key 1e-12 s later is another key, after it.
+    // Equal means equal (Keyframes.cpp insertKey): a key 1e-12 s later is another key, after it.
     insertKey(ks, k(2 + 1e-12, 7));
     assert.deepEqual(ks.map((x) => x.value), [5, 10, 99, 7, 30]);
   });
@@ -132,7 +134,7 @@ describe("keys", () => {
   test("mismatched values hold the earlier key's value", () => {
     assert.equal(interpolateKeys([k(0, 3), k(1, [1, 2, 3])], 0.5), 3);
     assert.deepEqual(interpolateKeys([k(0, [1, 2]), k(1, [1, 2, 3])], 0.5), [1, 2]);
-    // A neighbour of another length is replaced by the segment's own key, as in Codec.cpp.
+    // A neighbour of another length is replaced by the segment's own key, as in Keyframes.cpp.
     const ks = [k(0, [0, 0, 0, 0], "smooth"), k(1, [0, 0, 0], "smooth"), k(2, [2, 4, 6], "smooth"), k(3, [9, 9, 9, 9], "smooth")];
     assert.deepEqual(interpolateKeys(ks, 1.5), [1, 2, 3]);
   });

@@ -1,9 +1,10 @@
 // The light panel's rows (client/web/rows.js) in node: built from a rig schema in the format of
-// GET /v1/schema (docs/protocol.md), or the page's own list without one.
+// GET /v1/schema (docs/protocol.md), or from the rig model's built-in rows without one.
 
 import assert from "node:assert/strict";
-import { describe, test } from "node:test";
+import { after, before, describe, test } from "node:test";
 
+import { builtinRows, setSchema } from "../../client/web/rig.js";
 import { propertyRows } from "../../client/web/rows.js";
 
 const ALL = ["spot", "point", "bendy", "directional"];
@@ -40,18 +41,20 @@ const light = (type) => ({ name: "l", type, intensity: 50, coneAngle: 20, penumb
 const byPath = (rows) => Object.fromEntries(rows.map(([p, label, unit, kind, o]) => [p, { label, unit, kind, o }]));
 
 describe("rows from the schema", () => {
+  before(() => setSchema(schema));
+  after(() => setSchema(builtinRows()));
   test("rows that apply to the light's type, in the schema's order; the rest are edited elsewhere", () => {
-    assert.deepEqual(propertyRows(light("spot"), schema).map((r) => r[0]),
+    assert.deepEqual(propertyRows(light("spot")).map((r) => r[0]),
                      ["type", "enabled", "position", "direction", "color", "intensity", "coneAngle", "penumbra", "shadowMapSize",
                       "shadowFilter", "lensShift", "barnDoors", "cookie", "gobo"]);
-    assert.deepEqual(propertyRows(light("point"), schema).map((r) => r[0]),
+    assert.deepEqual(propertyRows(light("point")).map((r) => r[0]),
                      ["type", "enabled", "position", "color", "intensity", "shadowMapSize", "shadowFilter", "lensShift", "gobo"]);
-    assert.deepEqual(propertyRows(light("bendy"), schema).map((r) => r[0]),
+    assert.deepEqual(propertyRows(light("bendy")).map((r) => r[0]),
                      ["type", "enabled", "position", "direction", "color", "intensity", "coneAngle", "penumbra", "shadowMapSize",
                       "shadowFilter", "lensShift", "exactDirection", "gobo"]);
   });
   test("widgets, labels and units follow the row's type", () => {
-    const r = byPath(propertyRows(light("spot"), schema));
+    const r = byPath(propertyRows(light("spot")));
     assert.deepEqual(r.type.o.values, ALL); // the schema's order of light types
     assert.equal(r.enabled.kind, "bool");
     assert.deepEqual([r.position.kind, r.position.o.names, r.position.unit, r.position.o.min], ["vec", ["x", "y", "z"], "u", -1e7]);
@@ -64,25 +67,29 @@ describe("rows from the schema", () => {
     assert.equal(r.gobo.kind, "json");
   });
   test("intensity: lux for a directional light, cd for the others", () => {
-    assert.equal(byPath(propertyRows(light("spot"), schema)).intensity.unit, "cd");
-    assert.equal(byPath(propertyRows(light("directional"), schema)).intensity.unit, "lux");
+    assert.equal(byPath(propertyRows(light("spot"))).intensity.unit, "cd");
+    assert.equal(byPath(propertyRows(light("directional"))).intensity.unit, "lux");
   });
   test("sliders: the row's ui range, log where it spans four decades of its step, integers stepped", () => {
-    const r = byPath(propertyRows(light("spot"), schema));
+    const r = byPath(propertyRows(light("spot")));
     assert.deepEqual([r.intensity.kind, r.intensity.o.log, r.intensity.o.smin, r.intensity.o.smax, r.intensity.o.max], ["slider", true, 0, 1000, 1e12]);
     assert.deepEqual([r.coneAngle.o.log, r.coneAngle.o.smin, r.coneAngle.o.smax, r.coneAngle.o.min], [false, 1, 85, 0.1]);
     assert.deepEqual([r.shadowFilter.kind, r.shadowFilter.o.integer, r.shadowFilter.o.smax], ["slider", true, 4]);
     // The penumbra's slider ends at the cone (the server refuses a wider one).
     assert.equal(r.penumbra.o.smax, 20);
     // A value beyond the ui range stretches the slider rather than pinning its knob.
-    assert.equal(byPath(propertyRows({ ...light("spot"), intensity: 5000 }, schema)).intensity.o.smax, 5000);
+    assert.equal(byPath(propertyRows({ ...light("spot"), intensity: 5000 })).intensity.o.smax, 5000);
   });
 });
 
-test("without a schema, the page's own rows", () => {
-  const spot = propertyRows(light("spot"), null).map((r) => r[0]);
-  assert.deepEqual(spot, ["type", "enabled", "color", "intensity", "position", "direction", "coneAngle", "penumbra", "barnDoors",
-                          "cookie", "shadow", "shadowMapSize", "shadowBias"]);
-  const point = propertyRows(light("point"), null).map((r) => r[0]);
-  assert.ok(!point.includes("direction") && !point.includes("coneAngle"), point.join());
+test("without the server's schema, the built-in rows: the same rows by type, named by path", () => {
+  setSchema(builtinRows());
+  assert.deepEqual(propertyRows(light("spot")).map((r) => r.slice(0, 2)),
+                   [["type", "type"], ["enabled", "enabled"], ["position", "position"], ["direction", "direction"], ["color", "color"],
+                    ["intensity", "intensity"], ["coneAngle", "coneAngle"], ["penumbra", "penumbra"], ["shadow", "shadow"],
+                    ["shadowMapSize", "shadowMapSize"], ["shadowBias", "shadowBias"], ["shadowFilter", "shadowFilter"],
+                    ["barnDoors", "barnDoors"], ["cookie", "cookie"]]);
+  const point = propertyRows(light("point")).map((r) => r[0]);
+  assert.ok(!point.includes("direction") && !point.includes("coneAngle") && !point.includes("barnDoors"), point.join());
+  assert.ok(propertyRows(light("bendy")).some((r) => r[0] === "exactDirection"));
 });
