@@ -47,12 +47,16 @@ template <typename T> T inverseSquare(T dist2) { return T(1) / std::max(dist2, T
 template <typename T> struct SpotFrame {
     vec3<T> axis, right, up;
 };
+/// The one light frame of the product: the engine's shadow frusta, barn doors and cookies, the
+/// BendyLight's control-point frame (uL = axis, vL = up, wL = right; BendyChain.h lightFrame) and
+/// the browser's mirror (tested against values this writes) all use it.
+template <typename T> vec3<T> frameUpHint(const vec3<T>& axis) {
+    return std::abs(axis.y) > T(0.99) ? vec3<T>(T(1), T(0), T(0)) : vec3<T>(T(0), T(1), T(0));
+}
 template <typename T> SpotFrame<T> spotFrame(const vec3<T>& direction) {
     SpotFrame<T> f;
     f.axis = glm::normalize(direction);
-    vec3<T> up(T(0), T(1), T(0));
-    if (std::abs(glm::dot(up, f.axis)) > T(0.99)) up = vec3<T>(T(1), T(0), T(0));
-    f.right = glm::normalize(glm::cross(f.axis, up));
+    f.right = glm::normalize(glm::cross(f.axis, frameUpHint(f.axis)));
     f.up = glm::cross(f.right, f.axis);
     return f;
 }
