@@ -41,7 +41,9 @@ vec3 evaluateBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, float metallic, float 
     float NdotV = max(dot(N, V), 1e-4);
     vec3 H = normalize(L + V);
     float NdotH = max(dot(N, H), 0.0);
-    float VdotH = max(dot(V, H), 0.0);
+    // Clamped to 1 as well: for L == V (a light at the eye) rounding can make dot(V, H) exceed 1,
+    // and pow(x, 5.0) is undefined for x < 0 (NaN on llvmpipe; lightmath_parity_test).
+    float VdotH = clamp(dot(V, H), 0.0, 1.0);
     float alpha = max(roughness * roughness, 1e-3);
     vec3 f0 = mix(vec3(0.08 * specular), albedo, metallic);
     vec3 F = fresnelSchlick(f0, VdotH);
@@ -61,11 +63,12 @@ float visibilityNeubelt(float NdotL, float NdotV) {
     return clamp(1.0 / (4.0 * (NdotL + NdotV - NdotL * NdotV)), 0.0, 1.0);
 }
 
-// The full layered BRDF times cos (glTF spec Appendix B and the sheen and clearcoat extensions):
+// The full layered BRDF times cos (glTF spec Appendix B and the sheen and clearcoat extensions;
+// mirrored by server/include/dfb/lightmath/Brdf.h, which lists where this differs from them):
 //   f = coat(F_c) + (1 - coat * F_c) * (sheen + (1 - sheenAlbedoScaling) * base)
 // with the sheen albedo scaling approximated by max(sheenColor) (KHR_materials_sheen's
 // simplest energy-conservation form) and the clear coat a GGX lobe with F0 = 0.04 over the
-// geometric shading normal.
+// shading normal N (the G-buffer has no clear-coat normal).
 vec3 evaluateLayeredBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, vec4 brdf, vec4 sheen, vec2 coat) {
     float NdotL = dot(N, L);
     if (NdotL <= 0.0) return vec3(0.0);
@@ -81,7 +84,7 @@ vec3 evaluateLayeredBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, vec4 brdf, vec4
     }
     if (SHADE_COAT && coat.x > 0.0) {
         float alpha = max(coat.y * coat.y, 1e-3);
-        float VdotH = max(dot(V, H), 0.0);
+        float VdotH = clamp(dot(V, H), 0.0, 1.0); // as in evaluateBrdfCos
         float Fc = 0.04 + 0.96 * pow(1.0 - VdotH, 5.0);
         float fc = Fc * distributionGGX(NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha);
         base = base * (1.0 - coat.x * Fc) + vec3(coat.x * fc * NdotL);

@@ -1,15 +1,18 @@
 #include <dfb/server/BendyChain.h>
 
+#include <dfb/lightmath/Falloff.h>
+
 #include <cstdio>
 #include <vector>
 
 namespace dfb {
 
 void lightFrame(const Light& light, glm::dvec3& uL, glm::dvec3& vL, glm::dvec3& wL) {
-    uL = glm::normalize(glm::dvec3(light.direction[0], light.direction[1], light.direction[2]));
-    const glm::dvec3 up = std::abs(uL.y) < 0.99 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
-    wL = glm::normalize(glm::cross(uL, up));
-    vL = glm::cross(wL, uL);
+    // lightmath::spotFrame: (axis, up, right) is (uL, vL, wL).
+    const auto f = lightmath::spotFrame<double>(glm::dvec3(light.direction[0], light.direction[1], light.direction[2]));
+    uL = f.axis;
+    vL = f.up;
+    wL = f.right;
 }
 
 std::string chainWarning(const Light& light) {

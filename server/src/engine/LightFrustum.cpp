@@ -1,5 +1,6 @@
 #include "LightFrustum.h"
 
+#include <dfb/lightmath/Falloff.h>
 #include <dfb/protocol/Schema.h>
 
 #include <dfb/server/BendyChain.h>
@@ -24,10 +25,7 @@ float texelPerDistance(const Light& l, int mapSize) {
     return 2.f * std::tan(0.5f * shadowFovyRad(l)) / float(std::max(mapSize, 1));
 }
 
-glm::vec3 frustumUp(const glm::vec3& axis) {
-    const glm::vec3 up(0, 1, 0);
-    return std::abs(glm::dot(up, axis)) > 0.99f ? glm::vec3(1, 0, 0) : up;
-}
+glm::vec3 frustumUp(const glm::vec3& axis) { return lightmath::frameUpHint(axis); }
 
 // Near/far from the scene's bounds seen from the light: tight planes keep depth precision.
 glm::vec2 perspectiveDepthRange(const glm::vec3& position, const Box& scene, float reach) {

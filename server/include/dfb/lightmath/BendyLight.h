@@ -11,6 +11,8 @@
 // last control point the tube continues as a straight cone along the end tangent with the end
 // radius slope ("extension", segment index K), so the light reaches the whole scene.
 
+#include <dfb/lightmath/Scalar.h>
+
 #include <glm/glm.hpp>
 
 #include <algorithm>
@@ -19,13 +21,9 @@
 
 namespace dfb::lightmath {
 
-template <typename T> using vec3 = glm::vec<3, T, glm::defaultp>;
-
 /// Most segments a chain may have. Bounds the uniform block (common_bendy.glsl, BENDY_MAX_SEGMENTS).
 constexpr int MAX_SEGMENTS = 8;
 constexpr int MAX_CONTROL_POINTS = 2 * MAX_SEGMENTS + 1;
-
-template <typename T> T saturate(T x) { return x < T(0) ? T(0) : (x > T(1) ? T(1) : x); }
 
 /// A BendyLight's chain with the derived quantities prepareChain() computes. Plain data: the GPU
 /// receives the same numbers (BendyBlock in server/src/engine/GpuInterface.h).
