@@ -4,7 +4,7 @@
 
 // Normalising divides by the square root of the dot product, as glm::normalize does
 // (v * inversesqrt(dot(v, v))), so that the light frame here and in the server
-// (server/src/engine/BendyChain.cpp) round alike. A zero vector stays zero-safe: it comes back
+// (lightmath::spotFrame) round alike. A zero vector stays zero-safe: it comes back
 // unchanged rather than as NaNs.
 function normalize(a) {
   const d = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];

@@ -174,12 +174,13 @@ export function setProp(l, prop, v) {
 
 /**
  * The light's frame (docs/lighting.md "Conventions"), exactly as dfb::lightFrame
- * (server/src/engine/BendyChain.cpp): uL = direction, wL = normalize(cross(uL, up)),
- * vL = cross(wL, uL), up = +Y unless |uL.y| >= 0.99 (within ~8 degrees of vertical), then +X.
+ * (lightmath::spotFrame, server/include/dfb/lightmath/Falloff.h): uL = direction,
+ * wL = normalize(cross(uL, up)), vL = cross(wL, uL), up = +X where |uL.y| > 0.99 (within ~8
+ * degrees of vertical), else +Y. At |uL.y| = 0.99 exactly, +Y (web_parity has that case).
  */
 export function lightFrame(l) {
   const uL = V.norm(l.direction);
-  const up = Math.abs(uL[1]) < 0.99 ? [0, 1, 0] : [1, 0, 0];
+  const up = Math.abs(uL[1]) > 0.99 ? [1, 0, 0] : [0, 1, 0];
   const wL = V.norm(V.cross(uL, up));
   const vL = V.cross(wL, uL);
   return { uL, vL, wL };

@@ -96,7 +96,7 @@ function project(m, p) {
 function lightFrame(dir) {
   const n = (v) => { const l = Math.hypot(...v); return v.map((x) => x / l); };
   const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-  const u = n(dir), up = Math.abs(u[1]) < 0.99 ? [0, 1, 0] : [1, 0, 0];
+  const u = n(dir), up = Math.abs(u[1]) > 0.99 ? [1, 0, 0] : [0, 1, 0]; // lightmath::frameUpHint
   const w = n(cross(u, up));
   return [u, cross(w, u), w];
 }

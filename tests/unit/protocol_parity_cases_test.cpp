@@ -110,7 +110,7 @@ std::vector<KeyCase> keyCases() {
     return cases;
 }
 
-// Directions around the light frame's switch from up = +Y to +X at |uL.y| = 0.99, the axes,
+// Directions around the light frame's switch from up = +Y to +X past |uL.y| = 0.99, the axes,
 // diagonals and a few ordinary ones; not all of unit length (the frame normalises).
 std::vector<Vec3> frameDirections() {
     std::vector<Vec3> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 0, 1}, {0, 0, -1}, {0, 1, 0}, {0, -1, 0},
@@ -126,6 +126,10 @@ std::vector<Vec3> frameDirections() {
     dirs.push_back({2.f, -0.2f, 0.f});
     dirs.push_back({-0.05f, 7.f, 0.3f}); // |y| ~0.999: +X up
     dirs.push_back({0.7f, 0.7f, -0.14f});
+    // |uL.y| exactly 0.99 after normalising (found by search): the rule's tie, where "|y| > 0.99"
+    // and "|y| >= 0.99" pick different up vectors.
+    dirs.push_back({0.00011685598292388022f, 1.f, 0.14249223470687866f});
+    dirs.push_back({0.00011685598292388022f, -1.f, 0.14249223470687866f});
     return dirs;
 }
 
@@ -170,6 +174,7 @@ TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
         l.direction = d;
         glm::dvec3 u, v, w;
         lightFrame(l, u, v, w);
+        if (d[2] == 0.14249223470687866f) EXPECT_EQ(std::abs(u.y), 0.99) << "the tie case is not at the tie";
         EXPECT_NEAR(glm::dot(u, v), 0, 1e-12);
         EXPECT_NEAR(glm::dot(u, w), 0, 1e-12);
         EXPECT_NEAR(glm::length(glm::cross(w, u) - v), 0, 1e-12);

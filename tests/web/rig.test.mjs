@@ -235,7 +235,7 @@ test("the light frame is right-handed and orthonormal; near vertical, up is +X",
     for (const [a, b] of [[uL, vL], [uL, wL], [vL, wL]]) assert.ok(Math.abs(dot(a, b)) < 1e-12);
     for (const a of [uL, vL, wL]) assert.ok(Math.abs(dot(a, a) - 1) < 1e-12);
   }
-  // |uL.y| >= 0.99: wL = normalize(cross(uL, +X)) lies in the y-z plane.
+  // |uL.y| > 0.99: wL = normalize(cross(uL, +X)) lies in the y-z plane.
   assert.equal(lightFrame({ direction: [0, 1, 0] }).wL[0], 0);
   assert.deepEqual(lightFrame({ direction: [1, 0, 0] }).wL, [0, 0, 1]);
 });
