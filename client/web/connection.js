@@ -268,7 +268,7 @@ export async function api(method, resource, body, headers = {}) {
 /**
  * Reads GET /v1/schema (public, the same for every session) into the rig model (rig.js
  * setSchema), where the panels' rows and the value ranges come from. True once it has; until
- * then the model's built-in rows serve.
+ * then the model knows no property (the welcome asks again).
  */
 export async function loadSchema() {
   try {

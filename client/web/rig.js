@@ -19,63 +19,23 @@ export const lightNamed = (rig, name) => rig?.lights.find((l) => l.name === name
 const f32 = Math.fround;
 
 // ---- value ranges ------------------------------------------------------------------------------
-// The rig schema's rows (GET /v1/schema, docs/protocol.md; protocol/src/Schema.cpp): path, type,
-// validation range per component, the light types a row applies to. The page reads the server's
-// before it connects (main.js: setSchema); these built-in rows hold the fields this model and
-// rows.js need, for node and for a page that could not read the schema. web_parity checks that
-// they equal the server's.
-const MAX_COORD = 1e7; // Schema.cpp MAX_COORD
-const ALL = ["spot", "point", "bendy", "directional"];
-const LOCATED = ["spot", "point", "bendy"], AIMED = ["spot", "bendy", "directional"], CONED = ["spot", "bendy"];
-const BUILTIN_LIGHT_TYPES = ["spot", "point", "bendy", "directional"];
-const BUILTIN_LIGHT_ROWS = [
-  { path: "name", type: "string", appliesTo: ALL },
-  { path: "type", type: "enum", values: ["spot", "point", "directional", "bendy"], appliesTo: ALL },
-  { path: "enabled", type: "boolean", appliesTo: ALL },
-  { path: "position", type: "vec3", min: -MAX_COORD, max: MAX_COORD, appliesTo: LOCATED },
-  { path: "direction", type: "direction", min: -MAX_COORD, max: MAX_COORD, appliesTo: AIMED },
-  { path: "color", type: "color", min: 0, max: 1e6, appliesTo: ALL },
-  { path: "intensity", type: "number", min: 0, max: 1e12, appliesTo: ALL },
-  { path: "coneAngle", type: "number", min: 0.1, max: 85, appliesTo: CONED },
-  { path: "penumbra", type: "number", min: 0, max: 85, appliesTo: CONED },
-  { path: "shadow", type: "boolean", appliesTo: ALL },
-  { path: "shadowMapSize", type: "integer", min: 64, max: 8192, values: [64, 128, 256, 512, 1024, 2048, 4096, 8192], appliesTo: ALL },
-  { path: "shadowBias", type: "number", min: 0, max: 16, appliesTo: ALL },
-  { path: "shadowFilter", type: "integer", min: 0, max: 4, appliesTo: ALL },
-  { path: "barnDoors", type: "numbers", size: 4, min: 0, max: 90, appliesTo: ["spot"] },
-  { path: "cookie", type: "string", appliesTo: ["spot"] },
-  { path: "include", type: "idList", appliesTo: ALL },
-  { path: "exclude", type: "idList", appliesTo: ALL },
-  { path: "controlPoints", type: "points", min: -MAX_COORD, max: MAX_COORD, appliesTo: ["bendy"] },
-  { path: "cp[]", type: "vec3", indexOf: "controlPoints", min: -MAX_COORD, max: MAX_COORD, appliesTo: ["bendy"] },
-  { path: "radii", type: "numbers", min: 0, max: MAX_COORD, appliesTo: ["bendy"] },
-  { path: "r[]", type: "number", indexOf: "radii", min: 0, max: MAX_COORD, appliesTo: ["bendy"] },
-  { path: "colors", type: "colors", min: 0, max: 1e6, appliesTo: ["bendy"] },
-  { path: "cpColor[]", type: "color", indexOf: "colors", min: 0, max: 1e6, appliesTo: ["bendy"] },
-  { path: "exactDirection", type: "boolean", appliesTo: ["bendy"] },
-  { path: "keys", type: "keys", appliesTo: ALL },
-  { path: "key", type: "keys", appliesTo: ALL },
-  { path: "unkey", type: "keys", appliesTo: ALL },
-  { path: "warning", type: "string", readOnly: true, appliesTo: ALL },
-];
-const BUILTIN_RIG_ROWS = [
-  { path: "exposure", type: "number", min: -20, max: 20 },
-  { path: "time", type: "number" },
-  { path: "viewTransform", type: "enum", values: ["srgb", "filmic"] },
-];
-let lightTypeList = BUILTIN_LIGHT_TYPES;
-let lightRows = new Map(BUILTIN_LIGHT_ROWS.map((r) => [r.path, r]));
-let rigRows = new Map(BUILTIN_RIG_ROWS.map((r) => [r.path, r]));
+// The rig schema's rows (GET /v1/schema, docs/protocol.md; protocol/src/Schema.cpp, the one list
+// of properties): path, type, validation range per component, the light types a row applies to.
+// The page reads the server's before it connects (connection.js loadSchema); node's tests take
+// the one protocol_parity_cases writes. Until then no property is known: keyed values are not
+// applied and the panel has no rows.
+let lightTypeList = [];
+let lightRows = new Map();
+let rigRows = new Map();
 
 /** Uses the rows of a schema ({lightTypes, light: [ROW], rig: [ROW]}, as GET /v1/schema) from now on. */
 export function setSchema(schema) {
-  if (Array.isArray(schema?.light)) lightRows = new Map(schema.light.map((r) => [r.path, r]));
-  if (Array.isArray(schema?.rig)) rigRows = new Map(schema.rig.map((r) => [r.path, r]));
-  if (Array.isArray(schema?.lightTypes)) lightTypeList = schema.lightTypes;
+  lightRows = new Map((schema?.light ?? []).map((r) => [r.path, r]));
+  rigRows = new Map((schema?.rig ?? []).map((r) => [r.path, r]));
+  lightTypeList = schema?.lightTypes ?? [];
 }
-/** The schema in use (the server's after setSchema, else the built-in rows), in its row order. */
+/** The schema in use, its rows in the schema's order. */
 export const schemaRows = () => ({ lightTypes: lightTypeList, light: [...lightRows.values()], rig: [...rigRows.values()] });
-export const builtinRows = () => ({ lightTypes: BUILTIN_LIGHT_TYPES, light: BUILTIN_LIGHT_ROWS, rig: BUILTIN_RIG_ROWS });
 
 /** The row of a light property ("intensity"; "cp[3]" -> the "cp[]" row), or null. */
 export function lightRow(prop) {

@@ -2,8 +2,9 @@
 // by protocol::evaluateRig at times before, at, between and after their keys, the light frame
 // dfb::lightFrame gives for directions around the near-vertical switch of its up vector, and the
 // rig schema (GET /v1/schema) the page takes its rows from. They are written to
-// DFB_TEST_DATA/protocol_parity_cases.json; tests/web/parity.test.mjs (CTest web_parity, which
-// requires this test's fixture) checks that the JavaScript gives the same values.
+// DFB_TEST_DATA/protocol_parity_cases.json, the schema also alone to DFB_TEST_DATA/rig_schema.json
+// (the node tests' rows); tests/web/parity.test.mjs (CTest web_parity, which requires this test's
+// fixture, as web_modules does) checks that the JavaScript gives the same values.
 // The page shows keyed values and places handles with its own copy of the math, so a difference
 // would show the artist something else than the server renders.
 
@@ -25,6 +26,7 @@ using json = nlohmann::json;
 namespace {
 
 const std::string CASES = DFB_TEST_DATA "/protocol_parity_cases.json";
+const std::string SCHEMA = DFB_TEST_DATA "/rig_schema.json";
 
 json key(double t, json value, const char* interp = "linear") { return json{{"t", t}, {"value", std::move(value)}, {"interp", interp}}; }
 
@@ -181,8 +183,10 @@ TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
         out["lightFrames"].push_back({{"direction", d}, {"uL", vecJson(u)}, {"vL", vecJson(v)}, {"wL", vecJson(w)}});
     }
 
-    std::ofstream f(CASES);
-    ASSERT_TRUE(f) << "cannot write " << CASES;
-    f << out.dump(1) << "\n";
-    ASSERT_TRUE(f.good()) << "cannot write " << CASES;
+    for (const auto& [path, j] : {std::pair{CASES, out}, std::pair{SCHEMA, protocol::schemaJson()}}) {
+        std::ofstream f(path);
+        ASSERT_TRUE(f) << "cannot write " << path;
+        f << j.dump(1) << "\n";
+        ASSERT_TRUE(f.good()) << "cannot write " << path;
+    }
 }

@@ -2,8 +2,7 @@
 // once in the server (protocol::evaluateRig, dfb::lightFrame): this checks that both give the
 // same values on the cases tests/unit/protocol_parity_cases_test.cpp writes (CTest runs that
 // first: fixture protocol_parity_cases; the file's path comes in DFB_PARITY_CASES), with the
-// server's schema rows (GET /v1/schema, written with the cases) and with the page's built-in rows,
-// which must equal the server's.
+// server's schema rows (schema.mjs).
 //
 // Tolerance: 1e-6 relative. The server stores light properties as 32-bit floats and so does the
 // page's evaluation (Math.fround), so most values agree exactly; components of a vector are
@@ -14,8 +13,9 @@ import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
 import { test } from "node:test";
 
-import { builtinRows, evaluateLight, lightFrame, setSchema } from "../../client/web/rig.js";
+import { evaluateLight, lightFrame } from "../../client/web/rig.js";
 import { propertyRows } from "../../client/web/rows.js";
+import { serverSchema } from "./schema.mjs";
 
 const file = process.env.DFB_PARITY_CASES;
 const cases = file ? JSON.parse(readFileSync(file, "utf8")) : null;
@@ -43,8 +43,7 @@ test("the cases file is there and holds cases", { skip: !file && "DFB_PARITY_CAS
   assert.ok(cases.lightFrames.length >= 25, `${cases.lightFrames.length} light frames`);
 });
 
-// Every keyframe case, with the rows in use.
-function checkKeyframes() {
+test("keyframed lights evaluate as protocol::evaluateRig evaluates them", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
   let values = 0;
   for (const c of cases.keyframes) {
     for (const { time, light: expected } of c.evaluations) {
@@ -57,40 +56,17 @@ function checkKeyframes() {
     }
   }
   assert.ok(values > 1000, `only ${values} values compared`);
-}
-
-test("keyframed lights evaluate as protocol::evaluateRig evaluates them", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
-  try {
-    setSchema(cases.schema);
-    checkKeyframes();
-  } finally {
-    setSchema(builtinRows());
-  }
-  checkKeyframes();
 });
 
-test("the built-in rows are the server's schema rows", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
-  // The fields the rig model and the panel read without a schema.
-  const FIELDS = ["path", "type", "min", "max", "size", "indexOf", "readOnly", "values", "appliesTo"];
-  const pick = (r) => Object.fromEntries(FIELDS.filter((f) => r[f] !== undefined && r[f] !== false)
-    .map((f) => [f, f === "appliesTo" ? [...r[f]].sort() : r[f]]));
-  const builtin = builtinRows();
-  assert.deepEqual(builtin.lightTypes, cases.schema.lightTypes);
-  assert.deepEqual(builtin.light.map(pick), cases.schema.light.map(pick));
-  assert.deepEqual(builtin.rig.map((r) => pick({ ...r, appliesTo: undefined })), cases.schema.rig.map((r) => pick({ ...r, appliesTo: undefined })));
+test("the schema the node tests use is the one written with the cases", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
+  assert.deepEqual(serverSchema, cases.schema);
 });
 
-test("every row of the server's schema has a widget the panel knows, or its place elsewhere", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
-  try {
-    setSchema(cases.schema);
-    for (const type of cases.schema.lightTypes) {
-      const light = { name: "l", type, intensity: 50, coneAngle: 30, penumbra: 5 };
-      const rows = propertyRows(light);
-      assert.ok(rows.length >= 8, `${type}: ${rows.length} rows`);
-      for (const [path, , , kind] of rows) assert.notEqual(kind, "json", `${path} (${type}) has no widget of its own`);
-    }
-  } finally {
-    setSchema(builtinRows());
+test("every row of the server's schema has a widget the panel knows, or its place elsewhere", () => {
+  for (const type of serverSchema.lightTypes) {
+    const rows = propertyRows({ name: "l", type, intensity: 50, coneAngle: 30, penumbra: 5 });
+    assert.ok(rows.length >= 8, `${type}: ${rows.length} rows`);
+    for (const [path, , , kind] of rows) assert.notEqual(kind, "json", `${path} (${type}) has no widget of its own`);
   }
 });
 

@@ -1,5 +1,5 @@
-// The browser's rig model (client/web/rig.js) in node: property paths refused as the server's
-// schema refuses them (findLightProperty, protocol/src/Schema.cpp), key insertion, interpolation values worked out by
+// The browser's rig model (client/web/rig.js) in node, with the server's schema rows
+// (schema.mjs): property paths refused as the server's schema refuses them (findLightProperty, protocol/src/Schema.cpp), key insertion, interpolation values worked out by
 // hand, evaluation (refused values skipped, as protocol::evaluateRig does), optimistic changes.
 // The values the C++ itself gives are checked by parity.test.mjs.
 
@@ -7,9 +7,10 @@ import assert from "node:assert/strict";
 import { describe, test } from "node:test";
 
 import {
-  applyLocal, builtinRows, catmullRom, checkLightProp, evaluateLight, getProp, insertKey, interpolateKeys, lightFrame,
+  applyLocal, catmullRom, checkLightProp, evaluateLight, getProp, insertKey, interpolateKeys, lightFrame,
   parsePath, rangeOf, removeKey, schemaRows, setKeyedValue, setProp, setSchema, splitIndex, uniqueName,
 } from "../../client/web/rig.js";
+import { serverSchema, useServerSchema } from "./schema.mjs"; // the rows: the server's schema
 
 const spot = () => ({ name: "key", type: "spot", enabled: true, position: [0, 3, 3], direction: [0, -0.6, -0.8], color: [1, 1, 1],
                       intensity: 50, coneAngle: 35, penumbra: 8, shadow: true, shadowMapSize: 2048, shadowBias: 1.5, shadowFilter: 1,
@@ -64,20 +65,22 @@ describe("property paths", () => {
     assert.equal(setProp(l, "coneAngle", 5), true);
     assert.equal(l.penumbra, 5); // the penumbra shrinks to fit
   });
-  test("value ranges mirror the codec and follow the schema once set", () => {
+  test("value ranges are the schema's, and follow the schema set", () => {
     assert.deepEqual(rangeOf("intensity"), { min: 0, max: 1e12 });
     assert.deepEqual(rangeOf("coneAngle"), { min: 0.1, max: 85 });
     assert.deepEqual(rangeOf("cp[3]"), { min: -1e7, max: 1e7 });
     assert.deepEqual(rangeOf("exposure", true), { min: -20, max: 20 });
-    const saved = schemaRows();
     try {
       setSchema({ lightTypes: ["spot"], light: [{ path: "intensity", type: "number", min: 1, max: 2 }], rig: [] });
       assert.deepEqual(rangeOf("intensity"), { min: 1, max: 2 });
       assert.match(checkLightProp("coneAngle"), /unknown light property/);
+      setSchema(null); // before the page has read one: nothing is known, no key is applied
+      assert.match(checkLightProp("intensity"), /unknown light property/);
+      assert.equal(evaluateLight({ ...spot(), keys: { intensity: [k(0, 1), k(1, 3)] } }, 0.5).intensity, 50);
     } finally {
-      setSchema(saved);
+      useServerSchema();
     }
-    assert.deepEqual(schemaRows().light, builtinRows().light);
+    assert.deepEqual(schemaRows().light, serverSchema.light);
   });
 });
 

@@ -1,11 +1,13 @@
-// The light panel's rows (client/web/rows.js) in node: built from a rig schema in the format of
-// GET /v1/schema (docs/protocol.md), or from the rig model's built-in rows without one.
+// The light panel's rows (client/web/rows.js) in node: built from a made-up schema in the format
+// of GET /v1/schema (docs/protocol.md) that has every kind of row, and from the server's own
+// (schema.mjs).
 
 import assert from "node:assert/strict";
 import { after, before, describe, test } from "node:test";
 
-import { builtinRows, setSchema } from "../../client/web/rig.js";
+import { setSchema } from "../../client/web/rig.js";
 import { propertyRows } from "../../client/web/rows.js";
+import { serverSchema, useServerSchema } from "./schema.mjs";
 
 const ALL = ["spot", "point", "bendy", "directional"];
 const row = (path, type, extra = {}) => ({ path, label: path[0].toUpperCase() + path.slice(1), type, appliesTo: ALL, ...extra });
@@ -42,7 +44,7 @@ const byPath = (rows) => Object.fromEntries(rows.map(([p, label, unit, kind, o])
 
 describe("rows from the schema", () => {
   before(() => setSchema(schema));
-  after(() => setSchema(builtinRows()));
+  after(useServerSchema);
   test("rows that apply to the light's type, in the schema's order; the rest are edited elsewhere", () => {
     assert.deepEqual(propertyRows(light("spot")).map((r) => r[0]),
                      ["type", "enabled", "position", "direction", "color", "intensity", "coneAngle", "penumbra", "shadowMapSize",
@@ -82,14 +84,15 @@ describe("rows from the schema", () => {
   });
 });
 
-test("without the server's schema, the built-in rows: the same rows by type, named by path", () => {
-  setSchema(builtinRows());
-  assert.deepEqual(propertyRows(light("spot")).map((r) => r.slice(0, 2)),
-                   [["type", "type"], ["enabled", "enabled"], ["position", "position"], ["direction", "direction"], ["color", "color"],
-                    ["intensity", "intensity"], ["coneAngle", "coneAngle"], ["penumbra", "penumbra"], ["shadow", "shadow"],
-                    ["shadowMapSize", "shadowMapSize"], ["shadowBias", "shadowBias"], ["shadowFilter", "shadowFilter"],
-                    ["barnDoors", "barnDoors"], ["cookie", "cookie"]]);
+test("with the server's schema: its rows by type, under its labels", () => {
+  useServerSchema();
+  const spot = propertyRows(light("spot"));
+  assert.deepEqual(spot.map((r) => r[0]), ["type", "enabled", "position", "direction", "color", "intensity", "coneAngle", "penumbra",
+                                           "shadow", "shadowMapSize", "shadowBias", "shadowFilter", "barnDoors", "cookie"]);
+  const label = (path) => serverSchema.light.find((r) => r.path === path).label;
+  for (const [path, shown] of spot) assert.equal(shown, label(path).charAt(0).toLowerCase() + label(path).slice(1), path);
   const point = propertyRows(light("point")).map((r) => r[0]);
   assert.ok(!point.includes("direction") && !point.includes("coneAngle") && !point.includes("barnDoors"), point.join());
   assert.ok(propertyRows(light("bendy")).some((r) => r[0] === "exactDirection"));
+  assert.ok(!propertyRows(light("spot")).some((r) => r[0] === "exactDirection"));
 });
