@@ -176,7 +176,9 @@ TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
         l.direction = d;
         glm::dvec3 u, v, w;
         lightFrame(l, u, v, w);
-        if (d[2] == 0.14249223470687866f) EXPECT_EQ(std::abs(u.y), 0.99) << "the tie case is not at the tie";
+        if (d[2] == 0.14249223470687866f) {
+            EXPECT_EQ(std::abs(u.y), 0.99) << "the tie case is not at the tie";
+        }
         EXPECT_NEAR(glm::dot(u, v), 0, 1e-12);
         EXPECT_NEAR(glm::dot(u, w), 0, 1e-12);
         EXPECT_NEAR(glm::length(glm::cross(w, u) - v), 0, 1e-12);
