@@ -55,7 +55,7 @@ inline Result<bool> getBool(const json& v, const std::string& path) {
 }
 
 /// Sets one light property (a schema row, an indexed element or a keyframe operation) after
-/// validating it; the light is unchanged on error. Codec.cpp; the schema's setters call back for
+/// validating it; the light is unchanged on error. Edits.cpp; the schema's setters call back for
 /// keys (a key's value must be acceptable to its property).
 Status setLightProperty(Light& l, const std::string& prop, const json& v, const std::string& path);
 
