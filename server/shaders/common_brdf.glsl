@@ -29,12 +29,15 @@ float visibilitySmithGGX(float NdotL, float NdotV, float alpha) {
     return s > 0.0 ? 0.5 / s : 0.0;
 }
 
-vec3 fresnelSchlick(vec3 f0, float VdotH) {
-    return f0 + (vec3(1.0) - f0) * pow(1.0 - VdotH, 5.0);
+// Schlick's Fresnel with KHR_materials_specular's F90 (glTF Appendix B.3.3).
+vec3 fresnelSchlick(vec3 f0, float f90, float VdotH) {
+    return f0 + (vec3(f90) - f0) * pow(1.0 - VdotH, 5.0);
 }
 
-// Reflected radiance factor f(l, v) * NdotL for unit vectors N (normal), L (to light), V (to eye).
-// specular in [0,1] scales the dielectric F0: F0 = 0.08 * specular (0.5 -> 0.04, glTF default).
+// Reflected radiance factor f(l, v) * NdotL for unit vectors N (normal), L (to light), V (to eye):
+// glTF Appendix B.3.5's mix(dielectric_brdf, metal_brdf, metallic) with KHR_materials_specular's
+// dielectric Fresnel, F0 = 0.08 * specular and F90 = min(2 * specular, 1) for the G-buffer's
+// specular level (0.5 = glTF's default F0 0.04; 0 = pure Lambert). Brdf.h evaluateBaseLobes.
 vec3 evaluateBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, float metallic, float roughness, float specular) {
     float NdotL = dot(N, L);
     if (NdotL <= 0.0) return vec3(0.0);
@@ -45,10 +48,11 @@ vec3 evaluateBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, float metallic, float 
     // and pow(x, 5.0) is undefined for x < 0 (NaN on llvmpipe; lightmath_parity_test).
     float VdotH = clamp(dot(V, H), 0.0, 1.0);
     float alpha = max(roughness * roughness, 1e-3);
-    vec3 f0 = mix(vec3(0.08 * specular), albedo, metallic);
-    vec3 F = fresnelSchlick(f0, VdotH);
-    vec3 diffuse = (vec3(1.0) - F) * (1.0 - metallic) * albedo / PI;
-    vec3 spec = F * distributionGGX(NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha);
+    vec3 Fd = fresnelSchlick(vec3(0.08 * specular), min(2.0 * specular, 1.0), VdotH);
+    vec3 Fm = fresnelSchlick(albedo, 1.0, VdotH);
+    float maxFd = max(Fd.x, max(Fd.y, Fd.z));
+    vec3 diffuse = ((1.0 - metallic) * (1.0 - maxFd)) * (albedo / PI);
+    vec3 spec = mix(Fd, Fm, metallic) * (distributionGGX(NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha));
     return (diffuse + spec) * NdotL;
 }
 
@@ -67,8 +71,8 @@ float visibilityNeubelt(float NdotL, float NdotV) {
 // mirrored by server/include/dfb/lightmath/Brdf.h, which lists where this differs from them):
 //   f = coat(F_c) + (1 - coat * F_c) * (sheen + (1 - sheenAlbedoScaling) * base)
 // with the sheen albedo scaling approximated by max(sheenColor) (KHR_materials_sheen's
-// simplest energy-conservation form) and the clear coat a GGX lobe with F0 = 0.04 over the
-// shading normal N (the G-buffer has no clear-coat normal).
+// simplest energy-conservation form) and the clear coat a GGX lobe with F0 = 0.04 and the
+// extension's Fresnel of N.V over the shading normal N (the G-buffer has no clear-coat normal).
 vec3 evaluateLayeredBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, vec4 brdf, vec4 sheen, vec2 coat) {
     float NdotL = dot(N, L);
     if (NdotL <= 0.0) return vec3(0.0);
@@ -84,8 +88,8 @@ vec3 evaluateLayeredBrdfCos(vec3 N, vec3 L, vec3 V, vec3 albedo, vec4 brdf, vec4
     }
     if (SHADE_COAT && coat.x > 0.0) {
         float alpha = max(coat.y * coat.y, 1e-3);
-        float VdotH = clamp(dot(V, H), 0.0, 1.0); // as in evaluateBrdfCos
-        float Fc = 0.04 + 0.96 * pow(1.0 - VdotH, 5.0);
+        // KHR_materials_clearcoat's fresnel_coat: the Fresnel of the view angle N.V.
+        float Fc = 0.04 + 0.96 * pow(1.0 - clamp(NdotV, 0.0, 1.0), 5.0);
         float fc = Fc * distributionGGX(NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha);
         base = base * (1.0 - coat.x * Fc) + vec3(coat.x * fc * NdotL);
     }

@@ -6,6 +6,7 @@
 // map looked up at the receiver's own Q'.
 #include "common_uniforms.glsl"
 #include "common_brdf.glsl"
+#include "common_falloff.glsl"
 #include "common_bendy.glsl"
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
@@ -71,7 +72,7 @@ vec3 shadeSample(ivec2 t) {
     vec3 toSource = uBendy.bendyP[0].xyz - qd;
     float dist2 = max(dot(toSource, toSource), 1e-12);
     float dist = sqrt(dist2);
-    float spot = smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-toSource / dist, uBendy.bendyAxisU.xyz));
+    float spot = spotCone(uLight.lightCone.xy, toSource / dist, uBendy.bendyAxisU.xyz);
     if (spot <= 0.0) return vec3(0.0);
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
     vec3 Li = lightDirection(c, P, BENDY_EXACT);
@@ -84,7 +85,7 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
     vec3 f = evaluateLayeredBrdfCos(N, Li, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
                                     texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
-    return f * uLight.lightRadiance.rgb * segmentColor(c.g, c.t) * (spot * vis / dist2) * pA.w;
+    return f * uLight.lightRadiance.rgb * segmentColor(c.g, c.t) * (spot * vis * inverseSquare(dist2)) * pA.w;
 }
 
 void main() {

@@ -6,6 +6,7 @@
 // reference implementation), or in lux without falloff for a directional light.
 #include "common_uniforms.glsl"
 #include "common_brdf.glsl"
+#include "common_falloff.glsl"
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
@@ -68,18 +69,11 @@ float shadowVisibility(vec3 P, vec3 Ng, float dist) {
 vec3 spotMask(vec3 fromLight) {
     float z = dot(fromLight, uLight.lightAxis.xyz);
     if (z <= 0.0) return vec3(0.0);
-    float x = dot(fromLight, uLight.lightRight.xyz), y = dot(fromLight, uLight.lightUp.xyz);
     float doors = 1.0;
-    if (SHADE_DOORS) {
-        float ax = atan(x, z), ay = atan(y, z);
-        const float edge = 0.00436332; // a quarter of a degree either side
-        vec4 d = uLight.lightDoors;
-        doors = (1.0 - smoothstep(d.x - edge, d.x + edge, -ax)) * (1.0 - smoothstep(d.y - edge, d.y + edge, ax)) *
-                (1.0 - smoothstep(d.z - edge, d.z + edge, ay)) * (1.0 - smoothstep(d.w - edge, d.w + edge, -ay));
-    }
+    if (SHADE_DOORS) doors = barnDoors(uLight.lightAxis.xyz, uLight.lightRight.xyz, uLight.lightUp.xyz, uLight.lightDoors, fromLight);
     vec3 mask = vec3(doors);
     if (SHADE_COOKIE && doors > 0.0) {
-        vec2 uv = 0.5 + 0.5 * vec2(x, y) / (z * uLight.lightUp.w);
+        vec2 uv = 0.5 + 0.5 * vec2(dot(fromLight, uLight.lightRight.xyz), dot(fromLight, uLight.lightUp.xyz)) / (z * uLight.lightUp.w);
         mask *= texture(cookie, uv).rgb; // uploaded with the image's top row at t = 1
     }
     return mask;
@@ -107,7 +101,7 @@ vec3 shadeSample(ivec2 t) {
         L = toLight / dist;
         if (SHADE_KIND != KIND_POINT) {
             // Cone falloff: smooth between the outer and inner cosines; then doors and cookie.
-            spot = vec3(smoothstep(uLight.lightCone.x, uLight.lightCone.y, dot(-L, uLight.lightAxis.xyz)));
+            spot = vec3(spotCone(uLight.lightCone.xy, L, uLight.lightAxis.xyz));
             if ((SHADE_DOORS || SHADE_COOKIE) && spot.x > 0.0) spot *= spotMask(-L);
         }
     }
@@ -120,7 +114,7 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
     vec3 f = evaluateLayeredBrdfCos(N, L, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
                                     texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
-    return f * uLight.lightRadiance.rgb * spot * (vis / dist2) * pA.w;
+    return f * uLight.lightRadiance.rgb * spot * (vis * inverseSquare(dist2)) * pA.w;
 }
 
 void main() {

@@ -1,4 +1,5 @@
-// CPU/GPU parity of the BRDF lobes: the GLSL (server/shaders/common_brdf.glsl, as embedded for the
+// CPU/GPU parity of the BRDF lobes and the punctual falloff: the GLSL (server/shaders/common_brdf.glsl
+// and common_falloff.glsl, as embedded for the
 // relight shaders) runs in a compute shader through headless EGL on a grid of directions and
 // materials, and must agree per sample with dfb/lightmath/Brdf.h.
 //
@@ -11,6 +12,7 @@
 #include <dfb/gl/Context.h>
 #include <dfb/gl/Objects.h>
 #include <dfb/lightmath/Brdf.h>
+#include <dfb/lightmath/Falloff.h>
 
 #include <gtest/gtest.h>
 
@@ -173,4 +175,132 @@ TEST(LightmathParity, GlslBrdfAgreesWithCppOnAGrid) {
                     worstWell[k]);
     EXPECT_EQ(bad, 0);
     EXPECT_EQ(nonFinite, 0);
+}
+
+namespace {
+
+// One falloff sample: the light's frame and cone, its doors, a direction from the light and a
+// squared distance; out: spotCone, barnDoors, inverseSquare.
+const char* FALLOFF_KERNEL = R"(
+layout(local_size_x = 64) in;
+struct Sample { vec4 axis, right, up, doors, fromLight, cone; };
+layout(std430, binding = 0) readonly buffer Samples { Sample samples[]; };
+layout(std430, binding = 1) writeonly buffer Results { vec4 results[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= uint(samples.length())) return;
+    Sample s = samples[i];
+    results[i] = vec4(spotCone(s.cone.xy, -s.fromLight.xyz, s.axis.xyz),
+                      barnDoors(s.axis.xyz, s.right.xyz, s.up.xyz, s.doors, s.fromLight.xyz), inverseSquare(s.cone.z), 0.0);
+}
+)";
+
+struct FalloffSample {
+    glm::vec4 axis, right, up, doors, fromLight, cone;
+};
+static_assert(sizeof(FalloffSample) == 6 * 16, "std430 array stride of struct FalloffSample");
+
+template <typename T> std::array<double, 3> cpuFalloff(const FalloffSample& s) {
+    SpotFrame<T> f;
+    f.axis = vec3<T>(s.axis);
+    f.right = vec3<T>(s.right);
+    f.up = vec3<T>(s.up);
+    const vec3<T> d(s.fromLight);
+    return {double(spotCone(vec2<T>(s.cone), -d, f.axis)), double(barnDoors(f, vec4<T>(s.doors), d)),
+            double(inverseSquare(T(s.cone.z)))};
+}
+
+} // namespace
+
+TEST(LightmathParity, GlslFalloffAgreesWithCppOnAGrid) {
+    // Falloff.h's cone, barn doors and inverse square against server/shaders/common_falloff.glsl
+    // (which relight_spot.frag and relight_bendy.frag call): spot directions from the rig's
+    // frames (straight down, the |axis.y| = 0.99 switch of the up hint, oblique), cones of 5 to 85
+    // degrees with penumbrae 0 .. outer, doors closed to open, directions on a grid across and
+    // past the cone, distances 1e-7 .. 1e4.
+    auto ctx = gl::Context::create();
+    ASSERT_TRUE(ctx.ok()) << ctx.error().toString();
+    const std::string_view falloff = shaders::serverShader("common_falloff.glsl");
+    ASSERT_FALSE(falloff.empty());
+    const std::string src = "#version 450 core\n" + std::string(falloff) + FALLOFF_KERNEL;
+    auto program = gl::buildProgram({{GL_COMPUTE_SHADER, "falloff_parity.comp", src}});
+    ASSERT_TRUE(program.ok()) << program.error().toString();
+
+    std::vector<FalloffSample> samples;
+    const glm::vec3 axes[] = {{0, -1, 0}, glm::normalize(glm::vec3(0.1411f, -0.99f, 0.f)), glm::normalize(glm::vec3(0.3f, -0.5f, -0.8f)),
+                              glm::normalize(glm::vec3(-1, 0.2f, 0.1f))};
+    const float outers[] = {5.f, 30.f, 60.f, 85.f};
+    const float penumbraFractions[] = {0.f, 0.25f, 1.f};
+    const glm::vec4 doorSets[] = {glm::vec4(10.f), glm::vec4(glm::radians(10.f), glm::radians(20.f), glm::radians(5.f), 10.f),
+                                  glm::vec4(0.f, glm::radians(45.f), glm::radians(1.f), glm::radians(80.f))};
+    const float dists[] = {1e-7f, 0.5f, 3.f, 1e4f};
+    for (const glm::vec3& axis : axes) {
+        const SpotFrame<float> fr = spotFrame(axis);
+        for (float outer : outers)
+            for (float pf : penumbraFractions)
+                for (const glm::vec4& doors : doorSets)
+                    for (int i = 0; i < 13; ++i)
+                        for (int j = 0; j < 13; ++j) {
+                            // Directions across the cone and past it: angles -1.2 .. 1.2 x outer.
+                            const float tx = glm::radians(outer) * (-1.2f + 2.4f * float(i) / 12.f);
+                            const float ty = glm::radians(outer) * (-1.2f + 2.4f * float(j) / 12.f);
+                            const glm::vec3 d = glm::normalize(fr.axis + fr.right * std::tan(tx) + fr.up * std::tan(ty));
+                            const vec2<float> cone = spotConeCosines(glm::radians(outer), glm::radians(outer) * pf);
+                            samples.push_back({glm::vec4(fr.axis, 0), glm::vec4(fr.right, 0), glm::vec4(fr.up, 0), doors,
+                                               glm::vec4(d, 0), glm::vec4(cone, dists[(i + j) % 4] * dists[(i + j) % 4], 0)});
+                        }
+    }
+    // Behind the light: the doors are 0.
+    samples.push_back({glm::vec4(0, -1, 0, 0), glm::vec4(0, 0, 1, 0), glm::vec4(1, 0, 0, 0), glm::vec4(10.f), glm::vec4(0, 1, 0, 0),
+                       glm::vec4(0.5f, 0.6f, 1.f, 0)});
+
+    std::vector<glm::vec4> results(samples.size());
+    gl::Buffer in = gl::makeBuffer(samples.data(), samples.size() * sizeof(FalloffSample));
+    gl::Buffer out = gl::makeBuffer(nullptr, results.size() * sizeof(glm::vec4), GL_DYNAMIC_STORAGE_BIT);
+    glUseProgram(program->id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
+    glDispatchCompute(GLuint((samples.size() + 63) / 64), 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(results.size() * sizeof(glm::vec4)), results.data());
+    ASSERT_TRUE(ctx.value()->check("falloff parity dispatch").ok());
+
+    // Tolerance: 1e-5 relative + 1e-6 absolute + 4 |C++ float - C++ double| (a smoothstep edge
+    // amplifies the rounding of its input: the cone's edges are 1e-5 apart for a zero penumbra).
+    // The cone adds its input's rounding: the GPU's dot may round differently from C++ float (FMA)
+    // by an ulp or two of 1 (2.4e-7), which the smoothstep multiplies by its slope, at most
+    // 1.5 / (cos inner - cos outer) (1.5e5 for a zero penumbra, where the edges are 1e-5 apart).
+    // The doors add the GPU's atan error: GLSL 4.50 leaves atan's precision to the implementation
+    // and llvmpipe's is about 1.5e-6 rad off near 0 (measured), which the door's soft edge
+    // (slope up to 1.5 / (2 x BARN_DOOR_EDGE_RAD) = 172 per radian) turns into 2.6e-4; allowed:
+    // 2e-6 rad times that slope.
+    const double doorAtan = 2e-6 * 1.5 / (2 * BARN_DOOR_EDGE_RAD);
+    const char* names[] = {"spotCone", "barnDoors", "inverseSquare"};
+    long bad = 0, compared = 0, partial[3] = {};
+    double worstRatio = 0;
+    for (size_t i = 0; i < samples.size(); ++i) {
+        const auto d = cpuFalloff<double>(samples[i]);
+        const auto f = cpuFalloff<float>(samples[i]);
+        const float gpu[3] = {results[i].x, results[i].y, results[i].z};
+        for (int k = 0; k < 3; ++k) {
+            ++compared;
+            if (d[k] > 1e-3 && d[k] < 1 - 1e-3) ++partial[k];
+            const double err = std::abs(double(gpu[k]) - d[k]);
+            const double tol = 1e-5 * std::abs(d[k]) + 1e-6 + 4 * std::abs(f[k] - d[k]) + (k == 1 ? doorAtan : 0.0) +
+                               (k == 0 ? 2.4e-7 * 1.5 / (double(samples[i].cone.y) - double(samples[i].cone.x)) : 0.0);
+            worstRatio = std::max(worstRatio, err / tol);
+            if (!(err <= tol) && ++bad <= 10)
+                ADD_FAILURE() << names[k] << " sample " << i << ": gpu " << gpu[k] << " cpu " << d[k] << " (float " << f[k]
+                              << ") cone cosines " << samples[i].cone.x << " " << samples[i].cone.y << " cos to axis "
+                              << glm::dot(glm::dvec3(samples[i].fromLight), glm::dvec3(samples[i].axis));
+        }
+    }
+    std::printf("falloff parity: %zu samples, %ld values, %ld outside tolerance, worst error/tolerance %.3f; samples on a soft "
+                "edge: cone %ld, doors %ld\n",
+                samples.size(), compared, bad, worstRatio, partial[0], partial[1]);
+    EXPECT_EQ(bad, 0);
+    // The grid reaches the soft edges (not only 0 and 1), so the curves themselves are compared.
+    EXPECT_GT(partial[0], 100);
+    EXPECT_GT(partial[1], 20);
+    EXPECT_EQ(results.back().y, 0.f);
 }

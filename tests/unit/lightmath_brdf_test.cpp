@@ -196,13 +196,15 @@ TEST(LightmathBrdf, MetalAlbedoMatchesSingleScatteringGgx) {
 
 TEST(LightmathBrdf, SheenAndCoatWhiteFurnaceBounded) {
     // Sheen: with sheen colour 1 the base is scaled to 0 and only the sheen lobe remains; its
-    // albedo stays <= 1 up to 75 degrees at every sheen roughness. At 88 degrees it reaches ~1.3
+    // albedo stays <= 1 up to 75 degrees at every sheen roughness. At 88 degrees it reaches ~1.35
     // (sheen roughness 0.1): the Ashikhmin/Neubelt visibility, which KHR_materials_sheen says is
-    // not energy conserving (Brdf.h, visibilityNeubelt). Coat (weight 1) over a metal (the base
-    // <= 1 everywhere): <= 1 up to 75 degrees; at 88 degrees ~1.6 (coat roughness 0.05), from the
-    // V.H Fresnel of the layering (the extension's N.V keeps it below the base's albedo).
+    // not energy conserving (Brdf.h, visibilityNeubelt); the extension's Charlie visibility
+    // (visibilitySheenCharlie) measured no better there (1.29 at sheen roughness 0.1, 1.54 at 0.05).
+    // Coat (weight 1) over a metal (the base <= 1 everywhere): <= 1 at every view angle, because
+    // KHR_materials_clearcoat's Fresnel of N.V dims the base by the same 1 - F_c for every light
+    // direction and the coat lobe reflects at most F_c.
     // Tolerance: 3 standard errors. Measured values are pinned with margins.
-    double worstSheen = 0, worstCoat = 0, grazingSheen = 0, grazingCoat = 0;
+    double worstSheen = 0, worstCoat = 0, grazingSheen = 0;
     for (double r : ROUGHNESSES)
         for (double deg : VIEW_DEG) {
             Material sheen;
@@ -213,14 +215,13 @@ TEST(LightmathBrdf, SheenAndCoatWhiteFurnaceBounded) {
             coat.brdf = d4(1, 0.5, 0.5, 1);
             coat.coat = d2(1.0, r);
             const Estimate c = albedoMis(coat, viewAt(deg), SAMPLES, 19);
+            EXPECT_LE(c.mean, 1.0 + 3 * c.stderr_) << "coat roughness " << r << " view " << deg;
+            worstCoat = std::max(worstCoat, c.mean);
             if (deg <= 75.0) {
                 EXPECT_LE(s.mean, 1.0 + 3 * s.stderr_) << "sheen roughness " << r << " view " << deg;
-                EXPECT_LE(c.mean, 1.0 + 3 * c.stderr_) << "coat roughness " << r << " view " << deg;
                 worstSheen = std::max(worstSheen, s.mean);
-                worstCoat = std::max(worstCoat, c.mean);
             } else {
                 grazingSheen = std::max(grazingSheen, s.mean);
-                grazingCoat = std::max(grazingCoat, c.mean);
             }
             // Half sheen and coat over sheen, dielectric base: up to 45 degrees (where the base is <= 1).
             if (deg <= 45.0) {
@@ -234,19 +235,21 @@ TEST(LightmathBrdf, SheenAndCoatWhiteFurnaceBounded) {
                 EXPECT_LE(hc.mean, 1.0 + 3 * hc.stderr_) << "coat over sheen roughness " << r << " view " << deg;
             }
         }
-    std::printf("largest directional albedo up to 75 deg: sheen %.4f, coat over metal %.4f; at 88 deg: sheen %.4f, "
-                "coat over metal %.4f\n",
-                worstSheen, worstCoat, grazingSheen, grazingCoat);
+    std::printf("largest directional albedo: sheen up to 75 deg %.4f, at 88 deg %.4f; coat over metal, every view %.4f\n",
+                worstSheen, grazingSheen, worstCoat);
     EXPECT_LT(grazingSheen, 1.45);
-    EXPECT_LT(grazingCoat, 1.75);
+    EXPECT_GT(worstCoat, 0.5); // the coat's estimate is not vacuous
 }
 
 TEST(LightmathBrdf, LobesAreReciprocal) {
     // f(l, v) = f(v, l): evaluate*Cos returns f N.L, so compare f(L, V) / N.L with f(V, L) / N.V.
-    // Directions with N.V above MIN_NDOTV (below it the clamp breaks symmetry on purpose).
+    // Directions with N.V above MIN_NDOTV (below it the clamp breaks symmetry on purpose). The base
+    // layer and sheen; not the clear coat, whose Fresnel of N.V (KHR_materials_clearcoat) is not
+    // reciprocal by the extension's design (checked below: it must differ, so the test of the
+    // others is not vacuous).
     std::mt19937_64 rng(99);
     std::uniform_real_distribution<double> u(0.0, 1.0);
-    double worst = 0;
+    double worst = 0, worstCoat = 0;
     for (int i = 0; i < 20000; ++i) {
         const d3 L = spherical(0.01 + 0.99 * u(rng), 2 * PI * u(rng));
         const d3 V = spherical(0.01 + 0.99 * u(rng), 2 * PI * u(rng));
@@ -258,34 +261,65 @@ TEST(LightmathBrdf, LobesAreReciprocal) {
         const d3 a = f(m, L, V) / L.z, b = f(m, V, L) / V.z;
         for (int c = 0; c < 3; ++c) {
             const double rel = std::abs(a[c] - b[c]) / std::max(std::abs(a[c]), 1e-300);
-            worst = std::max(worst, rel);
+            (i % 3 == 2 ? worstCoat : worst) = std::max(i % 3 == 2 ? worstCoat : worst, rel);
         }
     }
-    std::printf("reciprocity: worst relative difference %.2e over 20000 random (L, V, material)\n", worst);
+    std::printf("reciprocity: worst relative difference %.2e over base and sheen (coat %.2e, not reciprocal)\n", worst,
+                worstCoat);
     EXPECT_LT(worst, 1e-9);
+    EXPECT_GT(worstCoat, 1e-3);
 }
 
-TEST(LightmathBrdf, SpecMixFormAgreesAtMetallicZeroAndOne) {
-    // Appendix B.3.5's exact mix(dielectric, metal, metallic) and the simplified final BRDF the
-    // shaders use agree for metallic 0 and 1; in between they differ by
-    // m (1 - m) (F_dielectric - F_metal) albedo / pi (documented in Brdf.h).
+TEST(LightmathBrdf, SpecularLevelSetsF0AndF90AsKhrMaterialsSpecular) {
+    // KHR_materials_specular: dielectric_f0 = min(0.04 specularColor, 1) specular and
+    // dielectric_f90 = specular; the G-buffer's level s = 0.5 specular (white colour) gives
+    // F0 = 0.08 s, F90 = 2 s. Specular 0 is pure Lambert at every angle (no grazing Fresnel);
+    // specular 1 (s = 0.5) keeps glTF's default F0 0.04 and F90 1.
+    EXPECT_DOUBLE_EQ(dielectricFresnel(0.0).f0, 0.0);
+    EXPECT_DOUBLE_EQ(dielectricFresnel(0.0).f90, 0.0);
+    EXPECT_DOUBLE_EQ(dielectricFresnel(0.5).f0, 0.04);
+    EXPECT_DOUBLE_EQ(dielectricFresnel(0.5).f90, 1.0);
+    EXPECT_DOUBLE_EQ(dielectricFresnel(0.25).f90, 0.5);
+    EXPECT_DOUBLE_EQ(dielectricFresnel(1.0).f0, 0.08); // a colour of 2: F0 0.08, F90 stays 1
+    EXPECT_DOUBLE_EQ(dielectricFresnel(1.0).f90, 1.0);
     std::mt19937_64 rng(5);
     std::uniform_real_distribution<double> u(0.0, 1.0);
-    double worstEnds = 0, worstHalf = 0;
+    double worstLambert = 0, worstGrazing = 0;
+    for (int i = 0; i < 5000; ++i) {
+        const d3 L = spherical(0.001 + 0.999 * u(rng), 2 * PI * u(rng));
+        const d3 V = spherical(0.001 + 0.999 * u(rng), 2 * PI * u(rng));
+        const d3 albedo(u(rng), u(rng), u(rng));
+        const double r = 0.05 + 0.95 * u(rng);
+        const d3 a = evaluateBrdfCos(N, L, V, albedo, 0.0, r, 0.0), b = lambert(albedo) * L.z;
+        worstLambert = std::max(worstLambert, glm::length(a - b) / glm::length(b));
+        // Half the weight: the specular lobe is exactly half of specular 1's, F included.
+        const BaseLobes<double> h = evaluateBaseLobes(N, L, V, albedo, 0.0, r, 0.25);
+        const BaseLobes<double> full = evaluateBaseLobes(N, L, V, albedo, 0.0, r, 0.5);
+        worstGrazing = std::max(worstGrazing, glm::length(h.specular - 0.5 * full.specular) / std::max(glm::length(full.specular), 1e-300));
+    }
+    std::printf("specular 0 vs Lambert: worst relative %.2e; specular 0.5 vs half of specular 1's lobe: %.2e\n", worstLambert,
+                worstGrazing);
+    EXPECT_LT(worstLambert, 1e-12);
+    EXPECT_LT(worstGrazing, 1e-12);
+}
+
+TEST(LightmathBrdf, MetallicMixesTheDielectricAndMetalBrdfs) {
+    // glTF 2.0 Appendix B.3.5: material = mix(dielectric_brdf, metal_brdf, metallic), with the
+    // dielectric's diffuse weighted by 1 - F_dielectric (not by 1 - the mixed F).
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    double worst = 0;
     for (int i = 0; i < 5000; ++i) {
         const d3 L = spherical(0.05 + 0.95 * u(rng), 2 * PI * u(rng));
         const d3 V = spherical(0.05 + 0.95 * u(rng), 2 * PI * u(rng));
         const d3 albedo(u(rng), u(rng), u(rng));
-        const double r = 0.05 + 0.95 * u(rng), s = u(rng);
-        for (double m : {0.0, 1.0}) {
-            const d3 a = evaluateBrdfCos(N, L, V, albedo, m, r, s), b = materialBrdfSpecMixCos(N, L, V, albedo, m, r, s);
-            worstEnds = std::max(worstEnds, glm::length(a - b) / std::max(glm::length(a), 1e-300));
-        }
-        const d3 a = evaluateBrdfCos(N, L, V, albedo, 0.5, r, s), b = materialBrdfSpecMixCos(N, L, V, albedo, 0.5, r, s);
-        worstHalf = std::max(worstHalf, glm::length(a - b) / std::max(glm::length(a), 1e-300));
+        const double r = 0.05 + 0.95 * u(rng), s = u(rng), m = u(rng);
+        const d3 mixed = glm::mix(evaluateBrdfCos(N, L, V, albedo, 0.0, r, s), evaluateBrdfCos(N, L, V, albedo, 1.0, r, s), m);
+        const d3 a = evaluateBrdfCos(N, L, V, albedo, m, r, s);
+        worst = std::max(worst, glm::length(a - mixed) / std::max(glm::length(mixed), 1e-300));
     }
-    std::printf("spec mix vs simplified form: metallic 0/1 %.2e, metallic 0.5 worst relative %.3f\n", worstEnds, worstHalf);
-    EXPECT_LT(worstEnds, 1e-12);
+    std::printf("metallic mix: worst relative difference %.2e\n", worst);
+    EXPECT_LT(worst, 1e-12);
 }
 
 TEST(LightmathFalloff, ConeAndDoorsMatchTheirAngles) {

@@ -67,20 +67,34 @@ template <typename T> T visibilitySmithGGX(T NdotL, T NdotV, T alpha) {
     return s > T(0) ? T(0.5) / s : T(0);
 }
 
-/// Schlick's Fresnel (glTF 2.0 Appendix B.3.3) with F90 = 1: F = F0 + (1 - F0)(1 - V.H)^5.
-/// V.H must lie in [0, 1] (see evaluateBrdfCos).
-template <typename T> vec3<T> fresnelSchlick(const vec3<T>& f0, T VdotH) {
-    return f0 + (vec3<T>(T(1)) - f0) * std::pow(T(1) - VdotH, T(5));
+/// Schlick's Fresnel (glTF 2.0 Appendix B.3.3, "fresnel_mix"/"conductor_fresnel" with
+/// KHR_materials_specular's dielectric_f90): F = F0 + (F90 - F0)(1 - V.H)^5.
+/// V.H must lie in [0, 1] (see halfVector).
+template <typename T> vec3<T> fresnelSchlick(const vec3<T>& f0, T f90, T VdotH) {
+    return f0 + (vec3<T>(f90) - f0) * std::pow(T(1) - VdotH, T(5));
 }
 
 /// Lambert's diffuse BRDF (glTF 2.0 Appendix B.3.4, diffuse_brdf): albedo / pi, whose cosine-
 /// weighted integral over the hemisphere is the albedo.
 template <typename T> vec3<T> lambert(const vec3<T>& albedo) { return albedo / T(PI); }
 
+/// The dielectric Fresnel's ends for the G-buffer's specular level s (docs/gbuffer-format.md,
+/// `brdf.specular`): KHR_materials_specular's dielectric_f0 = min(0.04 specularColor, 1) specular
+/// and dielectric_f90 = specular, from the one scalar format v2 stores,
+/// s = 0.5 specular mean(specularColor): F0 = 0.08 s and F90 = min(2 s, 1). Exact when the
+/// specular colour is white (s <= 0.5: specular = 2 s) or the specular weight is 1 (s > 0.5:
+/// a colour above white); otherwise F90 is the one a white colour would give.
+template <typename T> struct DielectricFresnel {
+    T f0, f90;
+};
+template <typename T> DielectricFresnel<T> dielectricFresnel(T specularLevel) {
+    return {T(0.08) * specularLevel, std::min(T(2) * specularLevel, T(1))};
+}
+
 /// The two lobes of the metallic-roughness base layer, f (not times N.L), for N.L > 0.
 template <typename T> struct BaseLobes {
-    vec3<T> diffuse;  ///< (1 - F)(1 - metallic) albedo / pi
-    vec3<T> specular; ///< F D V
+    vec3<T> diffuse;  ///< (1 - metallic)(1 - max F_dielectric) albedo / pi
+    vec3<T> specular; ///< mix(F_dielectric, F_metal, metallic) D V
 };
 
 /// The half vector's cosines as the GLSL computes them. V.H is clamped to [0, 1]: for L == V
@@ -94,18 +108,14 @@ template <typename T> HalfVector<T> halfVector(const vec3<T>& N, const vec3<T>& 
     return {std::max(glm::dot(N, H), T(0)), saturate(glm::dot(V, H))};
 }
 
-/// glTF 2.0 metallic-roughness base layer (Appendix B.3.5 and B.3.6, "the final BRDF for the
-/// material"): c_diff = mix(albedo, 0, metallic), F0 = mix(F0_dielectric, albedo, metallic),
-/// F = Schlick(F0, V.H), f = (1 - F) c_diff / pi + F D V, alpha = max(roughness^2, MIN_ALPHA).
-/// `specular` in [0, 1] scales the dielectric F0 = 0.08 specular (0.5 -> 0.04, the glTF default).
-/// Differs:
-/// - F0_dielectric = 0.08 specular rather than the core spec's 0.04; F90 stays 1 even for
-///   specular 0 (KHR_materials_specular would scale it; a separate issue, mirrored here).
-/// - The diffuse lobe is weighted by 1 - F of the *mixed* F0, as the spec's simplified final BRDF
-///   writes it; the spec's exact mix(dielectric_brdf, metal_brdf, metallic) weights it by
-///   1 - F(0.04). The two agree for metallic 0 and 1 and differ by
-///   metallic (1 - metallic) (F_dielectric - F_metal) albedo / pi in between
-///   (materialBrdfSpecMix is that exact form).
+/// glTF 2.0 metallic-roughness base layer exactly as Appendix B.3.5 mixes it, with
+/// KHR_materials_specular's dielectric Fresnel ("Implementation"):
+///   dielectric_brdf = F_d D V + (1 - max3(F_d)) albedo / pi,  F_d = Schlick(F0_d, F90_d, V.H)
+///   metal_brdf      = F_m D V,                                F_m = Schlick(albedo, 1, V.H)
+///   f = mix(dielectric_brdf, metal_brdf, metallic),  alpha = max(roughness^2, MIN_ALPHA)
+/// with (F0_d, F90_d) from the specular level (dielectricFresnel). Specular 0 is pure Lambert.
+/// Not energy conserving at grazing views: see docs/lighting.md, "BRDF" (the spec's fresnel_mix
+/// weights the diffuse by 1 - F(V.H) per light direction, not by the specular lobe's albedo).
 template <typename T>
 BaseLobes<T> evaluateBaseLobes(const vec3<T>& N, const vec3<T>& L, const vec3<T>& V, const vec3<T>& albedo,
                                T metallic, T roughness, T specular) {
@@ -113,11 +123,13 @@ BaseLobes<T> evaluateBaseLobes(const vec3<T>& N, const vec3<T>& L, const vec3<T>
     const T NdotV = std::max(glm::dot(N, V), T(MIN_NDOTV));
     const HalfVector<T> h = halfVector(N, L, V);
     const T alpha = std::max(roughness * roughness, T(MIN_ALPHA));
-    const vec3<T> f0 = glm::mix(vec3<T>(T(0.08) * specular), albedo, metallic);
-    const vec3<T> F = fresnelSchlick(f0, h.VdotH);
+    const DielectricFresnel<T> d = dielectricFresnel(specular);
+    const vec3<T> Fd = fresnelSchlick(vec3<T>(d.f0), d.f90, h.VdotH);
+    const vec3<T> Fm = fresnelSchlick(albedo, T(1), h.VdotH);
+    const T maxFd = std::max(std::max(Fd.x, Fd.y), Fd.z);
     BaseLobes<T> b;
-    b.diffuse = (vec3<T>(T(1)) - F) * (T(1) - metallic) * albedo / T(PI);
-    b.specular = F * (distributionGGX(h.NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha));
+    b.diffuse = ((T(1) - metallic) * (T(1) - maxFd)) * lambert(albedo);
+    b.specular = glm::mix(Fd, Fm, metallic) * (distributionGGX(h.NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha));
     return b;
 }
 
@@ -129,25 +141,6 @@ vec3<T> evaluateBrdfCos(const vec3<T>& N, const vec3<T>& L, const vec3<T>& V, co
     if (NdotL <= T(0)) return vec3<T>(T(0));
     const BaseLobes<T> b = evaluateBaseLobes(N, L, V, albedo, metallic, roughness, specular);
     return (b.diffuse + b.specular) * NdotL;
-}
-
-/// Reference only (no GLSL mirror): glTF 2.0 Appendix B.3.5's exact form
-/// mix(fresnel_mix(0.04, diffuse_brdf, specular_brdf), conductor_fresnel(albedo, specular_brdf),
-/// metallic), times N.L, with the same clamps and the same F0_dielectric = 0.08 specular.
-template <typename T>
-vec3<T> materialBrdfSpecMixCos(const vec3<T>& N, const vec3<T>& L, const vec3<T>& V, const vec3<T>& albedo,
-                               T metallic, T roughness, T specular) {
-    const T NdotL = glm::dot(N, L);
-    if (NdotL <= T(0)) return vec3<T>(T(0));
-    const T NdotV = std::max(glm::dot(N, V), T(MIN_NDOTV));
-    const HalfVector<T> h = halfVector(N, L, V);
-    const T alpha = std::max(roughness * roughness, T(MIN_ALPHA));
-    const T specBrdf = distributionGGX(h.NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha);
-    const vec3<T> fd = fresnelSchlick(vec3<T>(T(0.08) * specular), h.VdotH);
-    const vec3<T> fm = fresnelSchlick(albedo, h.VdotH);
-    const vec3<T> dielectric = (vec3<T>(T(1)) - fd) * lambert(albedo) + fd * specBrdf; // fresnel_mix
-    const vec3<T> metal = fm * specBrdf;                                                 // conductor_fresnel
-    return glm::mix(dielectric, metal, metallic) * NdotL;
 }
 
 /// Charlie sheen distribution (KHR_materials_sheen, "Sheen distribution"; Conty Estevez and Kulla
@@ -193,16 +186,17 @@ template <typename T> T visibilitySheenCharlie(T NdotL, T NdotV, T alpha) {
 /// Sheen (KHR_materials_sheen): f_sheen = sheenColor D_Charlie(alpha_s) V, alpha_s =
 /// max(sheenRoughness^2, MIN_ALPHA), skipped when the sheen colour is 0 (the extension: "the whole
 /// sheen layer is disabled").
-/// Coat (KHR_materials_clearcoat, fresnel_coat with IOR 1.5): F_c = 0.04 + 0.96 (1 - V.H)^5, the
-/// coat lobe F_c D V with alpha_c = max(coatRoughness^2, MIN_ALPHA), skipped when coat = 0.
+/// Coat (KHR_materials_clearcoat, fresnel_coat with IOR 1.5): F_c = 0.04 + 0.96 (1 - |N.V|)^5
+/// (the extension's Fresnel of the view angle, so the base is dimmed by the same factor for every
+/// light direction and coat over a base of albedo <= 1 stays <= 1; not reciprocal, as the
+/// extension's "Discussion" says), the coat lobe F_c D V with alpha_c = max(coatRoughness^2,
+/// MIN_ALPHA), skipped when coat = 0.
 /// Differs:
 /// - sheen alpha_s = sheenRoughness^2 (as Filament and the glTF Sample Viewer do); the
 ///   extension's implementation note writes alphaG = sheenRoughness.
 /// - sheen albedo scaling 1 - max3(sheenColor), i.e. the extension's
 ///   1 - max3(sheenColor) E(N.V) with E = 1 (no lookup table): the base is darkened more than the
 ///   extension's, never brightened.
-/// - coat Fresnel from V.H (microfacet Fresnel; reciprocal); the extension uses
-///   1 - |V.Nc| (its "Discussion": energy conserving with the simple layering, not reciprocal).
 /// - coat normal: the shading normal N (the G-buffer holds no clear-coat normal); the extension
 ///   uses clearcoatNormal, the geometric normal when no clearcoatNormalTexture is given.
 template <typename T>
@@ -222,7 +216,7 @@ vec3<T> evaluateLayeredBrdfCos(const vec3<T>& N, const vec3<T>& L, const vec3<T>
     }
     if (coatEnabled && coat.x > T(0)) {
         const T alpha = std::max(coat.y * coat.y, T(MIN_ALPHA));
-        const T Fc = T(0.04) + T(0.96) * std::pow(T(1) - h.VdotH, T(5));
+        const T Fc = T(0.04) + T(0.96) * std::pow(T(1) - saturate(NdotV), T(5));
         const T fc = Fc * distributionGGX(h.NdotH, alpha) * visibilitySmithGGX(NdotL, NdotV, alpha);
         base = base * (T(1) - coat.x * Fc) + vec3<T>(coat.x * fc * NdotL);
     }

@@ -1,9 +1,11 @@
 #pragma once
-// Punctual light falloff as server/shaders/relight_spot.frag computes it (shadeSample, spotMask)
+// Punctual light falloff as server/shaders/common_falloff.glsl computes it (called by
+// relight_spot.frag shadeSample and spotMask, and relight_bendy.frag)
 // from the LightBlock GlEngine fills: spot cone and penumbra, barn doors, inverse-square distance.
 // Allocation-free C++ for float and double with GLSL names (STYLE.md). docs/lighting.md ("Spot
 // light", "Barn doors and cookie", "Point light", "Directional light") states the same formulas;
-// tests/gpu/engine_glossy_test.cpp compares rendered spot and point lights with them.
+// tests/gpu/lightmath_parity_test.cpp compares the GLSL with these functions on a grid, and
+// tests/gpu/engine_glossy_test.cpp rendered spot and point lights.
 //
 // Sources: KHR_lights_punctual (Khronos, 2018): intensity in candela (point, spot) or lux
 // (directional), inverse-square attenuation without range, and the cone falloff of its
