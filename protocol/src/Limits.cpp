@@ -6,7 +6,7 @@ namespace dfb::protocol {
 
 uint64_t lightMemoryBytes(const Light& l, const RigLimits& limits) {
     if (!l.enabled) return 0;
-    uint64_t bytes = limits.imagePixels * 8; // its contribution image, RGBA16F
+    uint64_t bytes = limits.imagePixels * 16; // its contribution image, RGBA32F
     if (l.shadow) {
         const uint64_t side = uint64_t(l.shadowMapSize);
         bytes += side * side * 4 * (l.type == LightType::Point ? 6 : 1);

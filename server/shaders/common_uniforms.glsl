@@ -14,7 +14,6 @@ layout(std140, binding = UBO_LIGHT) uniform LightBlock {
     mat4 worldToLightClip;  // spot light's view-projection (shadow map space)
     vec4 lightPosition;     // xyz world position, w = kind: 0 directional, 1 spot, 2 point
     vec4 lightAxis;         // xyz unit axis the light points along
-    vec4 lightRadiance;     // rgb = colour * intensity (candela)
     vec4 lightCone;         // x = cos(outer half-angle), y = cos(inner half-angle),
                             // z = 1 if shadowed, w = normal offset per unit distance (world)
     vec4 lightShadow;       // x = 1 / shadow-map size, y = PCF radius in texels, z = 1 if cube map,

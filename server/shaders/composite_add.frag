@@ -1,7 +1,8 @@
 #version 450 core
-// Adds one cached contribution, times its rescale, into the accumulation target (additive
-// blending is enabled). A colour or intensity edit changes only the rescale: the contribution was
-// shaded with the colour x intensity it had then, and uScale = new / shaded (DESIGN section 6).
+// Adds one cached contribution, times its colour x intensity, into the accumulation target
+// (additive blending is enabled). Contributions are shaded at unit radiance, so a colour or
+// intensity edit changes only uScale (DESIGN section 6); capped at RADIANCE_LIMIT so that no sum
+// or exposure of them overflows.
 #include "common_uniforms.glsl"
 layout(binding = TEX_INPUT) uniform sampler2D uInput;
 layout(location = LOC_COMPOSITE_SCALE) uniform vec3 uScale;
@@ -9,4 +10,7 @@ layout(location = LOC_COMPOSITE_SCALE) uniform vec3 uScale;
 // pixel); 1 otherwise.
 layout(location = LOC_COMPOSITE_PIXEL_STEP) uniform int uPixelStep;
 layout(location = OUT_COLOR) out vec4 oColor;
-void main() { oColor = vec4(texelFetch(uInput, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb * uScale, 0.0); }
+void main() {
+    vec3 c = texelFetch(uInput, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb * uScale;
+    oColor = vec4(min(c, vec3(RADIANCE_LIMIT)), 0.0);
+}

@@ -13,14 +13,16 @@ layout(location = LOC_COMPOSITE_SCALE) uniform vec3 uScale;
 layout(location = LOC_COMPOSITE_PIXEL_STEP) uniform int uPixelStep;
 #endif
 // The ACES filmic curve fitted by K. Narkowicz ("ACES Filmic Tone Mapping Curve", 2016): a toe
-// and a shoulder that roll highlights off instead of clipping them. Mirror: Outputs.cpp.
+// and a shoulder that roll highlights off instead of clipping them. Mirror: Outputs.cpp. The
+// curve reaches 1 at x = 7.24; inputs are capped at 1e4 so that x * x cannot overflow to Inf / Inf.
 vec3 filmic(vec3 x) {
+    x = min(x, vec3(1e4));
     return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
 }
 void main() {
     vec3 c = texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb;
 #ifdef TONEMAP_ADD_HOT
-    c += texelFetch(uHot, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb * uScale;
+    c += min(texelFetch(uHot, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb * uScale, vec3(RADIANCE_LIMIT));
 #endif
     c *= uView.exposure.x;
     if (uView.exposure.y > 0.5) c = filmic(max(c, vec3(0.0)));

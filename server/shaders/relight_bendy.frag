@@ -85,7 +85,7 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
     vec3 f = evaluateLayeredBrdfCos(N, Li, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
                                     texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
-    return f * uLight.lightRadiance.rgb * segmentColor(c.g, c.t) * (spot * vis * inverseSquare(dist2)) * pA.w;
+    return f * segmentColor(c.g, c.t) * (spot * vis * inverseSquare(dist2)) * pA.w;
 }
 
 void main() {

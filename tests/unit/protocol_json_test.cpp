@@ -142,11 +142,11 @@ TEST(RigLimits, LightsKeysAndMemoryAreLimited) {
     EXPECT_NE(mem.error().message.find("--max-light-memory-mb"), std::string::npos) << mem.error().message;
     for (auto& l : big.lights) l.shadow = false; // without shadow maps the images alone fit
     EXPECT_TRUE(checkRigLimits(big, limits).ok());
-    EXPECT_EQ(lightMemoryBytes(big.lights[0], limits), uint64_t(320 * 180 * 8));
+    EXPECT_EQ(lightMemoryBytes(big.lights[0], limits), uint64_t(320 * 180 * 16)); // RGBA32F contribution
     Light point = base;
     point.type = LightType::Point;
     point.shadowMapSize = 512;
-    EXPECT_EQ(lightMemoryBytes(point, limits), uint64_t(320 * 180 * 8) + uint64_t(512 * 512 * 4 * 6));
+    EXPECT_EQ(lightMemoryBytes(point, limits), uint64_t(320 * 180 * 16) + uint64_t(512 * 512 * 4 * 6));
 
     // Keys of one property.
     Rig keyed = defaultRig({-1, 0, -1}, {1, 1, 1});

@@ -11,7 +11,7 @@
 namespace dfb::engine {
 namespace {
 
-// A contribution's rescale and pixel step (2: shaded at half resolution) for composite_add.frag
+// A contribution's colour x intensity and pixel step (2: shaded at half resolution) for composite_add.frag
 // and composite_tonemap.frag's TONEMAP_ADD_HOT.
 void setContributionUniforms(const glm::vec3& scale, bool preview) {
     glUniform3f(LOC_COMPOSITE_SCALE, scale.x, scale.y, scale.z);
@@ -212,7 +212,7 @@ Result<ImageF> Compositor::readFloat(gl::Context& context, GLuint texture, const
     glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
     if (scale != glm::vec3(1.f)) {
         for (size_t i = 0; i < img.rgba.size(); i += 4)
-            for (int k = 0; k < 3; ++k) img.rgba[i + size_t(k)] *= scale[k];
+            for (int k = 0; k < 3; ++k) img.rgba[i + size_t(k)] = std::min(img.rgba[i + size_t(k)] * scale[k], RADIANCE_LIMIT);
     }
     if (auto s = context.check(what); !s) return s.error();
     return img;

@@ -68,28 +68,21 @@ Status GlEngine::updateShadows(const Rig& rig, FrameStats& st) {
     return okStatus();
 }
 
-// Lights whose shading inputs changed are re-shaded; colour or intensity edits only rescale.
+// Lights whose shading inputs changed are re-shaded; colour or intensity edits only change the
+// factor their unit-radiance contribution is composited with.
 Status GlEngine::updateContributions(const Rig& rig, FrameStats& st) {
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
         if (c.hasContribution && sameShadingInputs(c.params, l) && (mPreview || !c.previewShading)) {
-            // Rescale, unless a channel shaded at zero must now light.
-            const glm::vec3 wanted = radiance(l);
-            bool rescalable = true;
-            glm::vec3 scale(0.f);
-            for (int k = 0; k < 3; ++k) {
-                if (c.shadedRadiance[k] > 0.f) scale[k] = wanted[k] / c.shadedRadiance[k];
-                else rescalable = rescalable && wanted[k] <= 0.f;
+            // Shaded at unit radiance: colour x intensity is only the factor it is composited with.
+            const glm::vec3 scale = radiance(l);
+            if (scale != c.scale) {
+                c.scale = scale;
+                ++c.version;
             }
-            if (rescalable) {
-                if (scale != c.scale) {
-                    c.scale = scale;
-                    ++c.version;
-                }
-                c.params = l;
-                continue;
-            }
+            c.params = l;
+            continue;
         }
         c.params = l;
         if (auto s = mShading.shade(c, 0, mPreview); !s) return s;

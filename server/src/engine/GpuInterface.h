@@ -87,7 +87,18 @@
     X(COMPUTE_GROUP_SIZE, 64, "local_size_x of the compute passes (the engine dispatches by it)")  \
     X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands")
 
+// Real-valued limits (GLSL float literals; C++ constexpr float).
+#define DFB_GPU_FLOAT_LIMITS(X)                                                                    \
+    X(RADIANCE_LIMIT, 1e25f,                                                                       \
+      "largest radiance one light contributes to a pixel (colour x intensity applied): far above "  \
+      "any physical light (a 1e5 lux sun reflects ~3e4), and 2^20 (the largest exposure) times "    \
+      "3e7 such lights stays below float's 3.4e38, so no output overflows to Inf")
+
 namespace dfb::engine {
+
+#define DFB_GPU_FLOAT_LIMIT(name, value, what) constexpr float name = value;
+DFB_GPU_FLOAT_LIMITS(DFB_GPU_FLOAT_LIMIT)
+#undef DFB_GPU_FLOAT_LIMIT
 
 #define DFB_GPU_ENUMERATOR(name, value, what) name = value,
 enum TextureUnit : unsigned { DFB_GPU_TEXTURE_UNITS(DFB_GPU_ENUMERATOR) };
@@ -121,7 +132,6 @@ struct LightBlock {
     glm::mat4 worldToLightClip;
     glm::vec4 lightPosition;
     glm::vec4 lightAxis;
-    glm::vec4 lightRadiance;
     glm::vec4 lightCone;
     glm::vec4 lightShadow;
     glm::vec4 lightRight;
@@ -132,14 +142,13 @@ struct LightBlock {
 static_assert(offsetof(LightBlock, worldToLightClip) == 0);
 static_assert(offsetof(LightBlock, lightPosition) == 64);
 static_assert(offsetof(LightBlock, lightAxis) == 80);
-static_assert(offsetof(LightBlock, lightRadiance) == 96);
-static_assert(offsetof(LightBlock, lightCone) == 112);
-static_assert(offsetof(LightBlock, lightShadow) == 128);
-static_assert(offsetof(LightBlock, lightRight) == 144);
-static_assert(offsetof(LightBlock, lightUp) == 160);
-static_assert(offsetof(LightBlock, lightDoors) == 176);
-static_assert(offsetof(LightBlock, lightCube) == 192);
-static_assert(sizeof(LightBlock) == 208);
+static_assert(offsetof(LightBlock, lightCone) == 96);
+static_assert(offsetof(LightBlock, lightShadow) == 112);
+static_assert(offsetof(LightBlock, lightRight) == 128);
+static_assert(offsetof(LightBlock, lightUp) == 144);
+static_assert(offsetof(LightBlock, lightDoors) == 160);
+static_assert(offsetof(LightBlock, lightCube) == 176);
+static_assert(sizeof(LightBlock) == 192);
 
 /// The shot's view (UBO_VIEW). GLSL mirror: ViewBlock in common_uniforms.glsl.
 struct ViewBlock {

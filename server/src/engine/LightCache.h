@@ -35,13 +35,12 @@ struct LightCache {
     GLsizei casterIndexCount = 0; // Casters::indicesFor when its shadow map was last rendered
     gl::Buffer linkMask; // light linking: one bit per object id
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
-    glm::vec3 shadedRadiance{0.f}; // colour x intensity the contribution was shaded with
-    glm::vec3 scale{1.f};          // current colour x intensity / shadedRadiance
+    glm::vec3 scale{1.f};          // colour x intensity: the contribution is shaded at unit radiance
     uint64_t version = 0;          // bumped whenever the contribution or its scale changes
     uint64_t compositedVersion = ~0ull;
 };
 
-/// Colour x intensity: what a contribution is shaded with and rescaled by.
+/// Colour x intensity: what a contribution (shaded at unit radiance) is multiplied by.
 inline glm::vec3 radiance(const Light& l) { return toGlm(l.color) * l.intensityCd; }
 
 /// Converts c.params' chain (a BendyLight's) into c.chain and c.bendy and binds it at UBO_BENDY.

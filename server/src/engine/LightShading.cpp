@@ -20,7 +20,6 @@ LightBlock lightBlock(const LightCache& c, bool cookie) {
                                                                                         : 1.f);
     const glm::vec3 axis = glm::normalize(toGlm(l.direction));
     block.lightAxis = glm::vec4(axis, 0.f);
-    block.lightRadiance = glm::vec4(radiance(l), 0.f);
     const float outer = glm::radians(l.coneAngleDeg);
     const float inner = glm::radians(std::max(l.coneAngleDeg - l.penumbraDeg, 0.f));
     // Normal offset: `shadowBias` shadow-map texels, whose world size grows linearly with distance.
@@ -97,7 +96,10 @@ std::string LightShading::shadeDefines(const LightCache& c, int output, bool coo
 // samples: no per-pixel loop whose longest pixel every lane of a group waits for.
 Result<GLuint> LightShading::target(LightCache& c, bool perSample) {
     if (!c.contribution) {
-        c.contribution = gl::makeTexture2D(GL_RGBA16F, mGBuffer.width, mGBuffer.height);
+        // Full float: a contribution is shaded at unit radiance and scaled by colour x intensity
+        // in the composite (up to 1e18), so its own values span what the G-buffer's geometry
+        // gives (1/d^2, a GGX peak) and half float's 11-bit mantissa and 65504 ceiling would show.
+        c.contribution = gl::makeTexture2D(GL_RGBA32F, mGBuffer.width, mGBuffer.height);
         if (!mMaskDepth) mMaskDepth = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, mGBuffer.width, mGBuffer.height);
         auto fb = gl::makeFramebuffer(c.contribution.id(), mMaskDepth.id(), "contribution of light '" + c.params.name + "'");
         if (!fb) return fb.error();
@@ -232,8 +234,7 @@ Status LightShading::shade(LightCache& c, int output, bool preview) {
     c.hasContribution = true;
     if (output == 0) {
         c.previewShading = step != 1;
-        c.shadedRadiance = radiance(l);
-        c.scale = glm::vec3(1.f);
+        c.scale = radiance(l);
         ++c.version;
     }
     return okStatus();

@@ -10,8 +10,9 @@ namespace dfb {
 namespace {
 
 // The filmic view transform: the ACES curve fitted by Narkowicz (2016), as composite_tonemap.frag.
+// The curve reaches 1 at x = 7.24; the cap at 1e4 keeps x * x finite.
 float filmic(float x) {
-    x = std::max(x, 0.f);
+    x = std::clamp(x, 0.f, 1e4f);
     return std::clamp((x * (2.51f * x + 0.03f)) / (x * (2.43f * x + 0.59f) + 0.14f), 0.f, 1.f);
 }
 

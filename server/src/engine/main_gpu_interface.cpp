@@ -36,6 +36,10 @@ int main(int argc, char** argv) {
     DFB_GPU_GROUP("Limits", DFB_GPU_LIMITS)
 #undef DFB_GPU_GROUP
 #undef DFB_GPU_DEFINE
+    std::fputs("\n// Real-valued limits\n", out);
+#define DFB_GPU_FLOAT_DEFINE(name, value, what) std::fprintf(out, "#define %s %.9g // %s\n", #name, double(value), what);
+    DFB_GPU_FLOAT_LIMITS(DFB_GPU_FLOAT_DEFINE)
+#undef DFB_GPU_FLOAT_DEFINE
     std::fputs("\n#endif // DFB_GPU_INTERFACE_GLSL\n", out);
     return std::fclose(out) == 0 ? 0 : 1;
 }
