@@ -74,6 +74,7 @@ export function renderLights() {
     li.addEventListener("click", () => selectLight(l.name));
     ul.append(li);
   }
+  applyEditable(ul);
 }
 
 export function selectLight(name) {
@@ -399,14 +400,21 @@ function buildRigProps() {
   box.update();
 }
 
-// Editing controls are disabled for viewers and while disconnected, with the reason as a tooltip.
-export function updateEditable() {
+// Editing controls ([data-edit]) under `root` are disabled for viewers and while disconnected,
+// with the reason as a tooltip. Every renderer that creates such controls calls it on what it made
+// (a light list rebuilt by a presence message must not hand a viewer enabled checkboxes).
+function applyEditable(root) {
   const ok = canEdit();
   const why = !S.connected ? "not connected" : S.role !== "editor" ? "viewer link: editing is not allowed" : "";
-  for (const el of document.querySelectorAll("[data-edit]")) {
+  for (const el of root.querySelectorAll("[data-edit]")) {
     el.disabled = !ok;
     if (!ok) el.dataset.why = why;
   }
+  return { ok, why };
+}
+
+export function updateEditable() {
+  const { ok, why } = applyEditable(document);
   if (ok) {
     $("undo").disabled = !S.history.undo;
     $("redo").disabled = !S.history.redo;

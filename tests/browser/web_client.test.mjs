@@ -414,6 +414,15 @@ try {
     for (const sel of ["#prop-intensity", "#undo", "#addLight", "#lightType", "#setKey", '#lights li[data-light="key"] .enable']) {
       assert(await v.isDisabled(sel), `${sel} is enabled for a viewer`);
     }
+    // A presence message rebuilds the viewer's light list (alice starts dragging a slider: her
+    // badge appears): the rebuilt checkboxes must still be disabled. This once raced in a full
+    // ctest -j2 run under load, when carol's own join reached her page after the welcome.
+    await a.dispatchEvent("#props input[type=range]", "pointerdown");
+    await v.waitForFunction(() => /✎ alice/.test(document.querySelector("#lights")?.textContent ?? ""), null, WAIT);
+    const enabled = await v.$$eval("#lights .enable", (els) => els.filter((e) => !e.disabled).length);
+    assert(enabled === 0, `${enabled} checkbox(es) of the rebuilt light list are enabled for a viewer`);
+    await a.dispatchEvent("#props input[type=range]", "change");
+    await v.waitForFunction(() => !/✎ alice/.test(document.querySelector("#lights")?.textContent ?? ""), null, WAIT);
     // The view is still the viewer's own: output can change.
     assert(await v.isEnabled("#output"), "a viewer cannot choose an output");
     const v0 = (await getRig()).version;
