@@ -15,9 +15,10 @@ layout(std140, binding = UBO_LIGHT) uniform LightBlock {
     vec4 lightPosition;     // xyz world position, w = kind: 0 directional, 1 spot, 2 point
     vec4 lightAxis;         // xyz unit axis the light points along
     vec4 lightCone;         // x = cos(outer half-angle), y = cos(inner half-angle),
-                            // z = 1 if shadowed, w = normal offset per unit distance (world)
+                            // z = 1 if shadowed, w = normal offset per unit distance at
+                            // grazing incidence (world; times sin(theta))
     vec4 lightShadow;       // x = 1 / shadow-map size, y = PCF radius in texels, z = 1 if cube map,
-                            // w unused
+                            // w = constant normal offset per unit distance (world)
     vec4 lightRight;        // xyz the spot's right (axis x up, as its shadow frustum), w = 1 if cookie
     vec4 lightUp;           // xyz the spot's up, w = tan(outer half-angle) (cookie mapping)
     vec4 lightDoors;        // barn doors: left, right, top, bottom half-angles in radians
@@ -70,6 +71,15 @@ ivec2 previewTexel(ivec2 pixel, int step) { return pixel >> (step >> 1); }
 
 vec3 viewVector(vec3 P) {
     return uView.cameraPosition.w > 0.5 ? -uView.cameraForward.xyz : normalize(uView.cameraPosition.xyz - P);
+}
+
+// The receiver's offset along its geometric normal Ng for the shadow lookup, world units, for the
+// unit direction L towards the light at distance `dist` (1 for directional lights): k texels
+// times sin(theta), theta between Ng and L (normal offset that follows the receiver), plus a
+// constant for deformed maps (why both: LightShading.cpp, lightBlock).
+float shadowNormalOffset(vec3 Ng, vec3 L, float dist) {
+    float c = clamp(dot(Ng, L), 0.0, 1.0);
+    return dist * (uLight.lightCone.w * sqrt(1.0 - c * c) + uLight.lightShadow.w);
 }
 
 // Percentage-closer filter of radius uLight.lightShadow.y texels: the mean of the (2r+1)^2

@@ -79,7 +79,9 @@ vec3 shadeSample(ivec2 t) {
     if (dot(N, Li) <= 0.0) return vec3(0.0);
     float vis = 1.0;
     if (SHADE_SHADOWED) {
-        vis = bendyShadow(c, arc, normalize(texelFetch(gNg, t, 0).xyz), uLight.lightCone.w * dist);
+        // Facing away geometrically: shadowed by itself (as shadowVisibility, relight_spot.frag).
+        vec3 Ng = normalize(texelFetch(gNg, t, 0).xyz);
+        vis = dot(Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, arc, Ng, shadowNormalOffset(Ng, Li, dist));
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);

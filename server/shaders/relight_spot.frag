@@ -34,8 +34,12 @@ layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 const int KIND_DIRECTIONAL = 0, KIND_POINT = 2;
 
-float shadowVisibility(vec3 P, vec3 Ng, float dist) {
-    vec3 biased = P + Ng * (uLight.lightCone.w * dist);
+float shadowVisibility(vec3 P, vec3 Ng, vec3 L, float dist) {
+    // A surface whose geometric normal faces away from the light is shadowed by itself (the
+    // shading normal can still face it near a smooth mesh's terminator); the shadow map holds
+    // closed meshes' far sides only, which cannot say so (issue 16: most leaks on the bunny).
+    if (dot(Ng, L) <= 0.0) return 0.0;
+    vec3 biased = P + Ng * shadowNormalOffset(Ng, L, dist);
     if (SHADE_KIND == KIND_POINT) {
         // Point light: the cube face's projection depth of the biased point (its major axis is
         // the face's view depth), filtered across the direction like the 2D maps.
@@ -108,7 +112,7 @@ vec3 shadeSample(ivec2 t) {
     if (max(spot.x, max(spot.y, spot.z)) <= 0.0 || dot(N, L) <= 0.0) return vec3(0.0);
     float vis = 1.0;
     if (SHADE_SHADOWED) {
-        vis = shadowVisibility(P, normalize(texelFetch(gNg, t, 0).xyz), dist);
+        vis = shadowVisibility(P, normalize(texelFetch(gNg, t, 0).xyz), L, dist);
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);

@@ -22,19 +22,40 @@ LightBlock lightBlock(const LightCache& c, bool cookie) {
     block.lightAxis = glm::vec4(axis, 0.f);
     const float outer = glm::radians(l.coneAngleDeg);
     const float inner = glm::radians(std::max(l.coneAngleDeg - l.penumbraDeg, 0.f));
-    // Normal offset: `shadowBias` shadow-map texels, whose world size grows linearly with distance.
+    // The world size of a shadow-map texel per unit distance (perspective maps), or its one size.
     const int mapSize = c.hasShadow ? c.shadowSize : l.shadowMapSize;
-    float normalOffset = l.shadowBias * texelPerDistance(l, mapSize);
+    float texel = texelPerDistance(l, mapSize);
     if (l.type == LightType::Directional) {
         // Orthographic texels have one world size: the frustum's width over the map's.
         const glm::mat4 m = glm::inverse(c.worldToLightClip);
         const float width = glm::length(glm::vec3(m * glm::vec4(1, 0, 0, 1)) / (m * glm::vec4(1, 0, 0, 1)).w -
                                         glm::vec3(m * glm::vec4(-1, 0, 0, 1)) / (m * glm::vec4(-1, 0, 0, 1)).w);
-        normalOffset = l.shadowBias * width / float(std::max(mapSize, 1));
+        texel = width / float(std::max(mapSize, 1));
     }
+    // Normal-offset shadows that follow the receiver (Holbert, "Normal Offset Shadows", 2011): the lookup moves along the geometric
+    // normal by k texels times sin(theta), theta the angle between the normal and the light. On a
+    // planar receiver a normal offset o clears its own depth by o / cos(theta), while the PCF taps
+    // reach r + 1 texels away (r = shadowFilter, plus the 2x2 comparison), where the plane's depth
+    // differs by (r + 1) texel tan(theta): k = r + 1 clears every tap at every angle, and the
+    // offset vanishes where the light is head-on and nothing needs it. So k = shadowBias - 0.5 + r,
+    // r + 1 at the default bias of 1.5 texels. Chosen by measurement against the constant 1.5-texel
+    // offset with slope-scaled polygon offset it replaces and slope-scaled bias alone (the table is
+    // in docs/lighting.md, Shadows). Receiver-plane depth bias (Isidoro, "Shadow Mapping: GPU-based
+    // Tips and Techniques", GDC 2006; Dou et al., "Adaptive Depth Bias for Shadow Maps", 2014)
+    // would let k drop to about 1 but needs a comparison per texel instead of per 2x2 gather: not
+    // tried yet.
+    const float k = std::max(l.shadowBias - 0.5f + float(l.shadowFilter), 0.f);
     block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
-                                l.shadow ? 1.f : 0.f, normalOffset);
-    block.lightShadow = glm::vec4(1.f / float(std::max(mapSize, 1)), float(l.shadowFilter), c.shadowIsCube ? 1.f : 0.f, 0.f);
+                                l.shadow ? 1.f : 0.f, k * texel);
+    // Plus half a texel at every angle, where k sin(theta) vanishes: llvmpipe interpolates the
+    // depth of large triangles (the table's two) a few units of the depth format away from the
+    // relight shaders' projection of the same point, and a BendyLight's deformed map holds casters
+    // subdivided only to within a quarter texel of the true deformed surface while a receiver
+    // maps itself exactly (without it: acne on the table where the light is head-on, and the
+    // table changed 2,304 values of a sun's image when drawn into its map).
+    const float constant = 0.5f;
+    block.lightShadow = glm::vec4(1.f / float(std::max(mapSize, 1)), float(l.shadowFilter), c.shadowIsCube ? 1.f : 0.f,
+                                  constant * texel);
     // The spot's frame, as its shadow frustum's (lightViewProj): barn doors and cookie.
     const glm::vec3 right = glm::normalize(glm::cross(axis, frustumUp(axis)));
     block.lightRight = glm::vec4(right, cookie ? 1.f : 0.f);

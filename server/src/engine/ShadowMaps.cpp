@@ -10,8 +10,12 @@ namespace dfb::engine {
 namespace {
 
 // Depth-only state of every shadow pass into `framebuffer`, `size` texels square. Casters are not
-// assumed closed (Casters::draw culls the closed ones itself). A slope-scaled offset against
-// self-shadowing acne; receivers add a normal offset too (LightShading).
+// assumed closed (Casters::draw culls the closed ones itself). No slope-scaled offset: it pushes a
+// caster back by its own depth slope, which is steep exactly where casters meet receivers at
+// contacts and grazing lines, pushing shadows off their contacts (issue 16). Acne is left to the
+// receiver's normal offset, which follows the receiver's angle to the light (LightShading,
+// shadowNormalOffset in common_uniforms.glsl); two units of the depth format's resolution only
+// absorb the rounding between the rasterised depth and the relight shaders' projection of it.
 void beginDepthPass(GLuint framebuffer, int size) {
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glViewport(0, 0, size, size);
@@ -21,7 +25,7 @@ void beginDepthPass(GLuint framebuffer, int size) {
     glDisable(GL_CULL_FACE);
     glDisable(GL_BLEND);
     glEnable(GL_POLYGON_OFFSET_FILL);
-    glPolygonOffset(1.5f, 2.f);
+    glPolygonOffset(0.f, 2.f);
 }
 
 void endDepthPass() {
