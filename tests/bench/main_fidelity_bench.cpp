@@ -14,11 +14,11 @@
 #include <dfb/core/Stats.h>
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/Scene.h>
-#include <dfb/lightmath/Brdf.h>
-#include <dfb/lightmath/Falloff.h>
 #include <dfb/server/Engine.h>
 
 #include <CLI/CLI.hpp>
+
+#include "support/CpuRelight.h"
 
 #include <glm/glm.hpp>
 #include <glm/gtc/packing.hpp>
@@ -30,45 +30,28 @@
 #include <vector>
 
 using namespace dfb;
-namespace lm = dfb::lightmath;
 
 namespace {
 
-glm::dvec3 dv(const Vec3& v) { return {v[0], v[1], v[2]}; }
-
 // The CPU relight of one light without shadows: per pixel, the coverage-weighted sum over its
-// samples of f(L, V) N.L x colour x intensity x falloff (docs/lighting.md), in double.
+// samples of test::cpuShade (f(L, V) N.L x colour x intensity x falloff, docs/lighting.md).
 std::vector<glm::dvec3> cpuRelight(const DeepBuffer& b, const Light& l) {
-    const glm::mat4 camToWorld = glm::inverse(b.camera.worldToCamera);
-    const glm::dvec3 eye(camToWorld[3]);
+    const glm::dvec3 eye(glm::inverse(b.camera.worldToCamera)[3]);
     const glm::dvec3 forward = glm::dvec3(b.camera.forward());
-    const lm::SpotFrame<double> frame = lm::spotFrame(dv(l.direction));
-    const lm::vec2<double> cone = lm::spotConeCosines(glm::radians(double(l.coneAngleDeg)), glm::radians(double(l.penumbraDeg)));
-    const glm::dvec4 doors(lm::barnDoorRadians(double(l.barnDoorsDeg[0])), lm::barnDoorRadians(double(l.barnDoorsDeg[1])),
-                           lm::barnDoorRadians(double(l.barnDoorsDeg[2])), lm::barnDoorRadians(double(l.barnDoorsDeg[3])));
-    const glm::dvec3 radiance = dv(l.color) * double(l.intensityCd);
     std::vector<glm::dvec3> out(b.pixelCount(), glm::dvec3(0.0));
     for (size_t p = 0; p < b.pixelCount(); ++p) {
         for (uint32_t s = b.sampleOffset[p]; s < b.sampleOffset[p + 1]; ++s) {
             const double A = b.A[s];
             if (A <= 0) continue;
-            const glm::dvec3 P(b.position(s)), N = glm::normalize(glm::dvec3(b.normal(s)));
-            const glm::dvec3 V = b.camera.orthographic ? -forward : glm::normalize(eye - P);
-            glm::dvec3 L;
-            double falloff = 1;
-            if (l.type == LightType::Directional) {
-                L = -frame.axis;
-            } else if (l.type == LightType::Point) {
-                falloff = lm::pointFalloff(P, dv(l.position), L);
-            } else {
-                falloff = lm::spotFalloff(P, dv(l.position), frame, cone, doors, L);
-            }
-            if (falloff <= 0) continue;
-            const glm::dvec3 albedo(b.albedo[s * 3], b.albedo[s * 3 + 1], b.albedo[s * 3 + 2]);
-            const glm::dvec4 brdf(b.brdf[s * 4], b.brdf[s * 4 + 1], b.brdf[s * 4 + 2], b.brdf[s * 4 + 3]);
-            const glm::dvec4 sheen(b.sheen[s * 4], b.sheen[s * 4 + 1], b.sheen[s * 4 + 2], b.sheen[s * 4 + 3]);
-            const glm::dvec2 coat(b.coat[s * 2], b.coat[s * 2 + 1]);
-            out[p] += A * falloff * radiance * lm::evaluateLayeredBrdfCos(N, L, V, albedo, brdf, sheen, coat);
+            test::SampleTerms t;
+            t.P = glm::dvec3(b.position(s));
+            t.N = glm::dvec3(b.normal(s));
+            t.albedo = glm::dvec3(b.albedo[s * 3], b.albedo[s * 3 + 1], b.albedo[s * 3 + 2]);
+            t.brdf = glm::dvec4(b.brdf[s * 4], b.brdf[s * 4 + 1], b.brdf[s * 4 + 2], b.brdf[s * 4 + 3]);
+            t.sheen = glm::dvec4(b.sheen[s * 4], b.sheen[s * 4 + 1], b.sheen[s * 4 + 2], b.sheen[s * 4 + 3]);
+            t.coat = glm::dvec2(b.coat[s * 2], b.coat[s * 2 + 1]);
+            const glm::dvec3 V = b.camera.orthographic ? -forward : glm::normalize(eye - t.P);
+            out[p] += A * test::cpuShade(l, t, V);
         }
     }
     return out;

@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/PlaneShot.h"
+
 #include <OpenImageIO/imageio.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -29,34 +31,23 @@ namespace lm = dfb::lightmath;
 namespace {
 
 constexpr int SIZE = 64;
-constexpr float HALF = 2.f; // the plane covers x, z in [-HALF, HALF]
 
-glm::vec3 planePoint(int x, int y) {
-    return {-HALF + 2.f * HALF * (x + 0.5f) / SIZE, 0.f, -HALF + 2.f * HALF * (y + 0.5f) / SIZE};
+test::PlaneShot plane(glm::vec3 eye, float roughness, float specular, glm::vec3 albedo = glm::vec3(0.5f)) {
+    test::PlaneShot p;
+    p.size = SIZE;
+    p.eye = eye;
+    p.up = glm::vec3(0, 1, 0);
+    p.roughness = roughness;
+    p.specular = specular;
+    p.albedo = albedo;
+    return p;
 }
+glm::vec3 planePoint(int x, int y) { return plane({0, 10, 0.01f}, 1, 0).point(x, y); }
 
 // The plane y = 0 seen from `eye`. Values exactly representable in half float (the G-buffer
 // textures are RGBA16F except P), so the closed forms below use the values the GPU reads.
 DeepBuffer planeShot(glm::vec3 eye, float roughness, float specular, glm::vec3 albedo = glm::vec3(0.5f)) {
-    DeepBuffer b;
-    b.allocate(SIZE, SIZE);
-    for (int y = 0; y < SIZE; ++y)
-        for (int x = 0; x < SIZE; ++x) {
-            const size_t i = size_t(y) * SIZE + size_t(x);
-            const glm::vec3 p = planePoint(x, y);
-            b.P[i * 3 + 0] = p.x;
-            b.P[i * 3 + 2] = p.z;
-            b.N[i * 3 + 1] = 1.f;
-            b.Ng[i * 3 + 1] = 1.f;
-            for (int c = 0; c < 3; ++c) b.albedo[i * 3 + size_t(c)] = albedo[c];
-            b.brdf[i * 4 + 1] = roughness;
-            b.brdf[i * 4 + 2] = specular;
-            b.brdf[i * 4 + 3] = 1.f;
-            b.A[i] = 1.f;
-            b.objectId[i] = 1;
-        }
-    b.camera.worldToCamera = glm::lookAt(eye, glm::vec3(0), glm::vec3(0, 1, 0));
-    return b;
+    return plane(eye, roughness, specular, albedo).shot();
 }
 
 ShadowGeometry blocker() { // one horizontal square above the plane, so shadows are part of the image

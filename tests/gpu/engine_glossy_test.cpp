@@ -4,11 +4,12 @@
 // view directions from the camera, N = +Y) within 1%. The first engine test with a specular lobe
 // that matters (the others use specular 0, roughness 1).
 
-#include <dfb/lightmath/Brdf.h>
-#include <dfb/lightmath/Falloff.h>
 #include <dfb/server/Engine.h>
 
 #include <gtest/gtest.h>
+
+#include "support/CpuRelight.h"
+#include "support/PlaneShot.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -16,62 +17,32 @@
 #include <cstdio>
 
 using namespace dfb;
-namespace lm = dfb::lightmath;
 
 namespace {
 
 constexpr int SIZE = 96;
-constexpr float HALF = 2.f; // the plane covers x, z in [-HALF, HALF]
 const glm::vec3 ALBEDO(0.9f, 0.6f, 0.3f);
 
-glm::vec3 planePoint(int x, int y) {
-    return {-HALF + 2.f * HALF * (x + 0.5f) / SIZE, 0.f, -HALF + 2.f * HALF * (y + 0.5f) / SIZE};
-}
+glm::vec3 planePoint(int x, int y) { return test::PlaneShot{}.point(x, y); }
 
 // A SIZE x SIZE shot of the plane y = 0 seen from (0, 10, 0) (perspective), as engine_lights_test.
 DeepBuffer glossyPlane(float metallic, float roughness) {
-    DeepBuffer b;
-    b.allocate(SIZE, SIZE);
-    for (int y = 0; y < SIZE; ++y)
-        for (int x = 0; x < SIZE; ++x) {
-            const size_t i = size_t(y) * SIZE + size_t(x);
-            const glm::vec3 p = planePoint(x, y);
-            b.P[i * 3 + 0] = p.x;
-            b.P[i * 3 + 2] = p.z;
-            b.N[i * 3 + 1] = 1.f;
-            b.Ng[i * 3 + 1] = 1.f;
-            for (int c = 0; c < 3; ++c) b.albedo[i * 3 + size_t(c)] = ALBEDO[c];
-            b.brdf[i * 4 + 0] = metallic;
-            b.brdf[i * 4 + 1] = roughness;
-            b.brdf[i * 4 + 2] = 0.5f; // F0 = 0.04
-            b.brdf[i * 4 + 3] = 1.f;
-            b.A[i] = 1.f;
-            b.objectId[i] = 1;
-        }
-    b.camera.worldToCamera = glm::lookAt(glm::vec3(0, 10, 0), glm::vec3(0), glm::vec3(0, 0, -1));
-    return b;
+    test::PlaneShot p;
+    p.albedo = ALBEDO;
+    p.metallic = metallic;
+    p.roughness = roughness;
+    p.specular = 0.5f; // F0 = 0.04
+    return p.shot();
 }
-
-glm::dvec3 g(const Vec3& v) { return {v[0], v[1], v[2]}; }
 
 // The expected linear radiance of pixel (x, y): f(L, V) N.L x colour x intensity x falloff.
 glm::dvec3 expected(const Light& l, int x, int y, float metallic, float roughness) {
-    const glm::dvec3 P(planePoint(x, y)), N(0, 1, 0), E(0, 10, 0);
-    const glm::dvec3 V = glm::normalize(E - P);
-    glm::dvec3 L;
-    double falloff;
-    if (l.type == LightType::Point) {
-        falloff = lm::pointFalloff(P, g(l.position), L);
-    } else {
-        const lm::SpotFrame<double> f = lm::spotFrame(g(l.direction));
-        const glm::dvec2 cone = lm::spotConeCosines(glm::radians(double(l.coneAngleDeg)), glm::radians(double(l.penumbraDeg)));
-        const glm::dvec4 doors(lm::barnDoorRadians(double(l.barnDoorsDeg[0])), lm::barnDoorRadians(double(l.barnDoorsDeg[1])),
-                               lm::barnDoorRadians(double(l.barnDoorsDeg[2])), lm::barnDoorRadians(double(l.barnDoorsDeg[3])));
-        falloff = lm::spotFalloff(P, g(l.position), f, cone, doors, L);
-    }
-    const glm::dvec3 fcos = lm::evaluateLayeredBrdfCos(N, L, V, glm::dvec3(ALBEDO), glm::dvec4(metallic, roughness, 0.5, 1),
-                                                       glm::dvec4(0.0), glm::dvec2(0.0));
-    return fcos * g(l.color) * double(l.intensityCd) * falloff;
+    test::SampleTerms s;
+    s.P = glm::dvec3(planePoint(x, y));
+    s.N = glm::dvec3(0, 1, 0);
+    s.albedo = glm::dvec3(ALBEDO);
+    s.brdf = glm::dvec4(metallic, roughness, 0.5, 1);
+    return test::cpuShade(l, s, glm::normalize(glm::dvec3(0, 10, 0) - s.P));
 }
 
 struct Compare {

@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/PlaneShot.h"
+
 #include <OpenImageIO/imageio.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -24,30 +26,13 @@ namespace {
 constexpr int SIZE = 96;
 constexpr float HALF = 2.f; // the plane covers x, z in [-HALF, HALF]
 
-glm::vec3 planePoint(int x, int y) {
-    return {-HALF + 2.f * HALF * (x + 0.5f) / SIZE, 0.f, -HALF + 2.f * HALF * (y + 0.5f) / SIZE};
-}
+glm::vec3 planePoint(int x, int y) { return test::PlaneShot{}.point(x, y); }
 
 // A SIZE x SIZE shot looking straight down at a Lambertian plane y = 0.
 DeepBuffer planeShot(float albedo) {
-    DeepBuffer b;
-    b.allocate(SIZE, SIZE);
-    for (int y = 0; y < SIZE; ++y)
-        for (int x = 0; x < SIZE; ++x) {
-            const size_t i = size_t(y) * SIZE + size_t(x);
-            const glm::vec3 p = planePoint(x, y);
-            b.P[i * 3 + 0] = p.x;
-            b.P[i * 3 + 2] = p.z;
-            b.N[i * 3 + 1] = 1.f;
-            b.Ng[i * 3 + 1] = 1.f;
-            for (int c = 0; c < 3; ++c) b.albedo[i * 3 + size_t(c)] = albedo;
-            b.brdf[i * 4 + 1] = 1.f; // fully rough dielectric without specular: pure Lambert
-            b.brdf[i * 4 + 3] = 1.f;
-            b.A[i] = 1.f;
-            b.objectId[i] = 1;
-        }
-    b.camera.worldToCamera = glm::lookAt(glm::vec3(0, 10, 0), glm::vec3(0), glm::vec3(0, 0, -1));
-    return b;
+    test::PlaneShot p;
+    p.albedo = glm::vec3(albedo);
+    return p.shot();
 }
 
 glm::vec3 g(const Vec3& v) { return {v[0], v[1], v[2]}; }

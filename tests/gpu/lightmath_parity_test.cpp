@@ -74,6 +74,21 @@ template <typename T> std::array<double, 10> cpu(const Sample& s) {
             double(distributionCharlie(NdotH, sheenAlpha)), double(visibilityNeubelt(NdotL, NdotV))};
 }
 
+// Runs `program` (local size 64; samples at SSBO 0, results at SSBO 1) over `samples` and reads
+// back `perSample` vec4 results per sample.
+template <typename S> std::vector<glm::vec4> dispatch(GLuint program, const std::vector<S>& samples, size_t perSample) {
+    std::vector<glm::vec4> results(samples.size() * perSample);
+    gl::Buffer in = gl::makeBuffer(samples.data(), samples.size() * sizeof(S));
+    gl::Buffer out = gl::makeBuffer(nullptr, results.size() * sizeof(glm::vec4), GL_DYNAMIC_STORAGE_BIT);
+    glUseProgram(program);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
+    glDispatchCompute(GLuint((samples.size() + 63) / 64), 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(results.size() * sizeof(glm::vec4)), results.data());
+    return results;
+}
+
 glm::vec3 spherical(float cosTheta, float phi) {
     const float s = std::sqrt(std::max(0.f, 1.f - cosTheta * cosTheta));
     return {s * std::cos(phi), s * std::sin(phi), cosTheta};
@@ -126,15 +141,7 @@ TEST(LightmathParity, GlslBrdfAgreesWithCppOnAGrid) {
                     ++sameDirection;
                 }
 
-    std::vector<glm::vec4> results(samples.size() * 3);
-    gl::Buffer in = gl::makeBuffer(samples.data(), samples.size() * sizeof(Sample));
-    gl::Buffer out = gl::makeBuffer(nullptr, results.size() * sizeof(glm::vec4), GL_DYNAMIC_STORAGE_BIT);
-    glUseProgram(program->id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
-    glDispatchCompute(GLuint((samples.size() + 63) / 64), 1, 1);
-    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-    glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(results.size() * sizeof(glm::vec4)), results.data());
+    const std::vector<glm::vec4> results = dispatch(program->id(), samples, 3);
     ASSERT_TRUE(ctx.value()->check("brdf parity dispatch").ok());
 
     const char* names[] = {"layered.r", "layered.g", "layered.b", "base.r", "base.g", "base.b",
@@ -254,15 +261,7 @@ TEST(LightmathParity, GlslFalloffAgreesWithCppOnAGrid) {
     samples.push_back({glm::vec4(0, -1, 0, 0), glm::vec4(0, 0, 1, 0), glm::vec4(1, 0, 0, 0), glm::vec4(10.f), glm::vec4(0, 1, 0, 0),
                        glm::vec4(0.5f, 0.6f, 1.f, 0)});
 
-    std::vector<glm::vec4> results(samples.size());
-    gl::Buffer in = gl::makeBuffer(samples.data(), samples.size() * sizeof(FalloffSample));
-    gl::Buffer out = gl::makeBuffer(nullptr, results.size() * sizeof(glm::vec4), GL_DYNAMIC_STORAGE_BIT);
-    glUseProgram(program->id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.id());
-    glDispatchCompute(GLuint((samples.size() + 63) / 64), 1, 1);
-    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-    glGetNamedBufferSubData(out.id(), 0, GLsizeiptr(results.size() * sizeof(glm::vec4)), results.data());
+    const std::vector<glm::vec4> results = dispatch(program->id(), samples, 1);
     ASSERT_TRUE(ctx.value()->check("falloff parity dispatch").ok());
 
     // Tolerance: 1e-5 relative + 1e-6 absolute + 4 |C++ float - C++ double| (a smoothstep edge
