@@ -9,7 +9,10 @@
 //   value, and the share of values off by more than 0.05 %;
 // - specular 0: every sample's specular level set to 0 under a sun behind the scene at 11 degrees,
 //   against Lambert (KHR_materials_specular's F90 = specular weight);
-// - light cache: intensity edits from 1e-6 to 1e12 on the key light against a fresh engine.
+// - light cache: intensity edits from 1e-6 to 1e12 on the key light against a fresh engine;
+// - shadows: the engine's shadow mask (lit where visibility >= 0.5) against Embree rays from each
+//   fully reached pixel's sample to the light, per light type: agreement and shadowed-area ratio
+//   (as tests/gpu/engine_shadow_bias_test.cpp measures them).
 
 #include <dfb/core/Stats.h>
 #include <dfb/gbuffer/Baker.h>
@@ -19,6 +22,7 @@
 #include <CLI/CLI.hpp>
 
 #include "support/CpuRelight.h"
+#include "support/RayCaster.h"
 
 #include <glm/glm.hpp>
 #include <glm/gtc/packing.hpp>
@@ -112,6 +116,37 @@ double worstRelative(const ImageF& a, const ImageF& b) {
     return worst;
 }
 
+// Shadow mask against ray-traced hard shadows over the pixels the light reaches fully.
+struct ShadowAgreement {
+    size_t reached = 0, agree = 0, shadowedEngine = 0, shadowedRef = 0;
+};
+ShadowAgreement shadowAgreement(Engine& engine, const DeepBuffer& g, const test::RayCaster& rays, const Light& light,
+                                float radius) {
+    ShadowAgreement n;
+    Rig rig;
+    rig.lights = {light};
+    auto mask = engine.renderShadowMask(rig, light.name);
+    if (!mask) return n;
+    const glm::vec3 lightPos(light.position[0], light.position[1], light.position[2]);
+    const glm::vec3 towardsSun = -glm::normalize(glm::vec3(light.direction[0], light.direction[1], light.direction[2]));
+    const float hair = 1e-5f * radius; // rays leave the surface by far less than a shadow-map texel
+    for (int y = 0; y < g.height; ++y)
+        for (int x = 0; x < g.width; ++x) {
+            const size_t p = size_t(y) * size_t(g.width) + size_t(x);
+            if (g.pixelSamples(x, y) == 0 || mask->rgba[p * 4 + 1] < 0.999f) continue;
+            const size_t s = g.firstSample(x, y);
+            const glm::vec3 P = g.position(s), Ng(g.Ng[s * 3], g.Ng[s * 3 + 1], g.Ng[s * 3 + 2]);
+            const glm::vec3 to = light.type == LightType::Directional ? P + towardsSun * (4.f * radius) : lightPos;
+            const bool refLit = !rays.occluded(P + Ng * hair, to, 1e-6f);
+            const bool lit = mask->rgba[p * 4] / mask->rgba[p * 4 + 1] >= 0.5f;
+            ++n.reached;
+            n.agree += lit == refLit;
+            n.shadowedEngine += !lit;
+            n.shadowedRef += !refLit;
+        }
+    return n;
+}
+
 int benchScene(const std::string& path, int width, int height, int spp) {
     auto scene = loadScene(path);
     if (!scene) {
@@ -199,6 +234,25 @@ int benchScene(const std::string& path, int width, int height, int spp) {
         }
         std::printf(" light cache: %zu intensity edits 1e-6 .. 1e12 vs fresh engines: worst relative difference %.2e\n",
                     std::size(cd), worst);
+    }
+
+    // Shadows against Embree, the default key light as spot, sun and point light.
+    {
+        test::RayCaster rays;
+        for (const MeshPart& p : scene->parts) rays.addMesh(p.positions, p.indices);
+        rays.commit();
+        const float radius = 0.5f * glm::length(bb.max - bb.min);
+        std::printf(" shadows vs Embree (lit where the mask's visibility >= 0.5):\n");
+        for (LightType t : {LightType::Spot, LightType::Directional, LightType::Point}) {
+            Light l = base.lights[0];
+            l.type = t;
+            l.shadow = true;
+            const ShadowAgreement n = shadowAgreement(*engine.value(), shot.value(), rays, l, radius);
+            const char* names[] = {"spot", "", "directional", "point"};
+            std::printf("  %-12s agreement %7.3f%% of %zu reached pixels, shadowed area %.3f of the reference's\n", names[int(t)],
+                        n.reached ? 100.0 * double(n.agree) / double(n.reached) : 0.0, n.reached,
+                        n.shadowedRef ? double(n.shadowedEngine) / double(n.shadowedRef) : 1.0);
+        }
     }
     return 0;
 }
