@@ -29,7 +29,11 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
     vec4 cameraPosition;    // xyz world position of the shot camera, w = 1 if orthographic
     vec4 cameraForward;     // xyz unit view direction (orthographic views use it as -V)
     vec4 exposure;          // x = 2^stops, y = 1 for the filmic view transform
-    ivec4 sampleLayout;     // x = SAMPLE_ROW (width of the sample textures), y = log2 of it (deep buffers)
+    ivec4 sampleLayout;     // x = SAMPLE_ROW (width of the sample textures), y = log2 of it (deep buffers),
+                            // z = edge taps per sample over its pixel footprint (1 = none)
+    vec4 cameraRight;       // xyz unit image right, w = pixel width at unit depth (perspective) or in scene units
+    vec4 cameraDown;        // xyz unit direction of increasing rows
+    vec4 footprintTaps[FOOTPRINT_MAX_TAPS / 2]; // tap offsets in pixels from the centre, two per element
 } uView;
 
 // ---- Specialisation ----

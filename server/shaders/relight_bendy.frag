@@ -8,6 +8,7 @@
 #include "common_brdf.glsl"
 #include "common_falloff.glsl"
 #include "common_bendy.glsl"
+#include "common_pixel_footprint.glsl"
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
@@ -59,6 +60,48 @@ float bendyShadow(TubeCoords c, float s, vec3 Ng, float offset) {
     return filteredShadow(shadowMap, uv, ref);
 }
 
+// ---- Edges inside a pixel (common_pixel_footprint.glsl; docs/lighting.md) ----
+
+// The tube coordinates and arc length (`s2`) of P + d from those of P (c, s), to first order: the
+// foot moves along u_hat by d's u_hat part and the radius with it, the offset across by the rest
+// (the frame's turn over a pixel is neglected, as for the shadow bias in bendyShadow).
+TubeCoords shiftedTube(TubeCoords c, float s, vec3 d, out float s2) {
+    float du = dot(d, c.uHat);
+    s2 = max(s + du, 0.0);
+    float R = c.foot.w;
+    float R2 = max(R + c.derivative.w / max(length(c.derivative.xyz), 1e-12) * du, 1e-9);
+    TubeCoords o = c;
+    o.v = (c.v * R + dot(d, c.vHat)) / R2;
+    o.w = (c.w * R + dot(d, c.wHat)) / R2;
+    o.foot = vec4(c.foot.xyz + c.uHat * du, R2);
+    return o;
+}
+
+// The mean over the sample's footprint taps of the cone falloff at the tap's Q' times its
+// visibility (bendyShadow with the tap as the receiver). `vis`: the mean visibility alone;
+// `reach` > 0 where some tap lies inside the cone.
+// Li: the sample's light direction (its turn over the pixel is neglected, as for the bias).
+float bendyFootprintLight(TubeCoords c, float arc, vec3 P, vec3 Ng, vec3 Li, float coverage, out float vis, out float reach) {
+    mat2x3 fp = pixelFootprint(P, Ng, coverage);
+    // Facing away geometrically: shadowed by itself at every tap (shadowVisibility's rule).
+    bool facing = dot(Ng, Li) > 0.0;
+    float sum = 0.0, visSum = 0.0;
+    reach = 0.0;
+    for (int k = 0; k < SHADE_FOOTPRINT_TAPS; ++k) {
+        float s;
+        TubeCoords q = shiftedTube(c, arc, footprintTap(fp, k), s);
+        vec3 toSource = uBendy.bendyP[0].xyz - deformedPointAt(q, s);
+        float dist = max(length(toSource), 1e-6);
+        float m = spotCone(uLight.lightCone.xy, toSource / dist, uBendy.bendyAxisU.xyz);
+        float v = !SHADE_SHADOWED ? 1.0 : facing ? bendyShadow(q, s, Ng, shadowNormalOffset(Ng, Li, dist)) : 0.0;
+        sum += m * v;
+        visSum += v;
+        reach = max(reach, m);
+    }
+    vis = visSum / float(SHADE_FOOTPRINT_TAPS);
+    return sum / float(SHADE_FOOTPRINT_TAPS);
+}
+
 // t: the sample's texel in the sample textures.
 vec3 shadeSample(ivec2 t) {
     vec4 pA = texelFetch(gP, t, 0);
@@ -72,15 +115,22 @@ vec3 shadeSample(ivec2 t) {
     vec3 toSource = uBendy.bendyP[0].xyz - qd;
     float dist2 = max(dot(toSource, toSource), 1e-12);
     float dist = sqrt(dist2);
-    float spot = spotCone(uLight.lightCone.xy, toSource / dist, uBendy.bendyAxisU.xyz);
+    float spot = SHADE_FOOTPRINT_TAPS > 1 ? 1.0 : spotCone(uLight.lightCone.xy, toSource / dist, uBendy.bendyAxisU.xyz);
     if (spot <= 0.0) return vec3(0.0);
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
     vec3 Li = lightDirection(c, P, BENDY_EXACT);
     if (dot(N, Li) <= 0.0) return vec3(0.0);
     float vis = 1.0;
-    if (SHADE_SHADOWED) {
+    vec3 Ng = normalize(texelFetch(gNg, t, 0).xyz);
+    if (SHADE_FOOTPRINT_TAPS > 1) {
+        // Edges inside the pixel: cone and visibility over the footprint's taps.
+        float reach;
+        spot = bendyFootprintLight(c, arc, P, Ng, Li, pA.w, vis, reach);
+        if (reach <= 0.0) return vec3(0.0);
+        if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
+        vis = 1.0; // in spot
+    } else if (SHADE_SHADOWED) {
         // Facing away geometrically: shadowed by itself (as shadowVisibility, relight_spot.frag).
-        vec3 Ng = normalize(texelFetch(gNg, t, 0).xyz);
         vis = dot(Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, arc, Ng, shadowNormalOffset(Ng, Li, dist));
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }

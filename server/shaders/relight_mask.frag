@@ -19,8 +19,10 @@
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
+layout(binding = TEX_GBUFFER_NG) uniform sampler2D gNg;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(location = LOC_RELIGHT_PIXEL_STEP) uniform int uPixelStep;
+#include "common_pixel_footprint.glsl"
 
 // BendyLight samples in the round cones of two segments or more (relight_bendy.frag then solves all
 // segments); the others solve one (BENDY_SINGLE).
@@ -63,11 +65,32 @@ bool reachable(vec3 P, vec3 N) {
 #endif
 }
 
+// With edge taps (common_pixel_footprint.glsl) a sample is kept when its pixel footprint may reach
+// the light: spots widen the outer cone by the footprint's angular radius seen from the light
+// (half the sum of its sides over the distance, delta; cos(a + delta) >= cos a - delta -
+// delta^2 / 2); BendyLights test the footprint's corners too (the round cones are convex and far
+// wider than a pixel); point and directional lights' N . L > 0 is the same at every tap.
+bool reachableFootprint(vec3 P, vec3 N, ivec2 t, float coverage) {
+    if (SHADE_FOOTPRINT_TAPS <= 1) return reachable(P, N);
+    mat2x3 fp = pixelFootprint(P, normalize(texelFetch(gNg, t, 0).xyz), coverage);
+#ifdef SHADE_BENDY
+    bool any = reachable(P, N);
+    for (int c = 0; c < 4; ++c) any = reachable(P + fp * vec2((c & 1) == 0 ? -0.5 : 0.5, c < 2 ? -0.5 : 0.5), N) || any;
+    return any;
+#else
+    if (SHADE_KIND != 1) return reachable(P, N);
+    vec3 toLight = uLight.lightPosition.xyz - P;
+    float len = length(toLight);
+    float delta = 0.5 * (length(fp[0]) + length(fp[1])) / max(len, 1e-12);
+    return dot(-toLight, uLight.lightAxis.xyz) >= (uLight.lightCone.x - 1e-4 - delta - 0.5 * delta * delta) * len;
+#endif
+}
+
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
 #ifdef DFB_FLAT_SAMPLES
     vec4 pA = texelFetch(gP, pixel, 0);
-    if (!(pA.w > 0.0 && reachable(pA.xyz, normal(pixel)))) discard;
+    if (!(pA.w > 0.0 && reachableFootprint(pA.xyz, normal(pixel), pixel, pA.w))) discard;
 #ifdef SHADE_BENDY
     gl_FragDepth = multiple ? 0.75 : 0.25;
 #endif
@@ -77,7 +100,7 @@ void main() {
     for (uint s = range.x; s < range.x + range.y; ++s) {
         ivec2 t = sampleTexel(s);
         vec4 pA = texelFetch(gP, t, 0);
-        any = any || (pA.w > 0.0 && reachable(pA.xyz, normal(t)));
+        any = any || (pA.w > 0.0 && reachableFootprint(pA.xyz, normal(t), t, pA.w));
     }
     if (!any) discard;
 #ifdef SHADE_BENDY

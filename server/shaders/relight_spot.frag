@@ -7,6 +7,7 @@
 #include "common_uniforms.glsl"
 #include "common_brdf.glsl"
 #include "common_falloff.glsl"
+#include "common_pixel_footprint.glsl"
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
@@ -70,6 +71,10 @@ float shadowVisibility(vec3 P, vec3 Ng, vec3 L, float dist) {
 // each flap cuts the light past its half-angle with a 0.5-degree soft edge; the cookie is
 // projected across the cone (its edge circle inscribed in the image), the image's top towards the
 // light's up.
+vec2 cookieCoord(vec3 fromLight, float z) {
+    return 0.5 + 0.5 * vec2(dot(fromLight, uLight.lightRight.xyz), dot(fromLight, uLight.lightUp.xyz)) / (z * uLight.lightUp.w);
+}
+
 vec3 spotMask(vec3 fromLight) {
     float z = dot(fromLight, uLight.lightAxis.xyz);
     if (z <= 0.0) return vec3(0.0);
@@ -77,10 +82,65 @@ vec3 spotMask(vec3 fromLight) {
     if (SHADE_DOORS) doors = barnDoors(uLight.lightAxis.xyz, uLight.lightRight.xyz, uLight.lightUp.xyz, uLight.lightDoors, fromLight);
     vec3 mask = vec3(doors);
     if (SHADE_COOKIE && doors > 0.0) {
-        vec2 uv = 0.5 + 0.5 * vec2(dot(fromLight, uLight.lightRight.xyz), dot(fromLight, uLight.lightUp.xyz)) / (z * uLight.lightUp.w);
-        mask *= texture(cookie, uv).rgb; // uploaded with the image's top row at t = 1
+        mask *= texture(cookie, cookieCoord(fromLight, z)).rgb; // uploaded with the image's top row at t = 1
     }
     return mask;
+}
+
+// ---- Edges inside a pixel (common_pixel_footprint.glsl; docs/lighting.md) ----
+
+// spotMask with explicit cookie gradients (gx, gy: texture coordinates per tap spacing): the
+// implicit derivatives of a per-sample pass are between unrelated samples.
+vec3 spotMaskGrad(vec3 fromLight, vec2 gx, vec2 gy) {
+    float z = dot(fromLight, uLight.lightAxis.xyz);
+    if (z <= 0.0) return vec3(0.0);
+    float doors = 1.0;
+    if (SHADE_DOORS) doors = barnDoors(uLight.lightAxis.xyz, uLight.lightRight.xyz, uLight.lightUp.xyz, uLight.lightDoors, fromLight);
+    vec3 mask = vec3(doors);
+    if (SHADE_COOKIE && doors > 0.0) mask *= textureGrad(cookie, cookieCoord(fromLight, z), gx, gy).rgb;
+    return mask;
+}
+
+// The mean over the sample's footprint taps of the light's mask (cone x doors x cookie) times its
+// visibility, each evaluated at the tap (shadowVisibility with the tap as the receiver). `vis`:
+// the mean visibility alone; `reach` > 0 where some tap lies inside the mask (the shadow-mask
+// output's samples the light reaches).
+vec3 footprintLight(vec3 P, vec3 Ng, float coverage, out float vis, out float reach) {
+    mat2x3 fp = pixelFootprint(P, Ng, coverage);
+    vec2 gx = vec2(0.0), gy = vec2(0.0);
+    if (SHADE_KIND == 1 && SHADE_COOKIE) {
+        // The cookie's footprint per tap: the pixel's, over the taps' spacing (1 / sqrt(taps) of it).
+        vec3 S = uLight.lightPosition.xyz, axis = uLight.lightAxis.xyz;
+        vec3 c = normalize(P - S), cx = normalize(P + fp[0] - S), cy = normalize(P + fp[1] - S);
+        vec2 uv = cookieCoord(c, max(dot(c, axis), 1e-6));
+        float spacing = inversesqrt(float(SHADE_FOOTPRINT_TAPS));
+        gx = (cookieCoord(cx, max(dot(cx, axis), 1e-6)) - uv) * spacing;
+        gy = (cookieCoord(cy, max(dot(cy, axis), 1e-6)) - uv) * spacing;
+    }
+    vec3 sum = vec3(0.0);
+    float visSum = 0.0;
+    reach = 0.0;
+    for (int k = 0; k < SHADE_FOOTPRINT_TAPS; ++k) {
+        vec3 q = P + footprintTap(fp, k);
+        vec3 m = vec3(1.0);
+        float dist = 1.0;
+        vec3 L = -uLight.lightAxis.xyz;
+        if (SHADE_KIND != KIND_DIRECTIONAL) {
+            vec3 toLight = uLight.lightPosition.xyz - q;
+            dist = max(length(toLight), 1e-6);
+            L = toLight / dist;
+            if (SHADE_KIND != KIND_POINT) {
+                m = vec3(spotCone(uLight.lightCone.xy, L, uLight.lightAxis.xyz));
+                if ((SHADE_DOORS || SHADE_COOKIE) && m.x > 0.0) m *= spotMaskGrad(-L, gx, gy);
+            }
+        }
+        float v = SHADE_SHADOWED ? shadowVisibility(q, Ng, L, dist) : 1.0;
+        sum += m * v;
+        visSum += v;
+        reach = max(reach, max(m.x, max(m.y, m.z)));
+    }
+    vis = visSum / float(SHADE_FOOTPRINT_TAPS);
+    return sum / float(SHADE_FOOTPRINT_TAPS);
 }
 
 // t: the sample's texel in the sample textures.
@@ -103,7 +163,7 @@ vec3 shadeSample(ivec2 t) {
         dist2 = max(dot(toLight, toLight), 1e-12);
         dist = sqrt(dist2);
         L = toLight / dist;
-        if (SHADE_KIND != KIND_POINT) {
+        if (SHADE_KIND != KIND_POINT && SHADE_FOOTPRINT_TAPS == 1) {
             // Cone falloff: smooth between the outer and inner cosines; then doors and cookie.
             spot = vec3(spotCone(uLight.lightCone.xy, L, uLight.lightAxis.xyz));
             if ((SHADE_DOORS || SHADE_COOKIE) && spot.x > 0.0) spot *= spotMask(-L);
@@ -111,7 +171,14 @@ vec3 shadeSample(ivec2 t) {
     }
     if (max(spot.x, max(spot.y, spot.z)) <= 0.0 || dot(N, L) <= 0.0) return vec3(0.0);
     float vis = 1.0;
-    if (SHADE_SHADOWED) {
+    if (SHADE_FOOTPRINT_TAPS > 1) {
+        // Edges inside the pixel: cone, doors, cookie and visibility over the footprint's taps.
+        float reach;
+        spot = footprintLight(P, normalize(texelFetch(gNg, t, 0).xyz), pA.w, vis, reach);
+        if (reach <= 0.0) return vec3(0.0);
+        if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
+        vis = 1.0; // in spot
+    } else if (SHADE_SHADOWED) {
         vis = shadowVisibility(P, normalize(texelFetch(gNg, t, 0).xyz), L, dist);
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }

@@ -2,8 +2,11 @@
 
 #include "GpuInterface.h"
 
+#include <dfb/gbuffer/Baker.h>
+
 #include <algorithm>
 #include <bit>
+#include <cstdlib>
 #include <vector>
 
 namespace dfb::engine {
@@ -41,6 +44,15 @@ Status GBufferTextures::upload(const DeepBuffer& g) {
     sampleRows = rows;
     if (rows > MAX_SIDE) return makeError(ErrorCode::InvalidValue, "engine: too many samples for the GPU's textures");
     flat = flat && sampleRow == width; // the flat shaders read sample (x, y) at pixel (x, y)
+    // Edge taps: the bake's own sample pattern (sampleOffsets), so that a merged sample's mask is
+    // looked up where its bake samples were; rates above FOOTPRINT_MAX_TAPS use that many (a 4x4
+    // grid: 16 taps of 4 comparison gathers each already cost more than the rest of the shading).
+    // DFB_FOOTPRINT_TAPS=n caps the count, a diagnostic for comparisons (1: one lookup per sample).
+    footprintTaps = std::clamp(g.samplesPerPixel, 1, int(FOOTPRINT_MAX_TAPS));
+    if (const char* cap = std::getenv("DFB_FOOTPRINT_TAPS"); cap && *cap) {
+        footprintTaps = std::clamp(std::atoi(cap), 1, footprintTaps);
+    }
+    footprintOffsets = sampleOffsets(footprintTaps);
     P = uploadLayer(GL_RGBA32F, sampleRow, rows, g.P, 3, &g.A);
     N = uploadLayer(GL_RGBA16F, sampleRow, rows, g.N, 3, nullptr);
     Ng = uploadLayer(GL_RGBA16F, sampleRow, rows, g.Ng, 3, nullptr);

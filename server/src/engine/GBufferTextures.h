@@ -7,7 +7,10 @@
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/gl/Objects.h>
 
+#include <glm/glm.hpp>
+
 #include <cstdint>
+#include <vector>
 
 namespace dfb::engine {
 
@@ -25,6 +28,10 @@ struct GBufferTextures {
     bool flat = false;  // one sample per pixel, stored at the pixel: specialised shaders
     bool hasSheen = false, hasCoat = false; // any sample with a sheen / clear-coat lobe
     uint32_t maxObjectId = 0;
+    // Edge taps per sample over its pixel footprint (common_pixel_footprint.glsl): the shot's
+    // samples per pixel, at most FOOTPRINT_MAX_TAPS; 1 = one lookup at the sample (flat shots).
+    int footprintTaps = 1;
+    std::vector<glm::vec2> footprintOffsets; // their offsets from the pixel centre, pixels (y down)
     gl::Texture P, N, Ng, albedo, brdf, emission, sheen, coat, pixelSamples, ids;
 };
 

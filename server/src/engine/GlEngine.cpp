@@ -30,6 +30,12 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     mCameraPosition = g.camera.position();
     mCameraForward = g.camera.forward();
     mOrthographic = g.camera.orthographic;
+    const glm::mat4 cameraToWorld = glm::inverse(g.camera.worldToCamera);
+    mCameraRight = glm::normalize(glm::vec3(cameraToWorld[0]));
+    mCameraDown = -glm::normalize(glm::vec3(cameraToWorld[1]));
+    // Pixels are square (aspect = width / height): one row of 2 tan(yfov / 2) / H at unit depth.
+    mPixelSize = g.camera.orthographic ? 2.f * g.camera.ymag / float(g.height)
+                                       : 2.f * std::tan(0.5f * g.camera.yfovRadians) / float(g.height);
     if (auto s = mGBuffer.upload(g); !s) return s;
     mShaders.configure(mGBuffer.flat);
     mCasters.upload(casters, g);
@@ -99,7 +105,16 @@ Status GlEngine::renderAccumulation(const Rig& rig, FrameStats& st, bool* fused)
     view.cameraPosition = glm::vec4(mCameraPosition, mOrthographic ? 1.f : 0.f);
     view.cameraForward = glm::vec4(mCameraForward, 0.f);
     view.exposure = glm::vec4(std::exp2(rig.exposureStops), rig.viewTransform == ViewTransform::Filmic ? 1.f : 0.f, 0, 0);
-    view.sampleLayout = glm::ivec4(mGBuffer.sampleRow, std::countr_zero(unsigned(mGBuffer.sampleRow)), 0, 0);
+    view.sampleLayout = glm::ivec4(mGBuffer.sampleRow, std::countr_zero(unsigned(mGBuffer.sampleRow)),
+                                   mGBuffer.footprintTaps, 0);
+    view.cameraRight = glm::vec4(mCameraRight, mPixelSize);
+    view.cameraDown = glm::vec4(mCameraDown, 0.f);
+    for (size_t i = 0; i < mGBuffer.footprintOffsets.size(); ++i) {
+        // Two taps per vec4: tap 2k in xy, tap 2k + 1 in zw.
+        const glm::vec2 o = mGBuffer.footprintOffsets[i];
+        view.footprintTaps[i / 2][int(2 * (i % 2))] = o.x;
+        view.footprintTaps[i / 2][int(2 * (i % 2) + 1)] = o.y;
+    }
     mViewUniforms.upload(view);
 
     // Forget lights that left the rig (their GL objects are released here).

@@ -59,6 +59,9 @@ private:
     // context cannot be trusted again; the server must create a new engine).
     std::optional<Error> mFailure;
     glm::vec3 mCameraPosition{0.f}, mCameraForward{0.f, 0.f, -1.f};
+    glm::vec3 mCameraRight{1.f, 0.f, 0.f}, mCameraDown{0.f, -1.f, 0.f};
+    // A pixel's height at unit depth (perspective) or in scene units (orthographic).
+    float mPixelSize = 0.f;
     bool mOrthographic = false;
 
     ShaderVariants mShaders;

@@ -85,6 +85,7 @@
     X(BENDY_MAX_SEGMENTS, dfb::lightmath::MAX_SEGMENTS, "a chain's segments (BendyLight.h)")            \
     X(BENDY_MAX_POINTS, dfb::lightmath::MAX_CONTROL_POINTS, "a chain's control points (BendyLight.h)") \
     X(COMPUTE_GROUP_SIZE, 64, "local_size_x of the compute passes (the engine dispatches by it)")  \
+    X(FOOTPRINT_MAX_TAPS, 16, "edge taps per sample over its pixel footprint (ViewBlock.footprintTaps)") \
     X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands")
 
 // Real-valued limits (GLSL float literals; C++ constexpr float).
@@ -155,12 +156,22 @@ struct ViewBlock {
     glm::vec4 cameraPosition; // w = 1 if orthographic
     glm::vec4 cameraForward;
     glm::vec4 exposure;
-    glm::ivec4 sampleLayout;  // x = width of the sample textures, y = log2 of it (deep buffers: a power of two)
+    glm::ivec4 sampleLayout;  // x = width of the sample textures, y = log2 of it (deep buffers: a power of two),
+                              // z = edge taps per sample (1..FOOTPRINT_MAX_TAPS; 1 = none)
+    glm::vec4 cameraRight;    // xyz unit image right; w = a pixel's width at unit depth (perspective) or in scene units
+    glm::vec4 cameraDown;     // xyz unit direction of increasing rows (the camera's -up)
+    // The edge taps' offsets from the pixel centre in pixels (the bake's sample pattern), two per
+    // element: tap 2i in xy, tap 2i + 1 in zw.
+    glm::vec4 footprintTaps[FOOTPRINT_MAX_TAPS / 2];
 };
 static_assert(offsetof(ViewBlock, cameraForward) == 16);
 static_assert(offsetof(ViewBlock, exposure) == 32);
 static_assert(offsetof(ViewBlock, sampleLayout) == 48);
-static_assert(sizeof(ViewBlock) == 64);
+static_assert(offsetof(ViewBlock, cameraRight) == 64);
+static_assert(offsetof(ViewBlock, cameraDown) == 80);
+static_assert(offsetof(ViewBlock, footprintTaps) == 96);
+static_assert(sizeof(ViewBlock) == 96 + FOOTPRINT_MAX_TAPS * 8);
+static_assert(FOOTPRINT_MAX_TAPS % 2 == 0, "two taps per vec4");
 
 /// A BendyLight's chain. GLSL mirror: BendyBlock in server/shaders/common_bendy.glsl (whose arrays
 /// are sized by BENDY_MAX_POINTS and BENDY_MAX_SEGMENTS, generated from the same constants).

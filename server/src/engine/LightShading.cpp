@@ -150,6 +150,7 @@ Status LightShading::markFootprint(GLuint target, const std::string& defines, bo
     glUniform1i(LOC_RELIGHT_PIXEL_STEP, step);
     glBindTextureUnit(TEX_GBUFFER_P, mGBuffer.P.id());
     glBindTextureUnit(TEX_GBUFFER_N, mGBuffer.N.id());
+    glBindTextureUnit(TEX_GBUFFER_NG, mGBuffer.Ng.id()); // the pixel footprint (edge taps)
     glBindTextureUnit(TEX_PIXEL_SAMPLES, mGBuffer.pixelSamples.id());
     glBindVertexArray(mEmptyVao.id());
     glEnable(GL_DEPTH_TEST);
@@ -211,7 +212,13 @@ Status LightShading::shade(LightCache& c, int output, bool preview) {
     glDisable(GL_DEPTH_TEST);
     const bool linked = !l.include.empty() || !l.exclude.empty();
     if (bendy) uploadBendy(c);
-    const std::string defines = shadeDefines(c, output, cookie != 0, linked) + (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "");
+    // Edge taps over each sample's pixel footprint: the shot's, one in preview frames (drags stay
+    // as cheap as before; the refined frame has them).
+    const int taps = step == 1 ? mGBuffer.footprintTaps : 1;
+    const std::string defines =
+        shadeDefines(c, output, cookie != 0, linked) +
+        (mShaders.generic() ? "" : "#define SHADE_FOOTPRINT_TAPS " + std::to_string(taps) + "\n") +
+        (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "");
     auto shader = mShaders.variant({"common_fullscreen.vert", bendy ? "relight_bendy.frag" : "relight_spot.frag"}, defines);
     if (!shader) return shader.error();
     const bool footprint = !mShaders.generic();
