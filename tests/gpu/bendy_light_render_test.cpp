@@ -5,6 +5,7 @@
 //  - adaptive subdivision of the casters matters: without it the agreement drops.
 
 #include "support/Assets.h"
+#include "support/DeformedCasters.h"
 #include "support/RayCaster.h"
 
 #include <dfb/gbuffer/Baker.h>
@@ -48,38 +49,7 @@ double shadowAgreement(Shot& shot, const Rig& rig, const std::string& lightName,
     const Light& light = *rig.find(lightName);
     const Chain<double> ch = chainFromLight<double>(light);
     test::RayCaster rc;
-    std::vector<glm::vec3> pos;
-    std::vector<uint32_t> idx;
-    auto mapped = [&](const glm::dvec3& q, glm::dvec3& out) {
-        const TubeCoords<double> c = inverseMap(ch, q);
-        if (!c.valid) return false;
-        out = deformedPoint(ch, c);
-        return true;
-    };
-    for (const MeshPart& p : shot.scene.parts) {
-        for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-            const glm::dvec3 a(p.positions[p.indices[t]]), b(p.positions[p.indices[t + 1]]), c(p.positions[p.indices[t + 2]]);
-            const double longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
-            const int n = std::clamp(int(std::ceil(longest / h)), 1, 64);
-            // n x n sub-triangles from barycentric grid points.
-            auto grid = [&](int i, int j) { return a + (b - a) * (double(i) / n) + (c - a) * (double(j) / n); };
-            for (int i = 0; i < n; ++i)
-                for (int j = 0; i + j < n; ++j) {
-                    const glm::dvec3 tri[2][3] = {{grid(i, j), grid(i + 1, j), grid(i, j + 1)},
-                                                  {grid(i + 1, j), grid(i + 1, j + 1), grid(i, j + 1)}};
-                    for (int k = 0; k < (i + j + 1 < n ? 2 : 1); ++k) {
-                        glm::dvec3 d[3];
-                        if (!mapped(tri[k][0], d[0]) || !mapped(tri[k][1], d[1]) || !mapped(tri[k][2], d[2])) continue;
-                        for (const auto& v : d) {
-                            idx.push_back(uint32_t(pos.size()));
-                            pos.push_back(glm::vec3(v));
-                        }
-                    }
-                }
-        }
-    }
-    rc.addMesh(pos, idx);
-    rc.commit();
+    test::addDeformedCasters(rc, shot.scene.parts, ch, h, 64);
 
     auto mask = shot.engine->renderShadowMask(rig, lightName);
     EXPECT_TRUE(mask.ok()) << mask.error().toString();
@@ -98,8 +68,9 @@ double shadowAgreement(Shot& shot, const Rig& rig, const std::string& lightName,
         const TubeCoords<double> c0 = inverseMap(ch, P);
         if (!c0.valid) continue;
         const double dist = glm::length(deformedPoint(ch, c0) - ch.p[0]);
-        glm::dvec3 qb;
-        if (!mapped(P + Ng * (light.shadowBias * texelPerDistance * dist), qb)) continue;
+        const TubeCoords<double> cb = inverseMap(ch, P + Ng * (light.shadowBias * texelPerDistance * dist));
+        if (!cb.valid) continue;
+        const glm::dvec3 qb = deformedPoint(ch, cb);
         ++lit;
         const bool refVisible = !rc.occluded(glm::vec3(qb), glm::vec3(ch.p[0]), 1e-4f);
         agree += refVisible == (gpuVisible >= 0.5f);

@@ -15,6 +15,7 @@
 // deformed surfaces): that reference decides only where it is far from ambiguous, see bentCheck.
 
 #include "support/Assets.h"
+#include "support/DeformedCasters.h"
 #include "support/RayCaster.h"
 
 #include <dfb/gbuffer/Baker.h>
@@ -223,37 +224,7 @@ struct Counts {
 // mapped Q -> Q' in double (triangles with an unmapped corner dropped).
 std::unique_ptr<test::RayCaster> deformedCasters(const Shot& shot, const Chain<double>& ch, double h) {
     auto rc = std::make_unique<test::RayCaster>();
-    std::vector<glm::vec3> pos;
-    std::vector<uint32_t> idx;
-    for (const MeshPart& p : shot.scene.parts) {
-        for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-            const glm::dvec3 a(p.positions[p.indices[t]]), b(p.positions[p.indices[t + 1]]), c(p.positions[p.indices[t + 2]]);
-            const double longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
-            const int n = std::clamp(int(std::ceil(longest / h)), 1, 96);
-            auto grid = [&](int i, int j) { return a + (b - a) * (double(i) / n) + (c - a) * (double(j) / n); };
-            for (int i = 0; i < n; ++i)
-                for (int j = 0; i + j < n; ++j) {
-                    const glm::dvec3 tri[2][3] = {{grid(i, j), grid(i + 1, j), grid(i, j + 1)},
-                                                  {grid(i + 1, j), grid(i + 1, j + 1), grid(i, j + 1)}};
-                    for (int k = 0; k < (i + j + 1 < n ? 2 : 1); ++k) {
-                        glm::dvec3 d[3];
-                        bool all = true;
-                        for (int v = 0; v < 3 && all; ++v) {
-                            const TubeCoords<double> tc = inverseMap(ch, tri[k][v]);
-                            all = tc.valid;
-                            if (all) d[v] = deformedPoint(ch, tc);
-                        }
-                        if (!all) continue;
-                        for (const auto& v : d) {
-                            idx.push_back(uint32_t(pos.size()));
-                            pos.push_back(glm::vec3(v));
-                        }
-                    }
-                }
-        }
-    }
-    rc->addMesh(pos, idx);
-    rc->commit();
+    test::addDeformedCasters(*rc, shot.scene.parts, ch, h, 96);
     return rc;
 }
 
