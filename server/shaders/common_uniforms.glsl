@@ -73,6 +73,13 @@ ivec2 sampleTexel(uint s) { return ivec2(int(s) & (uView.sampleLayout.x - 1), in
 // that covers `pixel`: a shift, not a division (see sampleTexel).
 ivec2 previewTexel(ivec2 pixel, int step) { return pixel >> (step >> 1); }
 
+// A cached contribution (shaded at unit radiance) times its light's colour x intensity, capped at
+// RADIANCE_LIMIT so that no sum or exposure of them overflows (composite_add.frag, the fused
+// composite_tonemap.frag; Compositor::readFloat does the same on the CPU).
+vec3 scaledContribution(vec3 unitRadiance, vec3 colourTimesIntensity) {
+    return min(unitRadiance * colourTimesIntensity, vec3(RADIANCE_LIMIT));
+}
+
 vec3 viewVector(vec3 P) {
     return uView.cameraPosition.w > 0.5 ? -uView.cameraForward.xyz : normalize(uView.cameraPosition.xyz - P);
 }

@@ -22,7 +22,7 @@ vec3 filmic(vec3 x) {
 void main() {
     vec3 c = texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb;
 #ifdef TONEMAP_ADD_HOT
-    c += min(texelFetch(uHot, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb * uScale, vec3(RADIANCE_LIMIT));
+    c += scaledContribution(texelFetch(uHot, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb, uScale);
 #endif
     c *= uView.exposure.x;
     if (uView.exposure.y > 0.5) c = filmic(max(c, vec3(0.0)));

@@ -212,7 +212,9 @@ Result<ImageF> Compositor::readFloat(gl::Context& context, GLuint texture, const
     glGetTextureImage(texture, 0, GL_RGBA, GL_FLOAT, GLsizei(img.rgba.size() * sizeof(float)), img.rgba.data());
     if (scale != glm::vec3(1.f)) {
         for (size_t i = 0; i < img.rgba.size(); i += 4)
-            for (int k = 0; k < 3; ++k) img.rgba[i + size_t(k)] = std::min(img.rgba[i + size_t(k)] * scale[k], RADIANCE_LIMIT);
+            for (int k = 0; k < 3; ++k) { // as scaledContribution (common_uniforms.glsl)
+                img.rgba[i + size_t(k)] = std::min(img.rgba[i + size_t(k)] * scale[k], RADIANCE_LIMIT);
+            }
     }
     if (auto s = context.check(what); !s) return s.error();
     return img;
