@@ -331,7 +331,7 @@ const std::vector<Property> LIGHT_PROPERTIES = {
      .doc = "power of two in [64, 8192]", .set = setMapSize, .same = sameField<&Light::shadowMapSize>,
      .get = getField<&Light::shadowMapSize>},
     {.path = "shadowBias", .label = "Shadow bias", .type = Number, .unit = "shadow-map texels", .min = 0, .max = 16,
-     .uiMin = 0, .uiMax = 8, .step = 0.1, .keyframable = true, .invalidates = Shade, .valueDoc = "number",
+     .uiMin = 0, .uiMax = 4, .step = 0.05, .keyframable = true, .invalidates = Shade, .valueDoc = "number",
      .doc = "receiver offset along the geometric normal, in shadow-map texels, [0, 16]", .set = setNumber<&Light::shadowBias>,
      .same = sameField<&Light::shadowBias>, .get = getField<&Light::shadowBias>},
     {.path = "shadowFilter", .label = "Shadow softness", .type = Integer, .unit = "shadow-map texels", .min = 0, .max = 4,

@@ -15,10 +15,10 @@ layout(std140, binding = UBO_LIGHT) uniform LightBlock {
     vec4 lightPosition;     // xyz world position, w = kind: 0 directional, 1 spot, 2 point
     vec4 lightAxis;         // xyz unit axis the light points along
     vec4 lightCone;         // x = cos(outer half-angle), y = cos(inner half-angle),
-                            // z = 1 if shadowed, w = normal offset per unit distance at
-                            // grazing incidence (world; times sin(theta))
+                            // z = 1 if shadowed, w = the receiver's lift towards the light
+                            // per unit distance (world; depth only, see shadowLift)
     vec4 lightShadow;       // x = 1 / shadow-map size, y = PCF radius in texels, z = 1 if cube map,
-                            // w = constant normal offset per unit distance (world)
+                            // w = normal offset per unit distance (world; shadowBias texels)
     vec4 lightRight;        // xyz the spot's right (axis x up, as its shadow frustum), w = 1 if cookie
     vec4 lightUp;           // xyz the spot's up, w = tan(outer half-angle) (cookie mapping)
     vec4 lightDoors;        // barn doors: left, right, top, bottom half-angles in radians
@@ -84,24 +84,75 @@ vec3 viewVector(vec3 P) {
     return uView.cameraPosition.w > 0.5 ? -uView.cameraForward.xyz : normalize(uView.cameraPosition.xyz - P);
 }
 
-// The receiver's offset along its geometric normal Ng for the shadow lookup, world units, for the
-// unit direction L towards the light at distance `dist` (1 for directional lights): k texels
-// times sin(theta), theta between Ng and L (normal offset that follows the receiver), plus a
-// constant for deformed maps (why both: LightShading.cpp, lightBlock).
-float shadowNormalOffset(vec3 Ng, vec3 L, float dist) {
-    float c = clamp(dot(Ng, L), 0.0, 1.0);
-    return dist * (uLight.lightCone.w * sqrt(1.0 - c * c) + uLight.lightShadow.w);
+// The receiver's offset along its geometric normal Ng for the shadow lookup, world units, at
+// distance `dist` from the light (1 for directional lights): shadowBias texels at every angle
+// (the receiver plane's depth bias needs no more; why any: LightShading.cpp, lightBlock).
+float shadowNormalOffset(float dist) { return dist * uLight.lightShadow.w; }
+
+// The receiver's lift towards the light along the light ray (depth only), world units.
+float shadowLift(float dist) { return dist * uLight.lightCone.w; }
+
+// ---- Receiver-plane depth bias (Isidoro, "Shadow Mapping: GPU-based Tips and Techniques", GDC
+// 2006) ----
+// The G-buffer stores each sample's geometric normal, so the receiver's plane is known exactly
+// instead of from screen-space derivatives: every texel the filter compares is compared with the
+// plane's own depth at that texel's centre, not with the receiver's depth at its lookup point.
+// A planar receiver then never shadows itself at any angle, and shadows are not pushed off their
+// contacts by an offset (issue 16; docs/lighting.md, Shadows).
+struct ShadowLookup {
+    vec2 st;     // map coordinates in texels (texel centres at integer + 0.5)
+    float ref;   // window depth of the receiver point
+    vec2 slope;  // the receiver plane's window depth per texel along s and t
+};
+
+// The lookup of point q (world, or a BendyLight's straight space) on the receiver plane spanned by
+// the tangents t1, t2 (the same space) in the 2D map worldToLightClip: the projection's Jacobian
+// (d ndc = (M_i - ndc_i M_w) dq / w) carries the tangents into the map, and the plane's depth
+// gradient per texel solves the 2x2 system. `lift`: the receiver's lift towards the light (the
+// same space), depth only. False where q is behind the projection.
+bool receiverPlaneLookup(vec3 q, vec3 t1, vec3 t2, vec3 lift, out ShadowLookup o) {
+    mat4 M = uLight.worldToLightClip;
+    vec4 clip = M * vec4(q, 1.0);
+    o.st = vec2(0.0);
+    o.ref = 1.0;
+    o.slope = vec2(0.0);
+    if (clip.w <= 0.0) return false;
+    vec3 ndc = clip.xyz / clip.w;
+    float size = 1.0 / uLight.lightShadow.x;
+    o.st = (ndc.xy * 0.5 + 0.5) * size;
+    o.ref = ndc.z * 0.5 + 0.5;
+    // Rows of M (GLSL matrices are column-major: row i is (M[0][i], M[1][i], M[2][i])).
+    vec3 rw = vec3(M[0][3], M[1][3], M[2][3]);
+    vec3 jx = (vec3(M[0][0], M[1][0], M[2][0]) - ndc.x * rw) * (0.5 * size / clip.w);
+    vec3 jy = (vec3(M[0][1], M[1][1], M[2][1]) - ndc.y * rw) * (0.5 * size / clip.w);
+    vec3 jz = (vec3(M[0][2], M[1][2], M[2][2]) - ndc.z * rw) * (0.5 / clip.w);
+    o.ref += dot(jz, lift);
+    vec2 a = vec2(dot(jx, t1), dot(jy, t1)), b = vec2(dot(jx, t2), dot(jy, t2));
+    float za = dot(jz, t1), zb = dot(jz, t2);
+    float det = a.x * b.y - a.y * b.x;
+    // Edge-on to the light (det -> 0) the plane's depth per texel has no bound: clamp it, the
+    // filter's far taps then decide by the plane's direction only.
+    if (abs(det) > 1e-20) o.slope = clamp(vec2(za * b.y - zb * a.y, zb * a.x - za * b.x) / det, vec2(-1.0), vec2(1.0));
+    return true;
 }
 
-// Percentage-closer filter of radius uLight.lightShadow.y texels: the mean of the (2r+1)^2
-// bilinear comparisons at offsets -r..r texels, the light's soft-shadow filter size. Those taps
+// Two unit tangents of the plane with normal n.
+mat2x3 tangentFrame(vec3 n) {
+    vec3 t1 = normalize(cross(n, abs(n.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
+    return mat2x3(t1, cross(n, t1));
+}
+
+// Percentage-closer filter of radius uLight.lightShadow.y texels (r, the light's soft-shadow
+// filter size): the mean of the (2r+1)^2 bilinear comparisons at offsets -r..r texels. Those taps
 // weigh the 2r+2 texels per axis from base - r to base + r + 1 by (1 - f, 1, ..., 1, f) (f the
-// bilinear fraction), so the same sum comes from (r+1)^2 four-texel comparison gathers with these
-// weights: 4 texture reads instead of 9 at r = 1.
-float filteredShadow(sampler2DShadow map, vec2 uv, float ref) {
+// bilinear fraction), so the same sum comes from (r+1)^2 gathers of four texels with these
+// weights: 4 texture reads instead of 9 at r = 1. Each texel is compared with the receiver
+// plane's depth at its centre; `map` holds raw depths (no comparison mode), as one gather reads
+// four depths where a comparison gather would read four results.
+float filteredShadowPlane(sampler2D map, ShadowLookup l) {
     int r = SHADE_PCF_RADIUS;
     float size = 1.0 / uLight.lightShadow.x;
-    vec2 st = uv * size - 0.5;
+    vec2 st = l.st - 0.5;
     vec2 base = floor(st);
     vec2 f = st - base;
     float sum = 0.0;
@@ -110,8 +161,10 @@ float filteredShadow(sampler2DShadow map, vec2 uv, float ref) {
         for (int x = -r; x <= r; x += 2) {
             float wx0 = x == -r ? 1.0 - f.x : 1.0, wx1 = x == r ? f.x : 1.0;
             // Texels base + (x, y) .. base + (x + 1, y + 1); gather order (x0 y1, x1 y1, x1 y0, x0 y0).
-            vec4 g = textureGather(map, (base + vec2(x, y) + 1.0) / size, ref);
-            sum += dot(g, vec4(wx0 * wy1, wx1 * wy1, wx1 * wy0, wx0 * wy0));
+            vec4 d = textureGather(map, (base + vec2(x, y) + 1.0) / size, 0);
+            float r00 = l.ref + dot(l.slope, base + vec2(x, y) - st);
+            vec4 refs = r00 + vec4(l.slope.y, l.slope.x + l.slope.y, l.slope.x, 0.0);
+            sum += dot(step(refs, d), vec4(wx0 * wy1, wx1 * wy1, wx1 * wy0, wx0 * wy0));
         }
     }
     return sum / float((2 * r + 1) * (2 * r + 1));

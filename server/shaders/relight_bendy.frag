@@ -18,7 +18,7 @@ layout(binding = TEX_GBUFFER_BRDF) uniform sampler2D gBrdf;
 layout(binding = TEX_GBUFFER_SHEEN) uniform sampler2D gSheen;
 layout(binding = TEX_GBUFFER_COAT) uniform sampler2D gCoat;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
-layout(binding = TEX_SHADOW_MAP) uniform sampler2DShadow shadowMap;
+layout(binding = TEX_SHADOW_MAP) uniform sampler2D shadowMap; // raw depth: filteredShadowPlane compares
 
 layout(location = OUT_COLOR) out vec4 oColor;
 // Outside the light's footprint the depth test (relight_mask.frag) rejects pixels before shading.
@@ -32,50 +32,56 @@ layout(location = LOC_RELIGHT_LINKED) uniform int uLinked;
 layout(location = LOC_RELIGHT_PIXEL_STEP) uniform int uPixelStep;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
-// The deformed shadow map at a receiver with tube coordinates `c` and arc length `s`: the
-// receiver is biased along its geometric normal by `offset` (world units) and mapped like any
-// caster vertex. The biased point's tube coordinates are those of the receiver moved by the bias
-// in the tube's frame (first order: the foot moves along u_hat by the bias's u_hat part, the
-// radius with it; the offset across changes by the rest), which spares a second cubic solve per
-// sample. Exact for straight chains; on bends it neglects the frame's turn over the bias length
-// (a fraction of a shadow-map texel), far below a texel.
-float bendyShadow(TubeCoords c, float s, vec3 Ng, float offset) {
-    vec3 uHat = c.uHat, vHat = c.vHat, wHat = c.wHat;
-    float R = c.foot.w;
-    vec3 d = Ng * offset;
-    float du = dot(d, uHat);
-    float s2 = max(s + du, 0.0);
-    // The foot moves du along the chain, where the radius is R + R'(s) du (R' per arc length):
-    // the receiver's offset from the chain, (v vHat + w wHat) R + the bias across, over it.
-    float R2 = max(R + c.derivative.w / max(length(c.derivative.xyz), 1e-12) * du, 1e-9);
-    float v2 = (c.v * R + dot(d, vHat)) / R2, w2 = (c.w * R + dot(d, wHat)) / R2;
-    vec3 q = uBendy.bendyP[0].xyz + uBendy.bendyAxisU.xyz * s2 +
-             (uBendy.bendyAxisV.xyz * v2 + uBendy.bendyAxisW.xyz * w2) * (s2 * uBendy.bendyAxisU.w);
-    vec4 clip = uLight.worldToLightClip * vec4(q, 1.0);
-    if (clip.w <= 0.0) return 0.0;
-    vec3 ndc = clip.xyz / clip.w;
-    vec2 uv = ndc.xy * 0.5 + 0.5;
-    float ref = ndc.z * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
-    return filteredShadow(shadowMap, uv, ref);
-}
-
-// ---- Edges inside a pixel (common_pixel_footprint.glsl; docs/lighting.md) ----
-
-// The tube coordinates and arc length (`s2`) of P + d from those of P (c, s), to first order: the
-// foot moves along u_hat by d's u_hat part and the radius with it, the offset across by the rest
-// (the frame's turn over a pixel is neglected, as for the shadow bias in bendyShadow).
+// The tube coordinates and arc length (`s2`) of P + d from those of P (c, s), to first order,
+// which spares a cubic solve per shifted point. The foot moves along u_hat by
+// ds = (d . u_hat) / (1 - (P - foot) . du_hat/ds): on a bend the frame turns under the offset
+// (P - foot) = R (v v_hat + w w_hat), so a point off the chain's inner side moves its foot faster
+// than itself, one off the outer side slower (the foot condition (P - foot) . u_hat = 0,
+// differentiated). The radius moves with the foot, R + R'(s) ds (R' per arc length), and the
+// offset across changes by d's parts across (the rotation-minimising frame turns v_hat and w_hat
+// only towards u_hat: second order there). Exact for straight chains.
 TubeCoords shiftedTube(TubeCoords c, float s, vec3 d, out float s2) {
-    float du = dot(d, c.uHat);
-    s2 = max(s + du, 0.0);
+    float speed = max(length(c.derivative.xyz), 1e-12);
+    vec3 turn = segmentUnitTangentDerivative(c.g, c.t) / speed; // du_hat/ds
     float R = c.foot.w;
-    float R2 = max(R + c.derivative.w / max(length(c.derivative.xyz), 1e-12) * du, 1e-9);
+    float du = dot(d, c.uHat) / max(1.0 - R * dot(c.v * c.vHat + c.w * c.wHat, turn), 1e-3);
+    s2 = max(s + du, 0.0);
+    float R2 = max(R + c.derivative.w / speed * du, 1e-9);
     TubeCoords o = c;
     o.v = (c.v * R + dot(d, c.vHat)) / R2;
     o.w = (c.w * R + dot(d, c.wHat)) / R2;
     o.foot = vec4(c.foot.xyz + c.uHat * du, R2);
     return o;
 }
+
+// The straight-space point (the undeformed spot light's, where the deformed map's casters are
+// drawn) of the receiver moved by d (world).
+vec3 bendyStraightPoint(TubeCoords c, float s, vec3 d) {
+    float s2;
+    TubeCoords o = shiftedTube(c, s, d, s2);
+    return uBendy.bendyP[0].xyz + uBendy.bendyAxisU.xyz * s2 +
+           (uBendy.bendyAxisV.xyz * o.v + uBendy.bendyAxisW.xyz * o.w) * (s2 * uBendy.bendyAxisU.w);
+}
+
+// The deformed shadow map at a receiver with tube coordinates `c` and arc length `s`, at distance
+// `dist` from the source along its flow line: the receiver is biased along its geometric normal
+// by `offset` (world units) and mapped like any caster vertex; its plane's tangents are carried
+// through the same map for the receiver-plane comparison (filteredShadowPlane).
+float bendyShadow(TubeCoords c, float s, vec3 Ng, float offset, float dist) {
+    vec3 d = Ng * offset;
+    vec3 q = bendyStraightPoint(c, s, d);
+    // The tangents by a small step: the map is smooth, receiverPlaneLookup needs only directions.
+    mat2x3 tf = tangentFrame(Ng);
+    float e = 1e-3 * (s + c.foot.w) + 1e-6;
+    ShadowLookup l;
+    vec3 lift = normalize(uBendy.bendyP[0].xyz - q) * shadowLift(dist);
+    if (!receiverPlaneLookup(q, bendyStraightPoint(c, s, d + tf[0] * e) - q, bendyStraightPoint(c, s, d + tf[1] * e) - q, lift, l))
+        return 0.0;
+    if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * uLight.lightShadow.x, vec2(1.0)))) return 1.0;
+    return filteredShadowPlane(shadowMap, l);
+}
+
+// ---- Edges inside a pixel (common_pixel_footprint.glsl; docs/lighting.md) ----
 
 // The mean over the sample's footprint taps of the cone falloff at the tap's Q' times its
 // visibility (bendyShadow with the tap as the receiver). `vis`: the mean visibility alone;
@@ -93,7 +99,7 @@ float bendyFootprintLight(TubeCoords c, float arc, vec3 P, vec3 Ng, vec3 Li, flo
         vec3 toSource = uBendy.bendyP[0].xyz - deformedPointAt(q, s);
         float dist = max(length(toSource), 1e-6);
         float m = spotCone(uLight.lightCone.xy, toSource / dist, uBendy.bendyAxisU.xyz);
-        float v = !SHADE_SHADOWED ? 1.0 : facing ? bendyShadow(q, s, Ng, shadowNormalOffset(Ng, Li, dist)) : 0.0;
+        float v = !SHADE_SHADOWED ? 1.0 : facing ? bendyShadow(q, s, Ng, shadowNormalOffset(dist), dist) : 0.0;
         sum += m * v;
         visSum += v;
         reach = max(reach, m);
@@ -131,7 +137,7 @@ vec3 shadeSample(ivec2 t) {
         vis = 1.0; // in spot
     } else if (SHADE_SHADOWED) {
         // Facing away geometrically: shadowed by itself (as shadowVisibility, relight_spot.frag).
-        vis = dot(Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, arc, Ng, shadowNormalOffset(Ng, Li, dist));
+        vis = dot(Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, arc, Ng, shadowNormalOffset(dist), dist);
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);

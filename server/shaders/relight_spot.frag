@@ -17,8 +17,8 @@ layout(binding = TEX_GBUFFER_BRDF) uniform sampler2D gBrdf;
 layout(binding = TEX_GBUFFER_SHEEN) uniform sampler2D gSheen;
 layout(binding = TEX_GBUFFER_COAT) uniform sampler2D gCoat;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
-layout(binding = TEX_SHADOW_MAP) uniform sampler2DShadow shadowMap;
-layout(binding = TEX_SHADOW_CUBE) uniform samplerCubeShadow shadowCube;
+layout(binding = TEX_SHADOW_MAP) uniform sampler2D shadowMap; // raw depth: filteredShadowPlane compares
+layout(binding = TEX_SHADOW_CUBE) uniform samplerCube shadowCube; // raw depth: cubePlaneTap compares
 layout(binding = TEX_COOKIE) uniform sampler2D cookie;
 
 layout(location = OUT_COLOR) out vec4 oColor;
@@ -35,36 +35,71 @@ layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 const int KIND_DIRECTIONAL = 0, KIND_POINT = 2;
 
+// A cube face's window depth of the point X (relative to the light): its major axis is the face's
+// view depth.
+float cubeDepth(vec3 X) {
+    float n = uLight.lightCube.x, f = uLight.lightCube.y;
+    float major = max(abs(X.x), max(abs(X.y), abs(X.z)));
+    return 0.5 * ((f + n) / (f - n) - 2.0 * f * n / ((f - n) * max(major, 1e-12))) + 0.5;
+}
+
+// The bilinear comparison of direction `dir` (from the light) in the cube map, each of its four
+// texels compared with the depth of the receiver plane (normal Ng, at signed distance h < 0 from
+// the light) along that texel's own direction, lifted by the constant towards the light. The face
+// and its (s, t) follow the cube-map selection of the GL specification (section 8.13).
+float cubePlaneTap(vec3 dir, vec3 Ng, float h, float dist) {
+    vec3 a = abs(dir);
+    vec3 ma, sa, ta; // the face's axis and its s and t directions
+    if (a.x >= a.y && a.x >= a.z) {
+        ma = vec3(sign(dir.x), 0.0, 0.0); sa = vec3(0.0, 0.0, -sign(dir.x)); ta = vec3(0.0, -1.0, 0.0);
+    } else if (a.y >= a.z) {
+        ma = vec3(0.0, sign(dir.y), 0.0); sa = vec3(1.0, 0.0, 0.0); ta = vec3(0.0, 0.0, sign(dir.y));
+    } else {
+        ma = vec3(0.0, 0.0, sign(dir.z)); sa = vec3(sign(dir.z), 0.0, 0.0); ta = vec3(0.0, -1.0, 0.0);
+    }
+    float size = 1.0 / uLight.lightShadow.x;
+    float m = dot(dir, ma);
+    vec2 st = (vec2(dot(dir, sa), dot(dir, ta)) / m * 0.5 + 0.5) * size - 0.5;
+    vec2 base = floor(st), f = st - base;
+    vec4 depth = textureGather(shadowCube, dir, 0); // (i0 j1, i1 j1, i1 j0, i0 j0)
+    vec4 refs;
+    for (int k = 0; k < 4; ++k) {
+        vec2 ij = base + vec2(k == 1 || k == 2 ? 1.0 : 0.0, k < 2 ? 1.0 : 0.0);
+        vec2 c = (ij + 0.5) / size * 2.0 - 1.0;
+        vec3 td = ma + sa * c.x + ta * c.y;
+        float dd = dot(td, Ng);
+        vec3 X = dd < 0.0 ? td * (h / dd) : td * 1e30;
+        refs[k] = cubeDepth(X - normalize(X) * shadowLift(dist));
+    }
+    return dot(step(refs, depth), vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y)));
+}
+
 float shadowVisibility(vec3 P, vec3 Ng, vec3 L, float dist) {
     // A surface whose geometric normal faces away from the light is shadowed by itself (the
     // shading normal can still face it near a smooth mesh's terminator); the shadow map holds
     // closed meshes' far sides only, which cannot say so (issue 16: most leaks on the bunny).
     if (dot(Ng, L) <= 0.0) return 0.0;
-    vec3 biased = P + Ng * shadowNormalOffset(Ng, L, dist);
+    vec3 biased = P + Ng * shadowNormalOffset(dist);
     if (SHADE_KIND == KIND_POINT) {
-        // Point light: the cube face's projection depth of the biased point (its major axis is
-        // the face's view depth), filtered across the direction like the 2D maps.
+        // Point light: each tap's bilinear texels (a gather of the face the tap's direction
+        // selects) are compared with the receiver plane's depth at their own directions
+        // (receiver-plane depth bias, as filteredShadowPlane; per texel, so across face seams too).
         vec3 d = biased - uLight.lightPosition.xyz;
-        float major = max(abs(d.x), max(abs(d.y), abs(d.z)));
-        float n = uLight.lightCube.x, f = uLight.lightCube.y;
-        float ref = 0.5 * ((f + n) / (f - n) - 2.0 * f * n / ((f - n) * max(major, 1e-12))) + 0.5;
+        float h = dot(d, Ng); // < 0: the light is on the receiver's front side
         vec3 dn = normalize(d);
-        vec3 t1 = normalize(cross(dn, abs(dn.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
-        vec3 t2 = cross(dn, t1);
-        float texel = 2.0 * major * uLight.lightShadow.x; // a face is 2 * major wide at its depth
+        mat2x3 tf = tangentFrame(dn);
+        float texel = 2.0 * max(abs(d.x), max(abs(d.y), abs(d.z))) * uLight.lightShadow.x; // a face is 2 * major wide
         int r = SHADE_PCF_RADIUS;
         float sum = 0.0;
         for (int y = -r; y <= r; ++y)
-            for (int x = -r; x <= r; ++x) sum += texture(shadowCube, vec4(d + (t1 * float(x) + t2 * float(y)) * texel, ref));
+            for (int x = -r; x <= r; ++x) sum += cubePlaneTap(d + (tf[0] * float(x) + tf[1] * float(y)) * texel, Ng, h, dist);
         return sum / float((2 * r + 1) * (2 * r + 1));
     }
-    vec4 clip = uLight.worldToLightClip * vec4(biased, 1.0);
-    if (clip.w <= 0.0) return 0.0;
-    vec3 ndc = clip.xyz / clip.w;
-    vec2 uv = ndc.xy * 0.5 + 0.5;
-    float ref = ndc.z * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return 1.0;
-    return filteredShadow(shadowMap, uv, ref);
+    mat2x3 tf = tangentFrame(Ng);
+    ShadowLookup l;
+    if (!receiverPlaneLookup(biased, tf[0], tf[1], L * shadowLift(dist), l)) return 0.0;
+    if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * uLight.lightShadow.x, vec2(1.0)))) return 1.0;
+    return filteredShadowPlane(shadowMap, l);
 }
 
 // Barn doors and cookie of a spot light, for the direction `fromLight` (unit, light to point):

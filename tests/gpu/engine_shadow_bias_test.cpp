@@ -6,7 +6,10 @@
 //    lit at 80 degrees from the ground's and the box top's normal),
 // for spot, directional, point (cube map) and BendyLight (deformed map) lights. Per light: the
 // agreement of lit/shadowed over the pixels the light reaches (the mask's coverage), the shadowed
-// area against the reference's, and on the grazing scene the acne on the lit convex box.
+// area against the reference's, and on the grazing scene the acne on the lit convex box. Each
+// light is measured twice: with hard shadows (shadowFilter 0: one bilinear comparison, the kind of
+// shadow the reference is), where the thresholds apply, and with the default 3x3 soft
+// filter, which by design narrows shadows thinner than its width (reported, with its own floors).
 //
 // A straight BendyLight renders like its spot light, so it is compared with the spot's ray-traced
 // shadow. A bent one is compared with rays cast in the deformed space (the casters subdivided and
@@ -188,7 +191,7 @@ Light spotAt(const glm::vec3& target, const glm::vec3& toLight, float distance, 
     return l;
 }
 
-std::vector<Light> lightsFor(const glm::vec3& target, const glm::vec3& toLight, float distance, float cone) {
+std::vector<Light> lightsFor(const glm::vec3& target, const glm::vec3& toLight, float distance, float cone, int filter) {
     const Light spot = spotAt(target, toLight, distance, cone);
     Light sun = spot;
     sun.name = "sun";
@@ -209,7 +212,9 @@ std::vector<Light> lightsFor(const glm::vec3& target, const glm::vec3& toLight, 
     bent.controlPoints = {{1.5f * k, 0.f, 0.f}, {3.f * k, 0.f, 0.f}, {4.2f * k, 0.f, 0.4f * k}, {4.8f * k, 0.f, 1.2f * k}};
     bent.radii = {0.f, 1.5f * k * tanTheta, 3.f * k * tanTheta, 3.6f * k * tanTheta, 4.1f * k * tanTheta};
     bent.colors.assign(5, Vec3{1.f, 1.f, 1.f});
-    return {spot, sun, bulb, straight, bent};
+    std::vector<Light> all{spot, sun, bulb, straight, bent};
+    for (Light& l : all) l.shadowFilter = filter;
+    return all;
 }
 
 struct Counts {
@@ -283,65 +288,72 @@ Counts measure(Shot& shot, const Light& light, bool acne) {
 }
 
 void report(const char* scene, const Light& l, const Counts& n) {
-    std::printf("%-9s %-15s reached %6zu  agree %7.3f%%  shadowed engine %6zu ref %6zu (ratio %.4f)  "
+    std::printf("%-9s %-15s r=%d reached %6zu  agree %7.3f%%  shadowed engine %6zu ref %6zu (ratio %.4f)  "
                 "lit-but-shadowed-in-ref %5zu  shadowed-but-lit-in-ref %5zu",
-                scene, l.name.c_str(), n.reached, 100.0 * n.agreement(), n.shadowedEngine, n.shadowedRef, n.areaRatio(),
+                scene, l.name.c_str(), l.shadowFilter, n.reached, 100.0 * n.agreement(), n.shadowedEngine, n.shadowedRef, n.areaRatio(),
                 n.litHereShadowedRef, n.shadowedHereLitRef);
     if (n.acneReceivers) std::printf("  acne %zu (darkened %zu) of %zu lit box pixels", n.acne, n.darkened, n.acneReceivers);
     std::printf("\n");
 }
 
 // The thresholds: lit/shadowed agreement >= 99.7% of the reached pixels, shadowed area
-// within 1% of the reference's, no acne on the lit convex box. Where the engine does not meet them
-// yet the measured value is a floor instead, listed here so that the shortfall is visible rather
-// than hidden in a loosened threshold (measured 2026-11, 320x180, 2048 maps, 3x3 filter):
-// what is left is mostly on curved meshes near their terminators and along contact lines, where
-// the normal offset of up to 2 texels lifts receivers past small occluders (docs/lighting.md,
-// Shadows), plus the half texel at every angle against depth interpolation and tessellation. A bent BendyLight's reference is approximate (see the file comment): its agreement is
-// reported, not asserted; its acne is.
+// within 1% of the reference's, no acne on the lit convex box, asserted on hard shadows. Where the
+// engine does not meet them the measured value is a floor instead, listed here so that the
+// shortfall is visible rather than hidden in a loosened threshold (measured 2026-12, 320x180, 2048
+// maps, receiver-plane depth bias): on the tabletop the sun's and the point light's shadowed area
+// is 1.1-1.4% short, 13 of 938 pixels for the sun, all on shadow edges, where a texel of its map
+// (the whole scene's frustum) is a third of a pixel wide; a 4096 map meets the thresholds there.
+// A bent BendyLight's reference is approximate (see the file comment): its agreement is reported,
+// not asserted; its acne is.
 struct Shortfall {
     const char* scene;
     const char* light;
     double agreementFloor, ratioFloor;
 };
-const Shortfall SHORTFALLS[] = {
-    {"tabletop", "spot", 0.9955, 0.950},  {"tabletop", "sun", 0.9960, 0.915},
-    {"tabletop", "bulb", 0.9940, 0.915},  {"tabletop", "bendy_straight", 0.9955, 0.950},
-    {"bunny", "spot", 0.997, 0.950},      {"bunny", "sun", 0.997, 0.900},
-    {"bunny", "bulb", 0.997, 0.945},      {"bunny", "bendy_straight", 0.997, 0.950},
-    {"dragon", "spot", 0.9955, 0.955},    {"dragon", "sun", 0.9955, 0.940},
-    {"dragon", "bulb", 0.9950, 0.945},    {"dragon", "bendy_straight", 0.9955, 0.955},
+const Shortfall HARD_SHORTFALLS[] = {
+    {"tabletop", "sun", 0.997, 0.984},
+    {"tabletop", "bulb", 0.997, 0.986},
 };
 
+// With the default soft filter (3x3 texels) shadows thinner than the filter lose their middle to
+// the 0.5 threshold: agreement still meets 99.7%, the area is short by up to 5% (the closed bunny's
+// thin ears under the sun), never over.
+constexpr double SOFT_RATIO_FLOOR = 0.95;
+
 void expectThresholds(const char* scene, const Light& l, const Counts& n, size_t minReached) {
-    SCOPED_TRACE(std::string(scene) + " " + l.name);
+    SCOPED_TRACE(std::string(scene) + " " + l.name + " filter " + std::to_string(l.shadowFilter));
     EXPECT_GE(n.reached, minReached);
     if (l.name == "bendy_bent") return;
     double agreement = 0.997, ratioLow = 0.99;
-    for (const Shortfall& f : SHORTFALLS)
-        if (l.name == f.light && std::string(scene) == f.scene) {
-            agreement = f.agreementFloor;
-            ratioLow = f.ratioFloor;
-            std::printf("  (short of the issue's thresholds: asserting the measured floors %.2f%% and %.3f)\n",
-                        100 * agreement, ratioLow);
-        }
+    if (l.shadowFilter > 0) ratioLow = SOFT_RATIO_FLOOR;
+    else
+        for (const Shortfall& f : HARD_SHORTFALLS)
+            if (l.name == f.light && std::string(scene) == f.scene) {
+                agreement = f.agreementFloor;
+                ratioLow = f.ratioFloor;
+                std::printf("  (short of the issue's thresholds: asserting the measured floors %.2f%% and %.3f)\n",
+                            100 * agreement, ratioLow);
+            }
     EXPECT_GE(n.agreement(), agreement);
     EXPECT_GE(n.areaRatio(), ratioLow);
     EXPECT_LE(n.areaRatio(), 1.01);
 }
 
-void runScene(Shot& shot, const char* name, const std::vector<Light>& lights, bool acne, size_t minReached) {
-    for (const Light& l : lights) {
-        const Counts n = measure(shot, l, acne);
-        report(name, l, n);
-        expectThresholds(name, l, n, minReached);
-        if (acne) {
-            SCOPED_TRACE(l.name);
-            EXPECT_GT(n.acneReceivers, 500u);
-            EXPECT_EQ(n.acne, 0u);
-            // Partially darkened by the filter (visibility in [0.5, 1)): a few pixels at the box's
-            // edges, where taps reach the neighbouring face (measured up to 9 of 1,441).
-            EXPECT_LE(n.darkened, n.acneReceivers / 100);
+void runScene(Shot& shot, const char* name, const glm::vec3& target, const glm::vec3& toLight, float distance,
+              float cone, bool acne, size_t minReached) {
+    for (int filter : {0, 1}) {
+        for (const Light& l : lightsFor(target, toLight, distance, cone, filter)) {
+            const Counts n = measure(shot, l, acne);
+            report(name, l, n);
+            expectThresholds(name, l, n, minReached);
+            if (acne) {
+                SCOPED_TRACE(l.name);
+                EXPECT_GT(n.acneReceivers, 500u);
+                EXPECT_EQ(n.acne, 0u);
+                // Partially darkened by the filter (visibility in [0.5, 1)): a few pixels at the box's
+                // edges, where taps reach the neighbouring face (measured up to 9 of 1,441).
+                EXPECT_LE(n.darkened, n.acneReceivers / 100);
+            }
         }
     }
 }
@@ -357,7 +369,7 @@ TEST(ShadowBias, TabletopAgreesWithRayTracing) {
     const glm::vec3 pos(key.position[0], key.position[1], key.position[2]);
     const glm::vec3 dir = glm::normalize(glm::vec3(key.direction[0], key.direction[1], key.direction[2]));
     const float distance = 0.8f * glm::length(b.max - b.min);
-    runScene(shot, "tabletop", lightsFor(pos + dir * distance, -dir, distance, key.coneAngleDeg), false, 10000);
+    runScene(shot, "tabletop", pos + dir * distance, -dir, distance, key.coneAngleDeg, false, 10000);
 }
 
 // The low-resolution Stanford bunny: closed (drawn with its light-facing faces culled, so its far
@@ -366,7 +378,7 @@ TEST(ShadowBias, ClosedMeshOnAPlaneAgreesWithRayTracing) {
     DFB_REQUIRE_ASSETS();
     Shot shot;
     ASSERT_NO_FATAL_FAILURE(meshOnPlane(shot, "stanford-bunny-lowres.glb", true));
-    runScene(shot, "bunny", lightsFor({0.f, 0.5f, 0.f}, glm::normalize(glm::vec3(-0.5f, 1.f, 0.6f)), 7.f, 35.f), false, 10000);
+    runScene(shot, "bunny", {0.f, 0.5f, 0.f}, glm::normalize(glm::vec3(-0.5f, 1.f, 0.6f)), 7.f, 35.f, false, 10000);
 }
 
 // The example: the Stanford dragon (47,794 triangles, not closed: drawn two-sided).
@@ -374,7 +386,7 @@ TEST(ShadowBias, DragonOnAPlaneAgreesWithRayTracing) {
     DFB_REQUIRE_ASSETS();
     Shot shot;
     ASSERT_NO_FATAL_FAILURE(meshOnPlane(shot, "stanford-dragon-48k.glb", false));
-    runScene(shot, "dragon", lightsFor({0.f, 0.5f, 0.f}, glm::normalize(glm::vec3(-0.5f, 1.f, 0.6f)), 7.f, 35.f), false, 10000);
+    runScene(shot, "dragon", {0.f, 0.5f, 0.f}, glm::normalize(glm::vec3(-0.5f, 1.f, 0.6f)), 7.f, 35.f, false, 10000);
 }
 
 TEST(ShadowBias, OpenMeshesAtAGrazingSunAgreeWithRayTracingWithoutAcne) {
@@ -384,5 +396,5 @@ TEST(ShadowBias, OpenMeshesAtAGrazingSunAgreeWithRayTracingWithoutAcne) {
     const float elevation = glm::radians(10.f);
     const glm::vec3 toLight = glm::normalize(glm::vec3(std::cos(elevation) * 0.94f, std::sin(elevation), std::cos(elevation) * 0.34f));
     const glm::vec3 boxTop(0.5f * (BOX_MIN.x + BOX_MAX.x), BOX_MAX.y, 0.5f * (BOX_MIN.z + BOX_MAX.z));
-    runScene(shot, "grazing", lightsFor(boxTop, toLight, 8.f, 30.f), true, 10000);
+    runScene(shot, "grazing", boxTop, toLight, 8.f, 30.f, true, 10000);
 }

@@ -30,13 +30,13 @@
     X(TEX_GBUFFER_ALBEDO, 3, "RGBA16F: albedo rgb")                                                       \
     X(TEX_GBUFFER_BRDF, 4, "RGBA16F: metallic, roughness, specular, occlusion")                          \
     X(TEX_GBUFFER_EMISSION, 5, "RGBA16F: emission rgb")                                                   \
-    X(TEX_SHADOW_MAP, 6, "DEPTH32F with compare mode")                                                    \
+    X(TEX_SHADOW_MAP, 6, "DEPTH32F, raw depths (receiver-plane comparison in the shader)")                \
     X(TEX_INPUT, 7, "generic input of composite passes")                                                  \
     X(TEX_PIXEL_SAMPLES, 8, "RG32UI per pixel: first sample, sample count")                              \
     X(TEX_GBUFFER_SHEEN, 9, "RGBA16F: sheen rgb, sheen roughness")                                        \
     X(TEX_GBUFFER_COAT, 10, "RG16F: coat weight, coat roughness")                                         \
     X(TEX_GBUFFER_ID, 11, "R32UI: object id (light linking)")                                             \
-    X(TEX_SHADOW_CUBE, 12, "DEPTH32F cube map with compare mode (point lights)")                         \
+    X(TEX_SHADOW_CUBE, 12, "DEPTH32F cube map, raw depths (point lights)")                               \
     X(TEX_COOKIE, 13, "RGBA16F: a spot light's cookie image")                                             \
     X(TEX_INPUT_HOT, 14, "composite_tonemap.frag's second input (the edited light)")                     \
     X(TEX_DEFORMED, 15, "buffer texture RGBA32F: bendy_deform.comp's output, 2 texels per caster vertex") \

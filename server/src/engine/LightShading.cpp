@@ -32,30 +32,23 @@ LightBlock lightBlock(const LightCache& c, bool cookie) {
                                         glm::vec3(m * glm::vec4(-1, 0, 0, 1)) / (m * glm::vec4(-1, 0, 0, 1)).w);
         texel = width / float(std::max(mapSize, 1));
     }
-    // Normal-offset shadows that follow the receiver (Holbert, "Normal Offset Shadows", 2011): the lookup moves along the geometric
-    // normal by k texels times sin(theta), theta the angle between the normal and the light. On a
-    // planar receiver a normal offset o clears its own depth by o / cos(theta), while the PCF taps
-    // reach r + 1 texels away (r = shadowFilter, plus the 2x2 comparison), where the plane's depth
-    // differs by (r + 1) texel tan(theta): k = r + 1 clears every tap at every angle, and the
-    // offset vanishes where the light is head-on and nothing needs it. So k = shadowBias - 0.5 + r,
-    // r + 1 at the default bias of 1.5 texels. Chosen by measurement against the constant 1.5-texel
-    // offset with slope-scaled polygon offset it replaces and slope-scaled bias alone (the table is
-    // in docs/lighting.md, Shadows). Receiver-plane depth bias (Isidoro, "Shadow Mapping: GPU-based
-    // Tips and Techniques", GDC 2006; Dou et al., "Adaptive Depth Bias for Shadow Maps", 2014)
-    // would let k drop to about 1 but needs a comparison per texel instead of per 2x2 gather: not
-    // tried yet.
-    const float k = std::max(l.shadowBias - 0.5f + float(l.shadowFilter), 0.f);
+    // Receiver-plane depth bias (common_uniforms.glsl, filteredShadowPlane; docs/lighting.md,
+    // Shadows): every texel the filter reads is compared with the receiver plane's own depth at
+    // that texel, so a planar receiver needs no offset at any angle, and what is left is small:
+    //  - the receiver is lifted towards the light by RECEIVER_LIFT_TEXELS along the light ray (a
+    //    depth-only bias: the lookup does not move): the rounding between llvmpipe's rasterised
+    //    depth of large triangles and the shaders' projection of the same point, and a
+    //    BendyLight's casters subdivided only to within a quarter texel of the deformed surface;
+    //  - and moved along its geometric normal by shadowBias texels (default 0.15) at every angle:
+    //    a curved mesh's neighbouring facets inside the filter's reach lie off the receiver's
+    //    plane by their curvature (the Stanford dragon under a sun: 4 % too much shadow without).
+    // Both were chosen by measurement (tests/gpu/engine_shadow_bias_test.cpp, the table in
+    // docs/lighting.md); a larger offset pushes shadows off their contacts (issue 16).
+    constexpr float RECEIVER_LIFT_TEXELS = 1.f;
     block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
-                                l.shadow ? 1.f : 0.f, k * texel);
-    // Plus half a texel at every angle, where k sin(theta) vanishes: llvmpipe interpolates the
-    // depth of large triangles (the table's two) a few units of the depth format away from the
-    // relight shaders' projection of the same point, and a BendyLight's deformed map holds casters
-    // subdivided only to within a quarter texel of the true deformed surface while a receiver
-    // maps itself exactly (without it: acne on the table where the light is head-on, and the
-    // table changed 2,304 values of a sun's image when drawn into its map).
-    const float constant = 0.5f;
-    block.lightShadow = glm::vec4(1.f / float(std::max(mapSize, 1)), float(l.shadowFilter), c.shadowIsCube ? 1.f : 0.f,
-                                  constant * texel);
+                                l.shadow ? 1.f : 0.f, RECEIVER_LIFT_TEXELS * texel);
+    block.lightShadow = glm::vec4(1.f / float(std::max(mapSize, 1)), float(l.shadowFilter),
+                                  c.shadowIsCube ? 1.f : 0.f, l.shadowBias * texel);
     // The spot's frame, as its shadow frustum's (lightViewProj): barn doors and cookie.
     const glm::vec3 right = glm::normalize(glm::cross(axis, frustumUp(axis)));
     block.lightRight = glm::vec4(right, cookie ? 1.f : 0.f);

@@ -13,9 +13,9 @@ namespace {
 // assumed closed (Casters::draw culls the closed ones itself). No slope-scaled offset: it pushes a
 // caster back by its own depth slope, which is steep exactly where casters meet receivers at
 // contacts and grazing lines, pushing shadows off their contacts (issue 16). Acne is left to the
-// receiver's normal offset, which follows the receiver's angle to the light (LightShading,
-// shadowNormalOffset in common_uniforms.glsl); two units of the depth format's resolution only
-// absorb the rounding between the rasterised depth and the relight shaders' projection of it.
+// receiver-plane depth bias of the lookup (LightShading.cpp, lightBlock; filteredShadowPlane in
+// common_uniforms.glsl); two units of the depth format's resolution only absorb the rounding
+// between the rasterised depth and the relight shaders' projection of it.
 void beginDepthPass(GLuint framebuffer, int size) {
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glViewport(0, 0, size, size);
@@ -38,12 +38,13 @@ void clearDepth(GLuint framebuffer) {
     glClearNamedFramebufferfv(framebuffer, GL_DEPTH, 0, &one);
 }
 
-// Linear filtering with depth comparison: the shaders' PCF gathers compare four texels a read.
-void compareFiltering(GLuint texture) {
-    glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(texture, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
-    glTextureParameteri(texture, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+// Shadow maps are read as raw depths: the relight shaders gather four texels and compare each
+// with the receiver plane's depth at its centre (filteredShadowPlane in common_uniforms.glsl,
+// cubePlaneTap in relight_spot.frag).
+void rawDepth(GLuint texture) {
+    glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTextureParameteri(texture, GL_TEXTURE_COMPARE_MODE, GL_NONE);
 }
 
 } // namespace
@@ -74,7 +75,7 @@ Status ShadowMaps::renderPlanar(LightCache& c, int size, int subdivisionLimit) {
         c.shadowIsCube = false;
         c.shadowSize = size;
         c.shadowMap = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, c.shadowSize, c.shadowSize);
-        compareFiltering(c.shadowMap.id());
+        rawDepth(c.shadowMap.id());
         auto fb = gl::makeFramebuffer(0, c.shadowMap.id(), "shadow map of light '" + l.name + "'");
         if (!fb) return fb.error();
         c.shadowFb = std::move(fb.value());
@@ -106,7 +107,7 @@ Status ShadowMaps::renderCube(LightCache& c, int size) {
         glCreateTextures(GL_TEXTURE_CUBE_MAP, 1, &id);
         c.shadowMap = gl::Texture(id);
         glTextureStorage2D(id, 1, GL_DEPTH_COMPONENT32F, size, size);
-        compareFiltering(id);
+        rawDepth(id);
         glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
         glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
         GLuint fb = 0;

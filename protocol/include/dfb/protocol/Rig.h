@@ -47,7 +47,7 @@ struct Light {
     float penumbraDeg = 8.f;          ///< width of the soft edge inside the cone, [0, coneAngleDeg]
     bool shadow = true;               ///< casts shadows
     int shadowMapSize = 2048;         ///< shadow-map side in texels, power of two in [64, 8192]
-    float shadowBias = 1.5f;          ///< receiver offset along the normal, in shadow-map texels, [0, 16]
+    float shadowBias = 0.15f;         ///< receiver offset along the normal, in shadow-map texels, [0, 16]
     /// Soft-shadow filter: radius of the percentage-closer filter in shadow-map texels, [0, 4]
     /// (0 = one bilinear comparison, 1 = 3x3 taps, r = (2r+1)^2 taps).
     int shadowFilter = 1;
