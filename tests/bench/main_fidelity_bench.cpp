@@ -12,7 +12,11 @@
 // - light cache: intensity edits from 1e-6 to 1e12 on the key light against a fresh engine;
 // - shadows: the engine's shadow mask (lit where visibility >= 0.5) against Embree rays from each
 //   fully reached pixel's sample to the light, per light type: agreement and shadowed-area ratio
-//   (as tests/gpu/engine_shadow_bias_test.cpp measures them).
+//   (as tests/gpu/engine_shadow_bias_test.cpp measures them);
+// - edges: shadow, cone, barn-door, cookie and BendyLight shadow edges at 1, 4 and 16 spp against
+//   the engine's relight of a 4x4-times-resolution bake, box-filtered, beside the silhouettes'
+//   error (tests/support/EdgeAliasing.h, whose 160x90 figures tests/gpu/engine_edge_aa_test.cpp
+//   asserts on; always at 160x90 whatever --width and --height say).
 
 #include <dfb/core/Stats.h>
 #include <dfb/gbuffer/Baker.h>
@@ -22,6 +26,7 @@
 #include <CLI/CLI.hpp>
 
 #include "support/CpuRelight.h"
+#include "support/EdgeAliasing.h"
 #include "support/RayCaster.h"
 
 #include <glm/glm.hpp>
@@ -253,6 +258,24 @@ int benchScene(const std::string& path, int width, int height, int spp) {
                         n.reached ? 100.0 * double(n.agree) / double(n.reached) : 0.0, n.reached,
                         n.shadowedRef ? double(n.shadowedEngine) / double(n.shadowedRef) : 1.0);
         }
+    }
+
+    // Edges against a 4x4-times-resolution bake, at the size the test asserts on.
+    {
+        auto shots = test::bakeEdgeShots(scene.value());
+        if (!shots) {
+            std::fprintf(stderr, "%s\n", shots.error().toString().c_str());
+            return 1;
+        }
+        auto figures = test::measureEdgeAliasing(shots.value());
+        if (!figures) {
+            std::fprintf(stderr, "%s\n", figures.error().toString().c_str());
+            return 1;
+        }
+        std::printf(" edges at %dx%d vs the engine's relight of a %dx%d bake, box-filtered (mean absolute error over\n"
+                    " the mean reference radiance, on edge and on silhouette pixels):\n",
+                    shots->spp[0].width, shots->spp[0].height, shots->reference.width, shots->reference.height);
+        test::printEdgeFigures(figures.value(), "  ");
     }
     return 0;
 }

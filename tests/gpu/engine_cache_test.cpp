@@ -6,6 +6,7 @@
 #include <dfb/server/Engine.h>
 
 #include "support/SchemaEdits.h"
+#include "support/TabletopShot.h"
 
 #include <gtest/gtest.h>
 
@@ -81,19 +82,11 @@ std::pair<size_t, size_t> litAndDiffering(const ImageF& got, const ImageF& want)
 } // namespace
 
 TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
-    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
-    ASSERT_TRUE(scene.ok()) << scene.error().toString();
-    BakeOptions o;
-    o.width = 128;
-    o.height = 72;
-    o.samples = 4; // deep: samples are shaded and averaged in every path
-    auto shot = bake(scene.value(), o);
-    ASSERT_TRUE(shot.ok()) << shot.error().toString();
-    const ShadowGeometry casters = shadowCasters(scene.value());
-    auto cached = Engine::create(shot.value(), casters);
-    ASSERT_TRUE(cached.ok()) << cached.error().toString();
+    auto tabletop = test::tabletopEngine(128, 72, 4); // deep: samples are shaded and averaged in every path
+    ASSERT_TRUE(tabletop.ok()) << tabletop.error().toString();
+    auto& [scene, shot, casters, cached] = tabletop.value();
 
-    const Bounds& b = scene->bounds;
+    const Bounds& b = scene.bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     Light bendy = rig.lights[0];
     bendy.name = "bendy";
@@ -137,14 +130,14 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
         case 10: rig.exposureStops = 0.5f * u(rng); break;
         case 11: l.barnDoorsDeg[rng() % 4] = 5.f + 85.f * std::abs(u(rng)); break;
         case 12: l.shadowFilter = int(rng() % 3); break;
-        case 13: cached.value()->setPreview(rng() % 2 == 0); break; // a drag starts or stops
+        case 13: cached->setPreview(rng() % 2 == 0); break; // a drag starts or stops
         }
         ++rig.version;
-        ASSERT_TRUE(cached.value()->render(rig).ok());
+        ASSERT_TRUE(cached->render(rig).ok());
         if (e % 40 == 0) {
-            cached.value()->setPreview(false); // the comparison is with full quality
-            auto a = cached.value()->renderLinear(rig);
-            auto fresh = Engine::create(shot.value(), casters);
+            cached->setPreview(false); // the comparison is with full quality
+            auto a = cached->renderLinear(rig);
+            auto fresh = Engine::create(shot, casters);
             ASSERT_TRUE(fresh.ok());
             auto c = fresh.value()->renderLinear(rig);
             ASSERT_TRUE(a.ok() && c.ok());
@@ -152,7 +145,7 @@ TEST(EngineCache, TwoHundredRandomEditsMatchAFromScratchRender) {
             if (std::getenv("DFB_CACHE_DEBUG")) {
                 for (const Light& each : rig.lights) {
                     const Light& l2 = each;
-                    auto la = cached.value()->renderLightLinear(rig, l2.name);
+                    auto la = cached->renderLightLinear(rig, l2.name);
                     auto lc = fresh.value()->renderLightLinear(rig, l2.name);
                     double ma = 0, mc = 0;
                     for (size_t i = 0; i < la->rgba.size(); i += 4) { ma += la->rgba[i]; mc += lc->rgba[i]; }
@@ -192,24 +185,16 @@ void writeCookie(const std::string& path, int cell) {
 // the row applies to, and compares with a from-scratch render along the way. A new row is edited
 // here without touching this file (tests/support/SchemaEdits.h makes the values).
 TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
-    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
-    ASSERT_TRUE(scene.ok()) << scene.error().toString();
-    BakeOptions o;
-    o.width = 96;
-    o.height = 54;
-    o.samples = 2;
-    auto shot = bake(scene.value(), o);
-    ASSERT_TRUE(shot.ok()) << shot.error().toString();
-    const ShadowGeometry casters = shadowCasters(scene.value());
-    auto cached = Engine::create(shot.value(), casters);
-    ASSERT_TRUE(cached.ok()) << cached.error().toString();
+    auto tabletop = test::tabletopEngine(96, 54, 2);
+    ASSERT_TRUE(tabletop.ok()) << tabletop.error().toString();
+    auto& [scene, shot, casters, cached] = tabletop.value();
     const auto assets = std::filesystem::temp_directory_path() / ("dfb_schema_cache_" + std::to_string(::getpid()));
     std::filesystem::create_directories(assets);
     writeCookie((assets / "checks.png").string(), 4);
     writeCookie((assets / "coarse.png").string(), 16);
-    cached.value()->setAssetDirectory(assets.string());
+    cached->setAssetDirectory(assets.string());
 
-    const Bounds& b = scene->bounds;
+    const Bounds& b = scene.bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     Light bendy = bentLight(rig.lights[0]);
     rig.lights.push_back(bendy);
@@ -218,7 +203,7 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
     for (Light& l : rig.lights) l.shadowMapSize = std::min(l.shadowMapSize, 512);
 
     test::SchemaEditOptions opt;
-    opt.objectCount = uint32_t(shot->objectNames.size());
+    opt.objectCount = uint32_t(shot.objectNames.size());
     opt.cookies = {"", "checks.png", "coarse.png"};
     std::mt19937 rng(2024);
     std::map<std::string, int> edited; // schema row -> edits applied
@@ -243,12 +228,12 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
         ++byType[type];
         ++edits;
         ++rig.version;
-        if (rng() % 8 == 0) cached.value()->setPreview(rng() % 2 == 0); // a drag starts or stops
-        ASSERT_TRUE(cached.value()->render(rig).ok()) << "after " << path;
+        if (rng() % 8 == 0) cached->setPreview(rng() % 2 == 0); // a drag starts or stops
+        ASSERT_TRUE(cached->render(rig).ok()) << "after " << path;
         if (edits % 30 == 0) {
-            cached.value()->setPreview(false); // the comparison is with full quality
-            auto a = cached.value()->renderLinear(rig);
-            auto fresh = Engine::create(shot.value(), casters);
+            cached->setPreview(false); // the comparison is with full quality
+            auto a = cached->renderLinear(rig);
+            auto fresh = Engine::create(shot, casters);
             ASSERT_TRUE(fresh.ok());
             fresh.value()->setAssetDirectory(assets.string());
             auto c = fresh.value()->renderLinear(rig);
@@ -273,41 +258,36 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
 }
 
 TEST(LightLinking, ExcludedObjectsAreUnlitByThatLightAndEverythingElseIsUnchanged) {
-    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
-    ASSERT_TRUE(scene.ok()) << scene.error().toString();
-    BakeOptions o;
-    o.width = 160;
-    o.height = 90;
-    auto shot = bake(scene.value(), o);
-    ASSERT_TRUE(shot.ok()) << shot.error().toString();
-    auto engine = Engine::create(shot.value(), shadowCasters(scene.value()));
-    ASSERT_TRUE(engine.ok()) << engine.error().toString();
-    const Bounds& b = scene->bounds;
+    auto tabletop = test::tabletopEngine(160, 90);
+    ASSERT_TRUE(tabletop.ok()) << tabletop.error().toString();
+    const DeepBuffer& shot = tabletop->shot;
+    Engine& engine = *tabletop->engine;
+    const Bounds& b = tabletop->scene.bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     uint32_t bunny = 0, table = 0;
-    for (size_t i = 0; i < shot->objectNames.size(); ++i) {
-        if (shot->objectNames[i] == "bunny") bunny = uint32_t(i + 1);
-        if (shot->objectNames[i] == "table") table = uint32_t(i + 1);
+    for (size_t i = 0; i < shot.objectNames.size(); ++i) {
+        if (shot.objectNames[i] == "bunny") bunny = uint32_t(i + 1);
+        if (shot.objectNames[i] == "table") table = uint32_t(i + 1);
     }
     ASSERT_NE(bunny, 0u);
-    auto before = engine.value()->renderLightLinear(rig, "key");
+    auto before = engine.renderLightLinear(rig, "key");
     ASSERT_TRUE(before.ok());
     rig.lights[0].exclude = {bunny};
-    auto excluded = engine.value()->renderLightLinear(rig, "key");
+    auto excluded = engine.renderLightLinear(rig, "key");
     rig.lights[0].exclude.clear();
     rig.lights[0].include = {table};
-    auto included = engine.value()->renderLightLinear(rig, "key");
+    auto included = engine.renderLightLinear(rig, "key");
     ASSERT_TRUE(excluded.ok() && included.ok());
     size_t bunnyLitBefore = 0, bunnyLitAfter = 0, otherChanged = 0, notTableLit = 0;
-    for (size_t p = 0; p < shot->pixelCount(); ++p) {
+    for (size_t p = 0; p < shot.pixelCount(); ++p) {
         const float a = before->rgba[p * 4 + 1], e = excluded->rgba[p * 4 + 1], in = included->rgba[p * 4 + 1];
-        if (shot->objectId[p] == bunny) {
+        if (shot.objectId[p] == bunny) {
             bunnyLitBefore += a > 0.f;
             bunnyLitAfter += e > 0.f;
         } else if (e != a) {
             ++otherChanged;
         }
-        if (shot->objectId[p] != table) notTableLit += in > 0.f;
+        if (shot.objectId[p] != table) notTableLit += in > 0.f;
         else if (in != a) ++otherChanged;
     }
     std::printf("bunny pixels lit by the key: %zu, with the bunny excluded: %zu\n", bunnyLitBefore, bunnyLitAfter);
@@ -384,9 +364,10 @@ TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
 // side, and meshes outside a map's frustum (a point light's cube faces) are not drawn into it:
 // every light's image is the same as with everything drawn.
 TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
-    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
-    ASSERT_TRUE(scene.ok()) << scene.error().toString();
-    const ShadowGeometry casters = shadowCasters(scene.value());
+    auto tabletop = test::bakeTabletop(160, 90);
+    ASSERT_TRUE(tabletop.ok()) << tabletop.error().toString();
+    const DeepBuffer& shot = tabletop->shot;
+    const ShadowGeometry casters = shadowCasters(tabletop->scene);
     ASSERT_EQ(casters.planes.size(), 1u); // the table
     EXPECT_LT(casters.planarIndexStart, casters.indices.size());
     ShadowGeometry allDrawn = casters;
@@ -395,7 +376,7 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
     allDrawn.parts.clear(); // and no mesh culled against a map's frustum (a cube face's)
     // Runs of at most 2048 triangles per mesh: bunny 35, vases 6 + 6, bowl 3, table 3.
     ASSERT_EQ(casters.parts.size(), 53u);
-    const Bounds& b = scene->bounds;
+    const Bounds& b = tabletop->scene.bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     Light bendy = bentLight(rig.lights[0]);
     rig.lights.push_back(bendy);
@@ -409,14 +390,9 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
     rig.lights.push_back(bulbLight(rig.lights[1], 512));
     rig.lights.push_back(sunLight(rig.lights[1], 1024));
     rig.lights[1].shadow = true;
-    BakeOptions o;
-    o.width = 160;
-    o.height = 90;
-    auto shot = bake(scene.value(), o);
-    ASSERT_TRUE(shot.ok()) << shot.error().toString();
-    auto fewer = Engine::create(shot.value(), casters);
-    auto all = Engine::create(shot.value(), allDrawn);
-    auto counted = Engine::create(shot.value(), casters);
+    auto fewer = Engine::create(shot, casters);
+    auto all = Engine::create(shot, allDrawn);
+    auto counted = Engine::create(shot, casters);
     ASSERT_TRUE(fewer.ok() && all.ok() && counted.ok());
     for (const Light& l : rig.lights) {
         // The table is left out of every one of these lights' maps (each light is enabled once,
@@ -442,14 +418,9 @@ TEST(EngineShadows, PlanarCastersLeftOutChangeNoImage) {
 // per pixel through the pixel -> samples table; sampleTexel's power-of-two row layout at a width
 // that is not one) address the right samples.
 TEST(EngineDeep, EachSampleSplitInTwoRendersAsTheFlatShot) {
-    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
-    ASSERT_TRUE(scene.ok()) << scene.error().toString();
-    BakeOptions o;
-    o.width = 150; // sample textures 256 wide
-    o.height = 84;
-    auto flat = bake(scene.value(), o);
-    ASSERT_TRUE(flat.ok()) << flat.error().toString();
-    const DeepBuffer& f = flat.value();
+    auto tabletop = test::bakeTabletop(150, 84); // sample textures 256 wide
+    ASSERT_TRUE(tabletop.ok()) << tabletop.error().toString();
+    const DeepBuffer& f = tabletop->shot;
     ASSERT_TRUE(f.isFlat());
     DeepBuffer d = f;
     // Both halves sit at the pixel centre: this is no 2-sample bake, whose samples the edge taps
@@ -469,11 +440,11 @@ TEST(EngineDeep, EachSampleSplitInTwoRendersAsTheFlatShot) {
         d.materialId[2 * p] = d.materialId[2 * p + 1] = f.materialId[p];
     }
     ASSERT_FALSE(d.isFlat());
-    const ShadowGeometry casters = shadowCasters(scene.value());
+    const ShadowGeometry casters = shadowCasters(tabletop->scene);
     auto flatEngine = Engine::create(f, casters);
     auto deepEngine = Engine::create(d, casters);
     ASSERT_TRUE(flatEngine.ok() && deepEngine.ok());
-    const Bounds& b = scene->bounds;
+    const Bounds& b = tabletop->scene.bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     rig.lights.push_back(bentLight(rig.lights[0]));
     rig.lights.push_back(bulbLight(rig.lights[1], 256));

@@ -9,6 +9,8 @@
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/server/Engine.h>
 
+#include "support/TabletopShot.h"
+
 #include <gtest/gtest.h>
 
 #include <OpenImageIO/imageio.h>
@@ -145,28 +147,21 @@ std::optional<Image8> readPng(const std::string& path) {
 } // namespace
 
 TEST(EngineGolden, FixedRigsRenderTheKeptImagesWithinOneCodeValue) {
-    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
-    ASSERT_TRUE(scene.ok()) << scene.error().toString();
-    BakeOptions o;
-    o.width = 160;
-    o.height = 90;
-    o.samples = 4;
-    auto shot = bake(scene.value(), o);
-    ASSERT_TRUE(shot.ok()) << shot.error().toString();
-    auto engine = Engine::create(shot.value(), shadowCasters(scene.value()));
-    ASSERT_TRUE(engine.ok()) << engine.error().toString();
+    auto tabletop = test::tabletopEngine(160, 90, 4);
+    ASSERT_TRUE(tabletop.ok()) << tabletop.error().toString();
+    Engine& engine = *tabletop->engine;
     const auto assets = writeCookie();
-    engine.value()->setAssetDirectory(assets.string());
+    engine.setAssetDirectory(assets.string());
 
     const bool update = std::getenv("DFB_UPDATE_GOLDEN") != nullptr;
-    const Bounds& b = scene->bounds;
+    const Bounds& b = tabletop->scene.bounds;
     for (const Case& c : cases()) {
         SCOPED_TRACE(c.name);
         Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
         c.edit(rig);
         // Each case from a fresh cache state of its own lights, then again after the previous
         // case's caches: both must give the same image.
-        auto img = engine.value()->render(rig);
+        auto img = engine.render(rig);
         ASSERT_TRUE(img.ok()) << img.error().toString();
         const std::string path = (GOLDEN_DIR / (std::string(c.name) + ".png")).string();
         if (update) {

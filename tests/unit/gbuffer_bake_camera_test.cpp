@@ -5,6 +5,7 @@
 #include <dfb/gbuffer/ExrIO.h>
 
 #include "support/Assets.h"
+#include "support/TabletopShot.h"
 
 #include <gtest/gtest.h>
 
@@ -35,15 +36,10 @@ double maxReprojectionError(const DeepBuffer& b, size_t* covered) {
 } // namespace
 
 TEST(BakeCamera, PositionsReprojectToTheirPixelAfterEXRRoundTrip) {
-    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
-    ASSERT_TRUE(scene.ok()) << scene.error().toString();
-    BakeOptions o;
-    o.width = 160;
-    o.height = 90;
-    auto baked = bake(scene.value(), o);
+    auto baked = test::bakeTabletop(160, 90);
     ASSERT_TRUE(baked.ok()) << baked.error().toString();
     const std::string path = (std::filesystem::temp_directory_path() / "dfb_bake_camera.exr").string();
-    ASSERT_TRUE(writeDeepBuffer(baked.value(), path).ok());
+    ASSERT_TRUE(writeDeepBuffer(baked->shot, path).ok());
     auto b = readDeepBuffer(path);
     ASSERT_TRUE(b.ok()) << b.error().toString();
     size_t covered = 0;
