@@ -35,42 +35,43 @@ layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 const int KIND_DIRECTIONAL = 0, KIND_POINT = 2;
 
-// A cube face's window depth of the point X (relative to the light): its major axis is the face's
-// view depth.
-float cubeDepth(vec3 X) {
-    float n = uLight.lightCube.x, f = uLight.lightCube.y;
-    float major = max(abs(X.x), max(abs(X.y), abs(X.z)));
-    return 0.5 * ((f + n) / (f - n) - 2.0 * f * n / ((f - n) * max(major, 1e-12))) + 0.5;
-}
-
 // The bilinear comparison of direction `dir` (from the light) in the cube map, each of its four
-// texels compared with the depth of the receiver plane (normal Ng, at signed distance h < 0 from
-// the light) along that texel's own direction, lifted by the constant towards the light. The face
-// and its (s, t) follow the cube-map selection of the GL specification (section 8.13).
-float cubePlaneTap(vec3 dir, vec3 Ng, float h, float dist) {
+// texels compared with the receiver plane (normal Ng, at signed distance h < 0 from the light)
+// along that texel's own direction, lifted towards the light by `lift` (world; depth only). The
+// face and its (s, t) follow the cube-map selection of the GL specification (section 8.13). A
+// texel's direction is ma + sa cx + ta cy (cx, cy its centre's face coordinates, beyond +-1 for
+// the next face's texels that a seamless gather reads at an edge): it meets the plane at view depth
+// max(1, |cx|, |cy|) h / (direction . Ng) along its own major axis, which is the depth that face
+// stored.
+float cubePlaneTap(vec3 dir, vec3 Ng, float h, float lift) {
     vec3 a = abs(dir);
     vec3 ma, sa, ta; // the face's axis and its s and t directions
     if (a.x >= a.y && a.x >= a.z) {
-        ma = vec3(sign(dir.x), 0.0, 0.0); sa = vec3(0.0, 0.0, -sign(dir.x)); ta = vec3(0.0, -1.0, 0.0);
+        ma = vec3(sign(dir.x), 0.0, 0.0);
+        sa = vec3(0.0, 0.0, -sign(dir.x));
+        ta = vec3(0.0, -1.0, 0.0);
     } else if (a.y >= a.z) {
-        ma = vec3(0.0, sign(dir.y), 0.0); sa = vec3(1.0, 0.0, 0.0); ta = vec3(0.0, 0.0, sign(dir.y));
+        ma = vec3(0.0, sign(dir.y), 0.0);
+        sa = vec3(1.0, 0.0, 0.0);
+        ta = vec3(0.0, 0.0, sign(dir.y));
     } else {
-        ma = vec3(0.0, 0.0, sign(dir.z)); sa = vec3(sign(dir.z), 0.0, 0.0); ta = vec3(0.0, -1.0, 0.0);
+        ma = vec3(0.0, 0.0, sign(dir.z));
+        sa = vec3(sign(dir.z), 0.0, 0.0);
+        ta = vec3(0.0, -1.0, 0.0);
     }
     float size = 1.0 / uLight.lightShadow.x;
-    float m = dot(dir, ma);
-    vec2 st = (vec2(dot(dir, sa), dot(dir, ta)) / m * 0.5 + 0.5) * size - 0.5;
+    vec2 st = (vec2(dot(dir, sa), dot(dir, ta)) / dot(dir, ma) * 0.5 + 0.5) * size - 0.5;
     vec2 base = floor(st), f = st - base;
     vec4 depth = textureGather(shadowCube, dir, 0); // (i0 j1, i1 j1, i1 j0, i0 j0)
-    vec4 refs;
-    for (int k = 0; k < 4; ++k) {
-        vec2 ij = base + vec2(k == 1 || k == 2 ? 1.0 : 0.0, k < 2 ? 1.0 : 0.0);
-        vec2 c = (ij + 0.5) / size * 2.0 - 1.0;
-        vec3 td = ma + sa * c.x + ta * c.y;
-        float dd = dot(td, Ng);
-        vec3 X = dd < 0.0 ? td * (h / dd) : td * 1e30;
-        refs[k] = cubeDepth(X - normalize(X) * shadowLift(dist));
-    }
+    vec2 c0 = (base + 0.5) * (2.0 / size) - 1.0;
+    float step1 = 2.0 / size;
+    vec4 cx = c0.x + vec4(0.0, step1, step1, 0.0), cy = c0.y + vec4(step1, step1, 0.0, 0.0);
+    vec4 dd = dot(ma, Ng) + cx * dot(sa, Ng) + cy * dot(ta, Ng);
+    vec4 major = max(vec4(1.0), max(abs(cx), abs(cy)));
+    // Directions that never meet the plane (dd >= 0) compare as infinitely far: shadowed.
+    vec4 viewDepth = mix(vec4(1e30), major * h / min(dd, vec4(-1e-30)), lessThan(dd, vec4(0.0)));
+    float n = uLight.lightCube.x, fa = uLight.lightCube.y;
+    vec4 refs = 0.5 * ((fa + n) / (fa - n) - (2.0 * fa * n / (fa - n)) / max(viewDepth - lift, vec4(1e-12))) + 0.5;
     return dot(step(refs, depth), vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y)));
 }
 
@@ -89,10 +90,11 @@ float shadowVisibility(vec3 P, vec3 Ng, vec3 L, float dist) {
         vec3 dn = normalize(d);
         mat2x3 tf = tangentFrame(dn);
         float texel = 2.0 * max(abs(d.x), max(abs(d.y), abs(d.z))) * uLight.lightShadow.x; // a face is 2 * major wide
+        float lift = shadowLift(dist);
         int r = SHADE_PCF_RADIUS;
         float sum = 0.0;
         for (int y = -r; y <= r; ++y)
-            for (int x = -r; x <= r; ++x) sum += cubePlaneTap(d + (tf[0] * float(x) + tf[1] * float(y)) * texel, Ng, h, dist);
+            for (int x = -r; x <= r; ++x) sum += cubePlaneTap(d + (tf[0] * float(x) + tf[1] * float(y)) * texel, Ng, h, lift);
         return sum / float((2 * r + 1) * (2 * r + 1));
     }
     mat2x3 tf = tangentFrame(Ng);

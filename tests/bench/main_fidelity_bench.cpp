@@ -28,6 +28,7 @@
 #include "support/CpuRelight.h"
 #include "support/EdgeAliasing.h"
 #include "support/RayCaster.h"
+#include "support/ShadowAgreement.h"
 
 #include <glm/glm.hpp>
 #include <glm/gtc/packing.hpp>
@@ -119,37 +120,6 @@ double worstRelative(const ImageF& a, const ImageF& b) {
         worst = std::max(worst, std::abs(double(a.rgba[i]) - b.rgba[i]) / m);
     }
     return worst;
-}
-
-// Shadow mask against ray-traced hard shadows over the pixels the light reaches fully.
-struct ShadowAgreement {
-    size_t reached = 0, agree = 0, shadowedEngine = 0, shadowedRef = 0;
-};
-ShadowAgreement shadowAgreement(Engine& engine, const DeepBuffer& g, const test::RayCaster& rays, const Light& light,
-                                float radius) {
-    ShadowAgreement n;
-    Rig rig;
-    rig.lights = {light};
-    auto mask = engine.renderShadowMask(rig, light.name);
-    if (!mask) return n;
-    const glm::vec3 lightPos(light.position[0], light.position[1], light.position[2]);
-    const glm::vec3 towardsSun = -glm::normalize(glm::vec3(light.direction[0], light.direction[1], light.direction[2]));
-    const float hair = 1e-5f * radius; // rays leave the surface by far less than a shadow-map texel
-    for (int y = 0; y < g.height; ++y)
-        for (int x = 0; x < g.width; ++x) {
-            const size_t p = size_t(y) * size_t(g.width) + size_t(x);
-            if (g.pixelSamples(x, y) == 0 || mask->rgba[p * 4 + 1] < 0.999f) continue;
-            const size_t s = g.firstSample(x, y);
-            const glm::vec3 P = g.position(s), Ng(g.Ng[s * 3], g.Ng[s * 3 + 1], g.Ng[s * 3 + 2]);
-            const glm::vec3 to = light.type == LightType::Directional ? P + towardsSun * (4.f * radius) : lightPos;
-            const bool refLit = !rays.occluded(P + Ng * hair, to, 1e-6f);
-            const bool lit = mask->rgba[p * 4] / mask->rgba[p * 4 + 1] >= 0.5f;
-            ++n.reached;
-            n.agree += lit == refLit;
-            n.shadowedEngine += !lit;
-            n.shadowedRef += !refLit;
-        }
-    return n;
 }
 
 int benchScene(const std::string& path, int width, int height, int spp) {
@@ -247,17 +217,23 @@ int benchScene(const std::string& path, int width, int height, int spp) {
         for (const MeshPart& p : scene->parts) rays.addMesh(p.positions, p.indices);
         rays.commit();
         const float radius = 0.5f * glm::length(bb.max - bb.min);
-        std::printf(" shadows vs Embree (lit where the mask's visibility >= 0.5):\n");
-        for (LightType t : {LightType::Spot, LightType::Directional, LightType::Point}) {
-            Light l = base.lights[0];
-            l.type = t;
-            l.shadow = true;
-            const ShadowAgreement n = shadowAgreement(*engine.value(), shot.value(), rays, l, radius);
-            const char* names[] = {"spot", "", "directional", "point"};
-            std::printf("  %-12s agreement %7.3f%% of %zu reached pixels, shadowed area %.3f of the reference's\n", names[int(t)],
-                        n.reached ? 100.0 * double(n.agree) / double(n.reached) : 0.0, n.reached,
-                        n.shadowedRef ? double(n.shadowedEngine) / double(n.shadowedRef) : 1.0);
-        }
+        std::printf(" shadows vs Embree (lit where the mask's visibility >= 0.5; r: shadowFilter, 0 = hard as the\n"
+                    " reference, 1 = the default 3x3 soft filter):\n");
+        for (int filter : {0, 1})
+            for (LightType t : {LightType::Spot, LightType::Directional, LightType::Point}) {
+                Light l = base.lights[0];
+                l.type = t;
+                l.shadow = true;
+                l.shadowFilter = filter;
+                auto n = test::straightShadowAgreement(*engine.value(), shot.value(), rays, l, radius);
+                if (!n) {
+                    std::fprintf(stderr, "shadow mask: %s\n", n.error().toString().c_str());
+                    return 1;
+                }
+                const char* names[] = {"spot", "", "directional", "point"};
+                std::printf("  %-12s r=%d agreement %7.3f%% of %zu reached pixels, shadowed area %.3f of the reference's\n",
+                            names[int(t)], filter, 100.0 * n->agreement(), n->reached, n->areaRatio());
+            }
     }
 
     // Edges against a 4x4-times-resolution bake, at the size the test asserts on.
