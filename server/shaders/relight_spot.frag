@@ -18,7 +18,7 @@ layout(binding = TEX_GBUFFER_SHEEN) uniform sampler2D gSheen;
 layout(binding = TEX_GBUFFER_COAT) uniform sampler2D gCoat;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(binding = TEX_SHADOW_MAP) uniform sampler2D shadowMap; // raw depth: filteredShadowPlane compares
-layout(binding = TEX_SHADOW_CUBE) uniform samplerCube shadowCube; // raw depth: cubePlaneTap compares
+layout(binding = TEX_SHADOW_CUBE) uniform samplerCube shadowCube; // raw depth: filteredShadowCube compares
 layout(binding = TEX_COOKIE) uniform sampler2D cookie;
 
 layout(location = OUT_COLOR) out vec4 oColor;
@@ -35,15 +35,16 @@ layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 const int KIND_DIRECTIONAL = 0, KIND_POINT = 2;
 
-// The bilinear comparison of direction `dir` (from the light) in the cube map, each of its four
-// texels compared with the receiver plane (normal Ng, at signed distance h < 0 from the light)
-// along that texel's own direction, lifted towards the light by `lift` (world; depth only). The
-// face and its (s, t) follow the cube-map selection of the GL specification (section 8.13). A
-// texel's direction is ma + sa cx + ta cy (cx, cy its centre's face coordinates, beyond +-1 for
-// the next face's texels that a seamless gather reads at an edge): it meets the plane at view depth
-// max(1, |cx|, |cy|) h / (direction . Ng) along its own major axis, which is the depth that face
-// stored.
-float cubePlaneTap(vec3 dir, vec3 Ng, float h, float lift) {
+// The point light's percentage-closer filter at direction `dir` (from the light) in the face the
+// direction selects (the cube-map selection of the GL specification, section 8.13), on that face's
+// texel grid: the same (r+1)^2 weighted four-texel gathers as filteredShadowPlane, each texel
+// compared with the receiver plane (normal Ng, at signed distance h < 0 from the light) along the
+// texel's own direction, lifted towards the light by `lift` (world; depth only). A texel's
+// direction is ma + sa cx + ta cy (cx, cy its centre's face coordinates, beyond +-1 past an edge,
+// where the seamless gather reads the next face): it meets the plane at view depth
+// max(1, |cx|, |cy|) h / (direction . Ng) along its own major axis, which is the depth its face
+// stored (past an edge the next face's texels sit up to a texel from this grid's extension).
+float filteredShadowCube(vec3 dir, vec3 Ng, float h, float lift) {
     vec3 a = abs(dir);
     vec3 ma, sa, ta; // the face's axis and its s and t directions
     if (a.x >= a.y && a.x >= a.z) {
@@ -59,20 +60,32 @@ float cubePlaneTap(vec3 dir, vec3 Ng, float h, float lift) {
         sa = vec3(sign(dir.z), 0.0, 0.0);
         ta = vec3(0.0, -1.0, 0.0);
     }
-    float size = 1.0 / uLight.lightShadow.x;
+    float size = 1.0 / uLight.lightShadow.x, step1 = 2.0 / size;
     vec2 st = (vec2(dot(dir, sa), dot(dir, ta)) / dot(dir, ma) * 0.5 + 0.5) * size - 0.5;
     vec2 base = floor(st), f = st - base;
-    vec4 depth = textureGather(shadowCube, dir, 0); // (i0 j1, i1 j1, i1 j0, i0 j0)
-    vec2 c0 = (base + 0.5) * (2.0 / size) - 1.0;
-    float step1 = 2.0 / size;
-    vec4 cx = c0.x + vec4(0.0, step1, step1, 0.0), cy = c0.y + vec4(step1, step1, 0.0, 0.0);
-    vec4 dd = dot(ma, Ng) + cx * dot(sa, Ng) + cy * dot(ta, Ng);
-    vec4 major = max(vec4(1.0), max(abs(cx), abs(cy)));
-    // Directions that never meet the plane (dd >= 0) compare as infinitely far: shadowed.
-    vec4 viewDepth = mix(vec4(1e30), major * h / min(dd, vec4(-1e-30)), lessThan(dd, vec4(0.0)));
+    float nA = dot(ma, Ng), nS = dot(sa, Ng), nT = dot(ta, Ng);
     float n = uLight.lightCube.x, fa = uLight.lightCube.y;
-    vec4 refs = 0.5 * ((fa + n) / (fa - n) - (2.0 * fa * n / (fa - n)) / max(viewDepth - lift, vec4(1e-12))) + 0.5;
-    return dot(step(refs, depth), vec4((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y)));
+    int r = SHADE_PCF_RADIUS;
+    float sum = 0.0;
+    for (int y = -r; y <= r; y += 2) {
+        float wy0 = y == -r ? 1.0 - f.y : 1.0, wy1 = y == r ? f.y : 1.0;
+        for (int x = -r; x <= r; x += 2) {
+            float wx0 = x == -r ? 1.0 - f.x : 1.0, wx1 = x == r ? f.x : 1.0;
+            // Texels b .. b + (1, 1); gather order (x0 y1, x1 y1, x1 y0, x0 y0).
+            vec2 b = base + vec2(x, y);
+            vec2 corner = (b + 1.0) * step1 - 1.0;
+            vec4 depth = textureGather(shadowCube, ma + sa * corner.x + ta * corner.y, 0);
+            vec2 c0 = (b + 0.5) * step1 - 1.0;
+            vec4 cx = c0.x + vec4(0.0, step1, step1, 0.0), cy = c0.y + vec4(step1, step1, 0.0, 0.0);
+            vec4 dd = nA + cx * nS + cy * nT;
+            vec4 major = max(vec4(1.0), max(abs(cx), abs(cy)));
+            // Directions that never meet the plane (dd >= 0) compare as infinitely far: shadowed.
+            vec4 viewDepth = mix(vec4(1e30), major * h / min(dd, vec4(-1e-30)), lessThan(dd, vec4(0.0)));
+            vec4 refs = 0.5 * ((fa + n) / (fa - n) - (2.0 * fa * n / (fa - n)) / max(viewDepth - lift, vec4(1e-12))) + 0.5;
+            sum += dot(step(refs, depth), vec4(wx0 * wy1, wx1 * wy1, wx1 * wy0, wx0 * wy0));
+        }
+    }
+    return sum / float((2 * r + 1) * (2 * r + 1));
 }
 
 float shadowVisibility(vec3 P, vec3 Ng, vec3 L, float dist) {
@@ -82,20 +95,10 @@ float shadowVisibility(vec3 P, vec3 Ng, vec3 L, float dist) {
     if (dot(Ng, L) <= 0.0) return 0.0;
     vec3 biased = P + Ng * shadowNormalOffset(dist);
     if (SHADE_KIND == KIND_POINT) {
-        // Point light: each tap's bilinear texels (a gather of the face the tap's direction
-        // selects) are compared with the receiver plane's depth at their own directions
-        // (receiver-plane depth bias, as filteredShadowPlane; per texel, so across face seams too).
+        // Point light: the filter on the cube face, each texel compared with the receiver plane
+        // (filteredShadowCube; receiver-plane depth bias as filteredShadowPlane).
         vec3 d = biased - uLight.lightPosition.xyz;
-        float h = dot(d, Ng); // < 0: the light is on the receiver's front side
-        vec3 dn = normalize(d);
-        mat2x3 tf = tangentFrame(dn);
-        float texel = 2.0 * max(abs(d.x), max(abs(d.y), abs(d.z))) * uLight.lightShadow.x; // a face is 2 * major wide
-        float lift = shadowLift(dist);
-        int r = SHADE_PCF_RADIUS;
-        float sum = 0.0;
-        for (int y = -r; y <= r; ++y)
-            for (int x = -r; x <= r; ++x) sum += cubePlaneTap(d + (tf[0] * float(x) + tf[1] * float(y)) * texel, Ng, h, lift);
-        return sum / float((2 * r + 1) * (2 * r + 1));
+        return filteredShadowCube(d, Ng, dot(d, Ng), shadowLift(dist));
     }
     mat2x3 tf = tangentFrame(Ng);
     ShadowLookup l;

@@ -40,7 +40,7 @@ void clearDepth(GLuint framebuffer) {
 
 // Shadow maps are read as raw depths: the relight shaders gather four texels and compare each
 // with the receiver plane's depth at its centre (filteredShadowPlane in common_uniforms.glsl,
-// cubePlaneTap in relight_spot.frag).
+// filteredShadowCube in relight_spot.frag).
 void rawDepth(GLuint texture) {
     glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
