@@ -7,14 +7,6 @@
 
 namespace dfb {
 
-void lightFrame(const Light& light, glm::dvec3& uL, glm::dvec3& vL, glm::dvec3& wL) {
-    // lightmath::spotFrame: (axis, up, right) is (uL, vL, wL).
-    const auto f = lightmath::spotFrame<double>(glm::dvec3(light.direction[0], light.direction[1], light.direction[2]));
-    uL = f.axis;
-    vL = f.up;
-    wL = f.right;
-}
-
 std::string chainWarning(const Light& light) {
     if (light.type != LightType::Bendy || light.controlPoints.empty()) return {};
     using namespace lightmath;

@@ -3,6 +3,7 @@
 // warn about chains the model handles badly (paper 000 section 7).
 
 #include <dfb/lightmath/BendyLight.h>
+#include <dfb/lightmath/Falloff.h>
 #include <dfb/protocol/Rig.h>
 
 #include <string>
@@ -11,7 +12,14 @@ namespace dfb {
 
 /// The light's frame (docs/protocol.md): uL = direction, wL = normalize(cross(uL, up)),
 /// vL = cross(wL, uL), up = +Y unless uL is within ~8 degrees of vertical, then +X.
-void lightFrame(const Light& light, glm::dvec3& uL, glm::dvec3& vL, glm::dvec3& wL);
+/// Inline (lightmath::spotFrame: (axis, up, right) is (uL, vL, wL)) so that header-only users
+/// (IndirectEdit.h and its unit test) need no library.
+inline void lightFrame(const Light& light, glm::dvec3& uL, glm::dvec3& vL, glm::dvec3& wL) {
+    const auto f = lightmath::spotFrame<double>(glm::dvec3(light.direction[0], light.direction[1], light.direction[2]));
+    uL = f.axis;
+    vL = f.up;
+    wL = f.right;
+}
 
 /// The prepared chain of a BendyLight (control points converted to world space).
 template <typename T> lightmath::Chain<T> chainFromLight(const Light& light) {
