@@ -4,7 +4,8 @@
 // point meets M'; after a hotspot drag the axis (the tube's centre line) passes through the new
 // target; after a highlight drag the (bent, eq. 9) light direction at X is reflect(-V, N);
 // non-rigid drags leave unselected control points, the position and the direction as they were;
-// degenerate input is an error.
+// degenerate input is an error. Also Kasai et al. section 4.2.2 (eqs. 15, 16): physical shadow move and
+// diffuse move.
 
 #include <dfb/server/IndirectEdit.h>
 
@@ -273,4 +274,106 @@ TEST(IndirectEdit, DegenerateInputIsAnError) {
     ASSERT_FALSE(e.ok());
     EXPECT_NE(e.error().message.find("'key'"), std::string::npos);
     EXPECT_EQ(e.error().code, ErrorCode::InvalidValue);
+}
+
+// Kasai et al. section 4.2.2, eq. 15: the light turns about the occluder point S so that the ray
+// through S ends at the new shadow point; distances to S are kept (a rigid turn).
+TEST(PhysicalShadowMove, LightTurnsAboutTheOccluderOntoTheNewShadowPoint) {
+    const dvec3 S(0.6, 1.0, 0.9), Cnew(1.4, 0.0, 0.3);
+    for (LightType t : {LightType::Spot, LightType::Point}) {
+        Light l = spot();
+        l.type = t;
+        // The clicked shadow point: the light's ray through S, on the ground y = 0.
+        const dvec3 ray = S - d(l.position), C = S + ray * (S.y / -ray.y);
+        const auto e = physicalShadowMove(l, S, C, Cnew);
+        ASSERT_TRUE(e.ok()) << e.error().toString();
+        const dvec3 Pl = d(e->light.position);
+        EXPECT_LT(distanceToLine(Pl, S, Cnew), TOL * glm::length(Cnew - Pl));
+        EXPECT_GT(glm::dot(glm::normalize(S - Pl), glm::normalize(Cnew - S)), 1.0 - TOL) << "S between the light and C'";
+        EXPECT_NEAR(glm::length(Pl - S), glm::length(d(l.position) - S), TOL * glm::length(Pl - S));
+        // The direction turned with the light: the same angle to the ray through S.
+        const double before = glm::dot(glm::normalize(d(l.direction)), glm::normalize(S - d(l.position)));
+        const double after = glm::dot(glm::normalize(d(e->light.direction)), glm::normalize(S - Pl));
+        EXPECT_NEAR(before, after, TOL);
+    }
+    Light sun = spot();
+    sun.type = LightType::Directional;
+    sun.direction = {0.1f, -1.f, 0.2f};
+    const dvec3 Csun = S + glm::normalize(d(sun.direction)) * (S.y / -double(glm::normalize(d(sun.direction)).y));
+    const auto e = physicalShadowMove(sun, S, Csun, Cnew);
+    ASSERT_TRUE(e.ok()) << e.error().toString();
+    EXPECT_LT(glm::length(glm::normalize(d(e->light.direction)) - glm::normalize(Cnew - S)), TOL);
+}
+
+TEST(PhysicalShadowMove, BendyLightChainTurnsRigidlyAboutTheOccluder) {
+    const Light b = bendy();
+    const dvec3 S(2.5, 1.2, -0.3), C(3.5, 0.0, -0.3), Cnew(3.5, 0.0, 0.4);
+    const auto e = physicalShadowMove(b, S, C, Cnew);
+    ASSERT_TRUE(e.ok()) << e.error().toString();
+    const auto before = chainFromLight<double>(b), after = chainFromLight<double>(e->light);
+    const dvec3 axis = glm::normalize(glm::cross(S - C, S - Cnew));
+    for (int i = 0; i <= 2 * b.segments(); ++i) {
+        SCOPED_TRACE(i);
+        EXPECT_NEAR(glm::length(after.p[i] - S), glm::length(before.p[i] - S), TOL * 4.0);
+        // Turned about the axis through S: the component along it is kept.
+        EXPECT_NEAR(glm::dot(after.p[i] - S, axis), glm::dot(before.p[i] - S, axis), TOL * 4.0);
+    }
+    // The turn is the one taking S - C onto S - C': the source's offset from S turned by it.
+    const dvec3 u = glm::normalize(S - C), w = glm::normalize(S - Cnew);
+    const double angle = std::acos(glm::dot(u, w));
+    const dvec3 r0 = before.p[0] - S, r1 = after.p[0] - S;
+    const dvec3 p0 = r0 - axis * glm::dot(r0, axis), p1 = r1 - axis * glm::dot(r1, axis);
+    EXPECT_NEAR(std::acos(glm::dot(glm::normalize(p0), glm::normalize(p1))), angle, 1e-4);
+    // Non-rigid: only the selected points turn.
+    const auto n = physicalShadowMove(b, S, C, Cnew, {3, 4});
+    ASSERT_TRUE(n.ok()) << n.error().toString();
+    expectUnselectedKept(b, n->light, {3, 4});
+    EXPECT_NE(b.controlPoints[3], n->light.controlPoints[3]);
+}
+
+// Kasai et al. section 4.2.2, eq. 16: the light stands to C' as it stood to C (distance and angle
+// to the normal), so a point light's Lambert irradiance I cos / d^2 at C' equals C's before.
+TEST(DiffuseMove, NewPointGetsTheClickedPointsIrradiance) {
+    const dvec3 C(0.2, 0.0, 0.1), N(0, 1, 0), Cnew(1.5, 0.5, -0.4), Nnew = glm::normalize(dvec3(0.3, 1.0, 0.2));
+    auto irradiance = [](const Light& l, const dvec3& X, const dvec3& n) {
+        const dvec3 toL = d(l.position) - X;
+        return std::max(glm::dot(glm::normalize(toL), n), 0.0) / glm::dot(toL, toL);
+    };
+    for (LightType t : {LightType::Spot, LightType::Point}) {
+        Light l = spot();
+        l.type = t;
+        const auto e = diffuseMove(l, C, N, Cnew, Nnew);
+        ASSERT_TRUE(e.ok()) << e.error().toString();
+        const double was = irradiance(l, C, N), now = irradiance(e->light, Cnew, Nnew);
+        EXPECT_NEAR(now, was, TOL * was);
+        // A spot's axis keeps its angle to the ray towards the point (the cone falloff is kept).
+        const double before = glm::dot(glm::normalize(d(l.direction)), glm::normalize(C - d(l.position)));
+        const double after = glm::dot(glm::normalize(d(e->light.direction)), glm::normalize(Cnew - d(e->light.position)));
+        EXPECT_NEAR(before, after, TOL);
+    }
+    Light sun = spot();
+    sun.type = LightType::Directional;
+    const auto e = diffuseMove(sun, C, N, Cnew, Nnew);
+    ASSERT_TRUE(e.ok()) << e.error().toString();
+    EXPECT_NEAR(glm::dot(-glm::normalize(d(e->light.direction)), Nnew), glm::dot(-glm::normalize(d(sun.direction)), N), TOL);
+    // A BendyLight: every control point keeps its distance to the point.
+    const Light b = bendy();
+    const auto eb = diffuseMove(b, C, N, Cnew, Nnew);
+    ASSERT_TRUE(eb.ok()) << eb.error().toString();
+    const auto before = chainFromLight<double>(b), after = chainFromLight<double>(eb->light);
+    for (int i = 0; i <= 2 * b.segments(); ++i) {
+        EXPECT_NEAR(glm::length(after.p[i] - Cnew), glm::length(before.p[i] - C), TOL * 8.0) << i;
+    }
+}
+
+TEST(IndirectEdit, PhysicalAndDiffuseMovesRefuseDegenerateInput) {
+    const Light s = spot();
+    const dvec3 S(0.6, 1.0, 0.9), C(0.2, 0.0, 0.1), NaN(std::nan(""), 0.0, 0.0);
+    EXPECT_FALSE(physicalShadowMove(s, S, S, C).ok()); // the shadow point at its occluder
+    EXPECT_FALSE(physicalShadowMove(s, S, C, S).ok());
+    EXPECT_FALSE(physicalShadowMove(s, S, C, NaN).ok());
+    EXPECT_FALSE(physicalShadowMove(s, S, C, C + dvec3(1, 0, 0), {1}).ok()); // selection on a spot
+    EXPECT_FALSE(diffuseMove(s, C, dvec3(0.0), C, dvec3(0, 1, 0)).ok());      // zero normal
+    EXPECT_FALSE(diffuseMove(s, C, dvec3(0, 1, 0), NaN, dvec3(0, 1, 0)).ok());
+    EXPECT_FALSE(diffuseMove(bendy(), C, dvec3(0, 1, 0), C, dvec3(0, 1, 0), {9}).ok()); // no cp[9]
 }

@@ -502,4 +502,48 @@ inline Result<Edit> highlightDrag(const Light& light, const dvec3& X, const dvec
     return finish(light, out, selected, iterations, res, "highlight drag");
 }
 
+/// Physical shadow move (Kasai et al. section 4.2.2, eq. 15): the occluder point S (the first hit
+/// of the ray from the light's source to the clicked receiver point C, picked on the geometry the
+/// shadow map uses and mapped back for a BendyLight) keeps casting, and its shadow moves from C to
+/// C' (`Cnew`): every control point, the source included, rotates about S, cp' = (cp - S) R(theta_S)
+/// + S, by the rotation that takes the direction S - C to S - C' (the light's ray through S then
+/// ends at C' for a straight light; a BendyLight's bent rays turn with it, as the whole chain and
+/// the scene around S are turned alike). Directional lights turn their direction by the same R.
+/// Non-rigid: only the selected control points rotate (the paper's mode moves them all).
+/// Errors: non-finite input, C or C' at S.
+inline Result<Edit> physicalShadowMove(const Light& light, const dvec3& S, const dvec3& C, const dvec3& Cnew,
+                                       const Selection& selected = {}) {
+    using namespace detail;
+    if (auto s = checkLight(light, selected); !s) return s.error();
+    if (!finite(S) || !finite(C) || !finite(Cnew)) return invalid(light.name, "physical shadow move: a point is not finite");
+    const double scale = std::max({1.0, glm::length(S), glm::length(C), glm::length(Cnew)});
+    if (!(glm::length(S - C) > 1e-9 * scale) || !(glm::length(S - Cnew) > 1e-9 * scale)) {
+        return invalid(light.name, "physical shadow move: the shadow point is at its occluder point S");
+    }
+    const dvec3 x = rotationBetween(glm::normalize(S - C), glm::normalize(S - Cnew)); // R(theta_S), eq. 15
+    return finish(light, rotated(poseOf(light), S, x, selected), selected, 0, 0.0, "physical shadow move");
+}
+
+/// Diffuse move (Kasai et al. section 4.2.2, eq. 16): the diffuse brightness at the clicked point C
+/// (normal N) is carried to C' (normal N'): cp' = (cp - C) R(theta_N) + C', R the rotation taking N
+/// to N', for every control point (the light direction turns by R too). The light then stands to
+/// C' as it stood to C: the same distance and the same angle to the normal, so a point or spot
+/// light gives C' the cosine and inverse-square falloff C had (the cone and any occluder may
+/// differ). Directional lights turn their direction by R. Non-rigid: only the selected control
+/// points move. Errors: non-finite input, a zero-length normal.
+inline Result<Edit> diffuseMove(const Light& light, const dvec3& C, const dvec3& Nin, const dvec3& Cnew,
+                                const dvec3& NnewIn, const Selection& selected = {}) {
+    using namespace detail;
+    if (auto s = checkLight(light, selected); !s) return s.error();
+    if (!finite(C) || !finite(Cnew) || !finite(Nin) || !finite(NnewIn)) {
+        return invalid(light.name, "diffuse move: an input is not finite");
+    }
+    if (!(glm::length(Nin) > 1e-12) || !(glm::length(NnewIn) > 1e-12)) {
+        return invalid(light.name, "diffuse move: a normal has zero length");
+    }
+    const dvec3 x = rotationBetween(glm::normalize(Nin), glm::normalize(NnewIn)); // R(theta_N), eq. 16
+    const Pose moved = rotated(translated(poseOf(light), Cnew - C, selected), Cnew, x, selected);
+    return finish(light, moved, selected, 0, 0.0, "diffuse move");
+}
+
 } // namespace dfb::indirect
