@@ -83,6 +83,7 @@ ShadowGeometry shadowCasters(const Scene& scene) {
             ShadowGeometry::Part part;
             part.firstIndex = g.indices.size();
             part.indexCount = std::min(3 * CLUSTER, p.indices.size() / 3 * 3 - at);
+            part.objectId = p.objectId;
             part.min = glm::vec3(1e30f);
             part.max = glm::vec3(-1e30f);
             for (size_t i = at; i < at + part.indexCount; ++i) {

@@ -60,6 +60,7 @@ struct ShadowGeometry {
     struct Part {
         size_t firstIndex = 0, indexCount = 0;
         glm::vec3 min{0.f}, max{0.f};
+        uint32_t objectId = 0; ///< the mesh's object id (MeshPart::objectId; 0 = unknown)
     };
     std::vector<Part> parts;
 };
