@@ -71,7 +71,9 @@ std::optional<Grab> findGrab(const Picker& picker, const Rig& rig, int width, in
                 g.at = p.value();
                 if (needsOccluder) {
                     auto o = picker.occluder(rig, rig.lights[0].name, g.x, g.y);
-                    if (!o || !o->found) continue;
+                    // An occluder well off the receiver (a tenth of the way to the light): near a
+                    // contact eq. 11's ratio |Pl - P| / |P - M| flings the light away per pixel.
+                    if (!o || !o->found || glm::length(o->S - g.at.P) < 0.1f * glm::length(o->rayFrom - g.at.P)) continue;
                     g.occluder = o.value();
                 }
                 if (ok(g)) return g;
