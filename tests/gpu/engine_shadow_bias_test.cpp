@@ -12,19 +12,20 @@
 // filter, which by design narrows shadows thinner than its width (reported, with its own floors).
 //
 // A straight BendyLight renders like its spot light, so it is compared with the spot's ray-traced
-// shadow. A bent one is compared with rays cast in the deformed space (the casters subdivided and
-// mapped Q -> Q' on the CPU, from each receiver's Q' to the source, as
-// bendy_light_render_test.cpp), which is itself an approximation (subdivided chords of curved
-// deformed surfaces): that reference decides only where it is far from ambiguous, see bentCheck.
+// shadow. A bent one is compared with Picker::occluder, the server's own query for indirect
+// editing: a ray from the source to each receiver's Q' against the casters subdivided and mapped
+// Q -> Q' on the CPU, hits on the receiver's own surface (chords of a curved deformed surface)
+// not counted. It is an approximation too (subdivided chords), so its agreement is asserted as
+// measured floors only (BENT_FLOORS).
 
 #include "support/Assets.h"
-#include "support/DeformedCasters.h"
 #include "support/RayCaster.h"
 #include "support/ShadowAgreement.h"
 
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/server/BendyChain.h>
 #include <dfb/server/Engine.h>
+#include <dfb/server/Picker.h>
 
 #include <gtest/gtest.h>
 
@@ -47,6 +48,7 @@ struct Shot {
     DeepBuffer buffer;
     std::unique_ptr<Engine> engine;
     std::unique_ptr<test::RayCaster> rays;
+    std::unique_ptr<Picker> picker; // a bent BendyLight's reference: rays in its deformed space
     float radius = 1.f;
 };
 
@@ -58,9 +60,13 @@ void finishShot(Shot& s, const BakeOptions& o) {
     auto b = bake(s.scene, o);
     ASSERT_TRUE(b.ok()) << b.error().toString();
     s.buffer = std::move(b.value());
-    auto e = Engine::create(s.buffer, shadowCasters(s.scene));
+    const ShadowGeometry casters = shadowCasters(s.scene);
+    auto e = Engine::create(s.buffer, casters);
     ASSERT_TRUE(e.ok()) << e.error().toString();
     s.engine = std::move(e.value());
+    auto picker = Picker::create(s.buffer, casters);
+    ASSERT_TRUE(picker.ok()) << picker.error().toString();
+    s.picker = std::move(picker.value());
     s.rays = std::make_unique<test::RayCaster>();
     for (const MeshPart& p : s.scene.parts) s.rays->addMesh(p.positions, p.indices);
     s.rays->commit();
@@ -222,14 +228,6 @@ struct Counts : test::ShadowCounts {
     size_t acne = 0, darkened = 0, acneReceivers = 0; // on the convex box's lit faces
 };
 
-// The BendyLight chain's deformed casters for ray casting: edges at most `h` long, every vertex
-// mapped Q -> Q' in double (triangles with an unmapped corner dropped).
-std::unique_ptr<test::RayCaster> deformedCasters(const Shot& shot, const Chain<double>& ch, double h) {
-    auto rc = std::make_unique<test::RayCaster>();
-    test::addDeformedCasters(*rc, shot.scene.parts, ch, h, 96);
-    return rc;
-}
-
 // Engine (shadow mask, lit where the filtered visibility >= 0.5) against the ray-traced hard
 // shadow, over the pixels the light reaches fully (the mask's coverage).
 Counts measure(Shot& shot, const Light& light, bool acne) {
@@ -241,20 +239,16 @@ Counts measure(Shot& shot, const Light& light, bool acne) {
     if (!mask.ok()) return n;
     const DeepBuffer& g = shot.buffer;
     const bool bent = light.type == LightType::Bendy && light.controlPoints.size() == 4 && light.controlPoints[3][2] != 0.f;
-    Chain<double> ch;
-    std::unique_ptr<test::RayCaster> deformed;
-    if (bent) {
-        ch = chainFromLight<double>(light);
-        deformed = deformedCasters(shot, ch, 0.01 * shot.radius);
-    }
-    const float hair = test::rayHair(shot.radius);
     test::forEachReachedPixel(mask.value(), g, [&](size_t, size_t s, float vis) {
         const glm::vec3 P = g.position(s), Ng(g.Ng[s * 3], g.Ng[s * 3 + 1], g.Ng[s * 3 + 2]);
         bool refLit;
         if (bent) {
-            const TubeCoords<double> c = inverseMap(ch, glm::dvec3(P + Ng * hair));
-            if (!c.valid) return;
-            refLit = !deformed->occluded(glm::vec3(deformedPoint(ch, c)), glm::vec3(ch.p[0]), 1e-5f);
+            // The picker's occluder query: the ray p0 -> Q' against its deformed hierarchy of the
+            // casters (split to 1 % of the radius, mapped Q -> Q'), hits on the receiver's own
+            // surface (chords of a curved deformed surface) not counted.
+            auto o = shot.picker->occluder(light, P, Ng);
+            if (!o) return; // no foot: the light does not reach it
+            refLit = !o->found;
         } else {
             refLit = test::rayTracedLit(*shot.rays, light, P, Ng, shot.radius);
         }
@@ -286,8 +280,12 @@ void report(const char* scene, const Light& l, const Counts& n) {
 // is 1.1-1.4% short, 13 of 938 pixels for the sun, all on shadow edges, where a texel of its map
 // (the whole scene's frustum) is a third of a pixel wide. With 4096 maps the point light meets
 // them (0.994) and the sun is 0.989 (10 pixels).
-// A bent BendyLight's reference is approximate (see the file comment): its agreement is reported,
-// not asserted; its acne is.
+// A bent BendyLight's reference is approximate (see the file comment): its agreement is asserted
+// as the measured floors below, its acne as zero. On the plane scenes the engine shadows about
+// 3,500 pixels the reference calls lit (LbS about 30): a wedge of the ground near the cone's edge
+// and a band at the image's right, where the deformed ground lies close to its own flow lines; a
+// 4-texel lift shrinks it by a third, so it is at least partly the engine's self-shadowing of the
+// curved deformed ground (issue 16's note; not fixed).
 struct Shortfall {
     const char* scene;
     const char* light;
@@ -298,6 +296,12 @@ const Shortfall HARD_SHORTFALLS[] = {
     {"tabletop", "bulb", 0.997, 0.986},
 };
 
+struct BentFloor {
+    const char* scene;
+    double agreement;
+};
+const BentFloor BENT_FLOORS[] = {{"tabletop", 0.995}, {"bunny", 0.855}, {"dragon", 0.865}, {"grazing", 0.998}};
+
 // With the default soft filter (3x3 texels) shadows thinner than the filter lose their middle to
 // the 0.5 threshold: agreement still meets 99.7%, the area is short by up to 5% (the closed bunny's
 // thin ears under the sun), never over.
@@ -306,7 +310,14 @@ constexpr double SOFT_RATIO_FLOOR = 0.95;
 void expectThresholds(const char* scene, const Light& l, const Counts& n, size_t minReached) {
     SCOPED_TRACE(std::string(scene) + " " + l.name + " filter " + std::to_string(l.shadowFilter));
     EXPECT_GE(n.reached, minReached);
-    if (l.name == "bendy_bent") return;
+    if (l.name == "bendy_bent") {
+        for (const BentFloor& f : BENT_FLOORS) {
+            if (std::string(scene) == f.scene) {
+                EXPECT_GE(n.agreement(), f.agreement);
+            }
+        }
+        return;
+    }
     double agreement = 0.997, ratioLow = 0.99;
     if (l.shadowFilter > 0) ratioLow = SOFT_RATIO_FLOOR;
     else
