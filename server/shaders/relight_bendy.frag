@@ -40,13 +40,28 @@ layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 // differentiated). The radius moves with the foot, R + R'(s) ds (R' per arc length), and the
 // offset across changes by d's parts across (the rotation-minimising frame turns v_hat and w_hat
 // only towards u_hat: second order there). Exact for straight chains.
-TubeCoords shiftedTube(TubeCoords c, float s, vec3 d, out float s2) {
+// The rates of that first-order shift at a point, computed once and used for every shift of it
+// (its bias and its plane's two tangents; a sample's footprint taps): the foot's arc length per
+// unit of d . u_hat, and the radius per arc length.
+struct TubeShift {
+    float footRate;
+    float radiusRate;
+};
+
+TubeShift tubeShift(TubeCoords c) {
     float speed = max(length(c.derivative.xyz), 1e-12);
     vec3 turn = segmentUnitTangentDerivative(c.g, c.t) / speed; // du_hat/ds
+    TubeShift r;
+    r.footRate = 1.0 / max(1.0 - c.foot.w * dot(c.v * c.vHat + c.w * c.wHat, turn), 1e-3);
+    r.radiusRate = c.derivative.w / speed;
+    return r;
+}
+
+TubeCoords shiftedTube(TubeCoords c, TubeShift k, float s, vec3 d, out float s2) {
     float R = c.foot.w;
-    float du = dot(d, c.uHat) / max(1.0 - R * dot(c.v * c.vHat + c.w * c.wHat, turn), 1e-3);
+    float du = dot(d, c.uHat) * k.footRate;
     s2 = max(s + du, 0.0);
-    float R2 = max(R + c.derivative.w / speed * du, 1e-9);
+    float R2 = max(R + k.radiusRate * du, 1e-9);
     TubeCoords o = c;
     o.v = (c.v * R + dot(d, c.vHat)) / R2;
     o.w = (c.w * R + dot(d, c.wHat)) / R2;
@@ -56,9 +71,9 @@ TubeCoords shiftedTube(TubeCoords c, float s, vec3 d, out float s2) {
 
 // The straight-space point (the undeformed spot light's, where the deformed map's casters are
 // drawn) of the receiver moved by d (world).
-vec3 bendyStraightPoint(TubeCoords c, float s, vec3 d) {
+vec3 bendyStraightPoint(TubeCoords c, TubeShift k, float s, vec3 d) {
     float s2;
-    TubeCoords o = shiftedTube(c, s, d, s2);
+    TubeCoords o = shiftedTube(c, k, s, d, s2);
     return uBendy.bendyP[0].xyz + uBendy.bendyAxisU.xyz * s2 +
            (uBendy.bendyAxisV.xyz * o.v + uBendy.bendyAxisW.xyz * o.w) * (s2 * uBendy.bendyAxisU.w);
 }
@@ -67,15 +82,15 @@ vec3 bendyStraightPoint(TubeCoords c, float s, vec3 d) {
 // `dist` from the source along its flow line: the receiver is biased along its geometric normal
 // by `offset` (world units) and mapped like any caster vertex; its plane's tangents are carried
 // through the same map for the receiver-plane comparison (filteredShadowPlane).
-float bendyShadow(TubeCoords c, float s, vec3 Ng, float offset, float dist) {
+float bendyShadow(TubeCoords c, TubeShift k, float s, vec3 Ng, float offset, float dist) {
     vec3 d = Ng * offset;
-    vec3 q = bendyStraightPoint(c, s, d);
+    vec3 q = bendyStraightPoint(c, k, s, d);
     // The tangents by a small step: the map is smooth, receiverPlaneLookup needs only directions.
     mat2x3 tf = tangentFrame(Ng);
     float e = 1e-3 * (s + c.foot.w) + 1e-6;
     ShadowLookup l;
     vec3 lift = normalize(uBendy.bendyP[0].xyz - q) * shadowLift(dist);
-    if (!receiverPlaneLookup(q, bendyStraightPoint(c, s, d + tf[0] * e) - q, bendyStraightPoint(c, s, d + tf[1] * e) - q, lift, l))
+    if (!receiverPlaneLookup(q, bendyStraightPoint(c, k, s, d + tf[0] * e) - q, bendyStraightPoint(c, k, s, d + tf[1] * e) - q, lift, l))
         return 0.0;
     if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * uLight.lightShadow.x, vec2(1.0)))) return 1.0;
     return filteredShadowPlane(shadowMap, l);
@@ -91,15 +106,16 @@ float bendyFootprintLight(TubeCoords c, float arc, vec3 P, vec3 Ng, vec3 Li, flo
     mat2x3 fp = pixelFootprint(P, Ng, coverage);
     // Facing away geometrically: shadowed by itself at every tap (shadowVisibility's rule).
     bool facing = dot(Ng, Li) > 0.0;
+    TubeShift shift = tubeShift(c);
     float sum = 0.0, visSum = 0.0;
     reach = 0.0;
     for (int k = 0; k < SHADE_FOOTPRINT_TAPS; ++k) {
         float s;
-        TubeCoords q = shiftedTube(c, arc, footprintTap(fp, k), s);
+        TubeCoords q = shiftedTube(c, shift, arc, footprintTap(fp, k), s);
         vec3 toSource = uBendy.bendyP[0].xyz - deformedPointAt(q, s);
         float dist = max(length(toSource), 1e-6);
         float m = spotCone(uLight.lightCone.xy, toSource / dist, uBendy.bendyAxisU.xyz);
-        float v = !SHADE_SHADOWED ? 1.0 : facing ? bendyShadow(q, s, Ng, shadowNormalOffset(dist), dist) : 0.0;
+        float v = !SHADE_SHADOWED ? 1.0 : facing ? bendyShadow(q, tubeShift(q), s, Ng, shadowNormalOffset(dist), dist) : 0.0;
         sum += m * v;
         visSum += v;
         reach = max(reach, m);
@@ -137,7 +153,7 @@ vec3 shadeSample(ivec2 t) {
         vis = 1.0; // in spot
     } else if (SHADE_SHADOWED) {
         // Facing away geometrically: shadowed by itself (as shadowVisibility, relight_spot.frag).
-        vis = dot(Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, arc, Ng, shadowNormalOffset(dist), dist);
+        vis = dot(Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, tubeShift(c), arc, Ng, shadowNormalOffset(dist), dist);
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
