@@ -9,6 +9,8 @@
 #include <dfb/server/Engine.h>
 #include <dfb/server/ImageCodec.h>
 
+#include "BenchShot.h"
+
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -97,29 +99,15 @@ int main(int argc, char** argv) {
     app.add_option("--only", only, "time only the edit kinds whose name contains this text (skips the lights table)");
     CLI11_PARSE(app, argc, argv);
 
-    auto shot = readDeepBuffer(shotPath);
-    if (!shot) {
-        std::cerr << "dfb-bench: " << shot.error().toString() << "\n";
-        return 2;
-    }
-    auto scene = loadScene(scenePath.empty() ? shot->sourcePath : scenePath);
-    if (!scene) {
-        std::cerr << "dfb-bench: " << scene.error().toString() << "\n";
-        return 2;
-    }
-    ShadowGeometry casters = shadowCasters(scene.value());
-    auto engine = Engine::create(shot.value(), casters);
-    if (!engine) {
-        std::cerr << "dfb-bench: " << engine.error().toString() << "\n";
-        return 3;
-    }
-    const Bounds& b = scene->bounds;
+    bench::BenchShot opened;
+    if (int rc = bench::openBenchShot("dfb-bench", shotPath, scenePath, opened)) return rc;
+    const Bounds& b = opened.scene.bounds;
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
-    if (!engine.value()->render(rig).ok()) return 3; // warm-up: first frame fills every cache
+    if (!opened.engine->render(rig).ok()) return 3; // warm-up: first frame fills every cache
 
-    std::printf("device:   %s\n", engine.value()->deviceDescription().c_str());
+    std::printf("device:   %s\n", opened.engine->deviceDescription().c_str());
     std::printf("shot:     %s, %dx%d, %zu shadow-casting triangles, %zu lights, shadow map %d\n", shotPath.c_str(),
-                shot->width, shot->height, scene->triangleCount(), rig.lights.size(), rig.lights[0].shadowMapSize);
+                opened.shot.width, opened.shot.height, opened.scene.triangleCount(), rig.lights.size(), rig.lights[0].shadowMapSize);
     std::printf("edits:    %d per kind; time = edit applied -> JPEG (q%d) ready, server side\n\n", edits, quality);
     std::printf("%-22s %9s %9s %9s | %8s %8s %9s %9s %8s\n", "edit", "median", "p90", "max", "shadow", "shade",
                 "composite", "readback", "encode");
@@ -163,14 +151,14 @@ int main(int argc, char** argv) {
     all.push_back({"  same, drag preview", kinds.back().apply});
     for (const Kind& k : all) {
         if (!only.empty() && std::string(k.name).find(only) == std::string::npos) continue;
-        engine.value()->setPreview(&k == &all.back());
+        opened.engine->setPreview(&k == &all.back());
         std::vector<double> total, shadow, shade, composite, readback, encode;
         for (int i = 0; i < edits; ++i) {
             k.apply(rig, i);
             ++rig.version;
             const auto t0 = std::chrono::steady_clock::now();
             FrameStats st;
-            auto img = engine.value()->render(rig, &st);
+            auto img = opened.engine->render(rig, &st);
             if (!img) {
                 std::cerr << "dfb-bench: " << img.error().toString() << "\n";
                 return 3;
@@ -191,7 +179,7 @@ int main(int argc, char** argv) {
                     percentile(shade, 50), percentile(composite, 50), percentile(readback, 50),
                     percentile(encode, 50));
     }
-    engine.value()->setPreview(false);
+    opened.engine->setPreview(false);
     std::printf("\n(stage columns are medians; the stages of one edit add up to its total)\n");
     if (!only.empty()) return 0;
 
@@ -213,17 +201,17 @@ int main(int argc, char** argv) {
             l.shadowMapSize = 1024;
             many.lights.push_back(l);
         }
-        if (!engine.value()->render(many).ok()) return 3;
+        if (!opened.engine->render(many).ok()) return 3;
         std::vector<double> pos, inten;
         for (int i = 0; i < std::max(10, edits / 5); ++i) {
             many.lights[0].position[0] += (i % 2) ? 0.01f : -0.01f;
             auto t0 = std::chrono::steady_clock::now();
-            auto img = engine.value()->render(many);
+            auto img = opened.engine->render(many);
             if (!img || !encodeJpeg(img.value(), quality)) return 3;
             pos.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
             many.lights[0].intensityCd *= (i % 2) ? 1.01f : 0.99f;
             t0 = std::chrono::steady_clock::now();
-            img = engine.value()->render(many);
+            img = opened.engine->render(many);
             if (!img || !encodeJpeg(img.value(), quality)) return 3;
             inten.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         }
@@ -235,10 +223,10 @@ int main(int argc, char** argv) {
 
     const int n = std::max(5, edits / 5);
     std::printf("\nscaling with pixels: %s baked at each size, default rig, median of %d edits -> JPEG\n",
-                shot->sourcePath.c_str(), n);
+                opened.shot.sourcePath.c_str(), n);
     std::printf("%-10s %10s | %10s %10s %10s %12s\n", "size", "pixels", "intensity", "cone", "position", "BendyLight cp");
     for (auto [w, h] : {std::pair{480, 270}, {960, 540}, {1440, 810}, {1920, 1080}}) {
-        const ScalingRow r = measureScene(scene.value(), w, h, n, quality);
+        const ScalingRow r = measureScene(opened.scene, w, h, n, quality);
         std::printf("%4dx%-5d %10d | %8.1fms %8.1fms %8.1fms %10.1fms\n", w, h, w * h, r.intensity, r.cone, r.position, r.bendy);
     }
     std::printf("\nscaling with triangles: asset scenes at 480x270 (automatic framing), default rig, median of %d edits\n", n);

@@ -14,6 +14,8 @@
 #include <dfb/server/IndirectEdit.h>
 #include <dfb/server/Picker.h>
 
+#include "BenchShot.h"
+
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -93,33 +95,19 @@ int main(int argc, char** argv) {
     app.add_option("--quality", quality, "JPEG quality")->check(CLI::Range(1, 100));
     CLI11_PARSE(app, argc, argv);
 
-    auto shot = readDeepBuffer(shotPath);
-    if (!shot) {
-        std::cerr << "dfb-indirect-bench: " << shot.error().toString() << "\n";
-        return 2;
-    }
-    auto scene = loadScene(scenePath.empty() ? shot->sourcePath : scenePath);
-    if (!scene) {
-        std::cerr << "dfb-indirect-bench: " << scene.error().toString() << "\n";
-        return 2;
-    }
-    const ShadowGeometry casters = shadowCasters(scene.value());
-    auto engine = Engine::create(shot.value(), casters);
-    if (!engine) {
-        std::cerr << "dfb-indirect-bench: " << engine.error().toString() << "\n";
-        return 3;
-    }
-    auto picker = Picker::create(shot.value(), casters);
+    bench::BenchShot opened;
+    if (int rc = bench::openBenchShot("dfb-indirect-bench", shotPath, scenePath, opened)) return rc;
+    auto picker = Picker::create(opened.shot, opened.casters);
     if (!picker) {
         std::cerr << "dfb-indirect-bench: " << picker.error().toString() << "\n";
         return 3;
     }
-    const Bounds& b = scene->bounds;
+    const Bounds& b = opened.scene.bounds;
     const Rig base = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     Rig bent = base;
     bend(bent.lights[0], b);
-    const dvec3 eye = d(shot->camera.position());
-    const int W = shot->width, H = shot->height;
+    const dvec3 eye = d(opened.shot.camera.position());
+    const int W = opened.shot.width, H = opened.shot.height;
 
     using indirect::Edit;
     auto hitPoint = [](const PickResult& p) { return d(p.P); };
@@ -158,7 +146,7 @@ int main(int argc, char** argv) {
          }},
     };
 
-    std::printf("device:   %s\n", engine.value()->deviceDescription().c_str());
+    std::printf("device:   %s\n", opened.engine->deviceDescription().c_str());
     std::printf("shot:     %s, %dx%d, %zu caster triangles (BVH %.1f ms)\n", shotPath.c_str(), W, H,
                 picker.value()->stats().casterTriangles, picker.value()->stats().bvhBuildMs);
     std::printf("updates:  %d per mode, the pointer 2 px right per update from the grabbed pixel; preview frames\n",
@@ -170,8 +158,8 @@ int main(int argc, char** argv) {
     for (const Mode& m : modes) {
         const Rig& start = m.bendy ? bent : base;
         // Warm the engine (and the picker's deformed hierarchy) on the begin rig, outside the timing.
-        engine.value()->setPreview(false);
-        if (!engine.value()->render(start)) return 3;
+        opened.engine->setPreview(false);
+        if (!opened.engine->render(start)) return 3;
         const auto t0 = Clock::now();
         auto grab = findGrab(*picker.value(), start, W, H, m.needsOccluder, [&](const Grab& g) {
             auto probe = picker.value()->pick(std::min(g.x + 2, W - 1), g.y);
@@ -182,7 +170,7 @@ int main(int argc, char** argv) {
             std::printf("%-24s no pixel found where the mode applies\n", m.name);
             continue;
         }
-        engine.value()->setPreview(true);
+        opened.engine->setPreview(true);
         Rig rig = start;
         std::vector<double> solveMs, frameMs, iterations;
         int refused = 0;
@@ -199,13 +187,13 @@ int main(int argc, char** argv) {
             }
             rig.lights[0] = e->light;
             ++rig.version;
-            auto img = engine.value()->render(rig);
+            auto img = opened.engine->render(rig);
             if (!img || !encodeJpeg(img.value(), quality)) return 4;
             solveMs.push_back(s);
             frameMs.push_back(msSince(u0));
             iterations.push_back(double(e->iterations));
         }
-        engine.value()->setPreview(false);
+        opened.engine->setPreview(false);
         if (solveMs.empty()) {
             std::printf("%-24s every update refused (%d): %s\n", m.name, refused, firstRefusal.c_str());
             continue;
