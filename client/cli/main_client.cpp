@@ -1,6 +1,6 @@
 // dfb-client: command-line client of dfb-server (protocol v1, docs/protocol.md).
 //
-//   dfb-client sessions | info | rig get|put | set | apply | frame | watch | pick | undo | redo | bench | properties
+//   dfb-client sessions | info | rig get|put | set | apply | frame | watch | pick | drag | undo | redo | bench | properties
 //
 // Every subcommand takes --server URL (the links dfb-server prints carry the session and the
 // token), --session ID, --token T and --timeout S; DFB_SERVER, DFB_SESSION and DFB_TOKEN are the
@@ -13,6 +13,7 @@
 #include "Connection.h"
 
 #include <dfb/core/Stats.h>
+#include <dfb/protocol/DragModes.h>
 #include <dfb/protocol/Messages.h>
 #include <dfb/protocol/Schema.h>
 
@@ -178,6 +179,15 @@ int main(int argc, char** argv) {
     int pickX = 0, pickY = 0;
     cPick->add_option("x", pickX, "pixel column (0 = left)")->required();
     cPick->add_option("y", pickY, "pixel row (0 = top)")->required();
+    auto* cDrag = app.add_subcommand("drag", "drag a shadow, hotspot or highlight in the image: the server solves for the light "
+                                             "(editor; one edit, one undo step)");
+    std::string dragMode, dragLight;
+    std::vector<int> dragFrom, dragTo, dragPoints;
+    cDrag->add_option("mode", dragMode, "one of: " + protocol::dragModeNames())->required();
+    cDrag->add_option("--from", dragFrom, "the grabbed pixel X,Y (a shadowed one for shadow modes)")->required()->delimiter(',')->expected(2);
+    cDrag->add_option("--to", dragTo, "where it goes: pixel X,Y")->required()->delimiter(',')->expected(2);
+    cDrag->add_option("--points", dragPoints, "BendyLight control points to move, e.g. 1,2 (default: the whole light)")->delimiter(',');
+    cDrag->add_option("--light", dragLight, "the light (default: the rig's first light the mode applies to)");
     auto* cUndo = app.add_subcommand("undo", "undo the session's most recent edit (editor)");
     auto* cRedo = app.add_subcommand("redo", "redo the most recently undone edit (editor)");
     auto* cHistory = app.add_subcommand("history", "the session's recorded changes (JSON)");
@@ -302,6 +312,28 @@ int main(int argc, char** argv) {
             conn->close();
         } else if (cPick->parsed()) {
             std::cout << cl.request("GET", cl.base() + "/pick?x=" + std::to_string(pickX) + "&y=" + std::to_string(pickY)).body << std::endl;
+        } else if (cDrag->parsed()) {
+            auto mode = protocol::parseDragMode(dragMode);
+            if (!mode) die(EXIT_USAGE, mode.error().message);
+            if (dragLight.empty()) {
+                const protocol::DragModeInfo& info = protocol::dragModeInfo(mode.value());
+                auto rig = protocol::parseJson(cl.request("GET", cl.base() + "/rig").body, protocol::MAX_TEXT_MESSAGE_BYTES, "the rig");
+                if (!rig) die(EXIT_REFUSED, rig.error().message);
+                for (const json& l : rig.value().value("lights", json::array())) {
+                    auto type = protocol::lightTypeFromName(l.value("type", ""));
+                    if (type && (info.lights & protocol::lightBit(*type)) && l.value("enabled", true)) {
+                        dragLight = l.value("name", "");
+                        break;
+                    }
+                }
+                if (dragLight.empty()) {
+                    die(EXIT_REFUSED, "the rig has no enabled light that drag mode '" + dragMode + "' applies to (" +
+                                          protocol::dragModeLightNames(info) + ")");
+                }
+            }
+            json body{{"mode", dragMode}, {"light", dragLight}, {"from", dragFrom}, {"to", dragTo}};
+            if (!dragPoints.empty()) body["points"] = dragPoints;
+            std::cout << cl.request("POST", cl.base() + "/drag", body.dump()).body << std::endl;
         } else if (cUndo->parsed() || cRedo->parsed()) {
             std::cout << cl.request("POST", cl.base() + (cUndo->parsed() ? "/undo" : "/redo")).body << std::endl;
         } else if (cHistory->parsed()) {

@@ -1,4 +1,5 @@
 #include <dfb/protocol/Messages.h>
+#include <dfb/protocol/DragModes.h>
 
 #include <dfb/protocol/Json.h>
 
@@ -276,6 +277,61 @@ Result<ClientMessage> clientMessageFromJson(const json& j) {
         }
         return ClientMessage{PickMessage{seq.value(), int(j["x"].get<int64_t>()), int(j["y"].get<int64_t>())}};
     }
+    if (type == "drag") {
+        if (auto s = onlyFields(j, type, {"type", "seq", "phase", "mode", "light", "x", "y", "points"}); !s) return s.error();
+        auto seq = needSeq(j, type);
+        if (!seq) return seq.error();
+        DragMessage m;
+        m.seq = seq.value();
+        const std::string phase = j.contains("phase") && j["phase"].is_string() ? j["phase"].get<std::string>() : "";
+        if (phase == "begin") m.phase = DragPhase::Begin;
+        else if (phase == "update") m.phase = DragPhase::Update;
+        else if (phase == "end") m.phase = DragPhase::End;
+        else if (phase == "cancel") m.phase = DragPhase::Cancel;
+        else return protocolError("drag.phase: expected \"begin\", \"update\", \"end\" or \"cancel\"");
+        const bool begin = m.phase == DragPhase::Begin, moves = begin || m.phase == DragPhase::Update;
+        for (const char* f : {"mode", "light", "points"}) {
+            if (!begin && j.contains(f)) return protocolError(std::string("drag.") + f + ": only a begin names it");
+        }
+        for (const char* f : {"x", "y"}) {
+            if (!moves) {
+                if (j.contains(f)) return protocolError(std::string("drag.") + f + ": only begin and update carry the pointer");
+                continue;
+            }
+            if (!j.contains(f) || !j[f].is_number_integer() || j[f].get<int64_t>() < 0 || j[f].get<int64_t>() > (1 << 20)) {
+                return protocolError(std::string("drag.") + f + ": expected a non-negative integer pixel coordinate");
+            }
+        }
+        if (moves) {
+            m.x = int(j["x"].get<int64_t>());
+            m.y = int(j["y"].get<int64_t>());
+        }
+        if (begin) {
+            if (!j.contains("mode") || !j["mode"].is_string()) return protocolError("drag.mode: expected one of " + dragModeNames());
+            if (auto mode = parseDragMode(j["mode"].get<std::string>()); !mode) return protocolError("drag.mode: " + mode.error().message);
+            m.mode = j["mode"].get<std::string>();
+            if (!j.contains("light") || !j["light"].is_string() || j["light"].get<std::string>().empty() ||
+                j["light"].get<std::string>().size() > 64) {
+                return protocolError("drag.light: expected a light's name");
+            }
+            m.light = j["light"].get<std::string>();
+            if (j.contains("points")) {
+                const json& pts = j["points"];
+                if (!pts.is_array() || pts.size() > MAX_DRAG_POINTS) {
+                    return protocolError("drag.points: expected an array of at most " + std::to_string(MAX_DRAG_POINTS) +
+                                         " control-point indices");
+                }
+                for (const json& p : pts) {
+                    if (!p.is_number_integer() || p.get<int64_t>() < 1 || p.get<int64_t>() > int64_t(MAX_DRAG_POINTS)) {
+                        return protocolError("drag.points: " + excerpt(p) + " is not a control-point index 1.." +
+                                             std::to_string(MAX_DRAG_POINTS) + " (cp[0], the source, moves with the light)");
+                    }
+                    m.points.push_back(int(p.get<int64_t>()));
+                }
+            }
+        }
+        return ClientMessage{m};
+    }
     if (type == "presence") {
         if (auto s = onlyFields(j, type, {"type", "editing"}); !s) return s.error();
         PresenceMessage m;
@@ -313,6 +369,30 @@ std::string encode(const ViewMessage& m) {
     j["seq"] = m.seq;
     return dump(j);
 }
+const char* toString(DragPhase phase) {
+    switch (phase) {
+    case DragPhase::Begin: return "begin";
+    case DragPhase::Update: return "update";
+    case DragPhase::End: return "end";
+    case DragPhase::Cancel: return "cancel";
+    }
+    return "begin";
+}
+
+std::string encode(const DragMessage& m) {
+    json j{{"type", "drag"}, {"seq", m.seq}, {"phase", toString(m.phase)}};
+    if (m.phase == DragPhase::Begin) {
+        j["mode"] = m.mode;
+        j["light"] = m.light;
+        if (!m.points.empty()) j["points"] = m.points;
+    }
+    if (m.phase == DragPhase::Begin || m.phase == DragPhase::Update) {
+        j["x"] = m.x;
+        j["y"] = m.y;
+    }
+    return dump(j);
+}
+
 std::string encode(const PickMessage& m) { return dump(json{{"type", "pick"}, {"seq", m.seq}, {"x", m.x}, {"y", m.y}}); }
 std::string encode(const PresenceMessage& m) {
     return dump(json{{"type", "presence"}, {"editing", m.editing ? json(*m.editing) : json(nullptr)}});

@@ -4,6 +4,7 @@
 #include "Validate.h"
 
 #include <dfb/protocol/Schema.h>
+#include <dfb/protocol/DragModes.h>
 
 #include <algorithm>
 #include <cmath>
@@ -551,7 +552,11 @@ json schemaJson() {
     json rig = json::array(), light = json::array();
     for (const Property& p : RIG_PROPERTIES) rig.push_back(rowJson(p, true));
     for (const Property& p : LIGHT_PROPERTIES) light.push_back(rowJson(p, false));
-    return json{{"schema", 1}, {"lightTypes", {"spot", "point", "bendy", "directional"}}, {"rig", rig}, {"light", light}};
+    return json{{"schema", 1},
+                {"lightTypes", {"spot", "point", "bendy", "directional"}},
+                {"rig", rig},
+                {"light", light},
+                {"dragModes", dragModesJson()}};
 }
 
 std::string markdownTable() {

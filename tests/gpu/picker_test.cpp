@@ -23,6 +23,12 @@ using namespace dfb::lightmath;
 
 namespace {
 
+// A pixel the shot covers: it has a sample with coverage (a flat shot's background pixels hold
+// one sample with A = 0).
+bool covered(const DeepBuffer& shot, int x, int y) {
+    return shot.pixelSamples(x, y) > 0 && shot.A[shot.firstSample(x, y)] > 0.f;
+}
+
 constexpr int WIDTH = 320, HEIGHT = 180;
 
 struct Fixture {
@@ -89,7 +95,7 @@ template <class F> Agreement agreement(const Rig& rig, const std::string& name, 
     for (int y = 0; y < HEIGHT; ++y)
         for (int x = 0; x < WIDTH; ++x) {
             const size_t p = size_t(y) * WIDTH + size_t(x);
-            if (f.t.shot.pixelSamples(x, y) == 0 || mask->rgba[p * 4 + 1] < 0.999f) continue;
+            if (!covered(f.t.shot, x, y) || mask->rgba[p * 4 + 1] < 0.999f) continue;
             const bool lit = mask->rgba[p * 4] / mask->rgba[p * 4 + 1] >= 0.5f;
             const auto t0 = std::chrono::steady_clock::now();
             auto r = f.picker->occluder(rig, name, x, y);
@@ -114,17 +120,17 @@ template <class F> Agreement agreement(const Rig& rig, const std::string& name, 
 TEST(Picker, FrontSampleOfAPixel) {
     Fixture& f = fixture();
     const DeepBuffer& g = f.t.shot;
-    size_t covered = 0;
+    size_t coveredPixels = 0;
     for (int y = 0; y < HEIGHT; y += 7)
         for (int x = 0; x < WIDTH; x += 5) {
             auto r = f.picker->pick(x, y);
-            if (g.pixelSamples(x, y) == 0) {
+            if (!covered(g, x, y)) {
                 ASSERT_FALSE(r.ok());
                 EXPECT_EQ(r.error().code, ErrorCode::MissingData);
                 continue;
             }
             ASSERT_TRUE(r.ok()) << r.error().toString();
-            ++covered;
+            ++coveredPixels;
             const size_t s = g.firstSample(x, y);
             EXPECT_TRUE(r->hit);
             EXPECT_EQ(r->P, g.position(s));
@@ -133,7 +139,7 @@ TEST(Picker, FrontSampleOfAPixel) {
             EXPECT_EQ(r->objectId, g.objectId[s]);
             EXPECT_EQ(r->samples, g.pixelSamples(x, y));
         }
-    EXPECT_GT(covered, 100u);
+    EXPECT_GT(coveredPixels, 100u);
 }
 
 // (a) A spot light: an occluder on the segment light -> P where the mask is shadowed, mostly none
@@ -206,7 +212,7 @@ TEST(Picker, BentOccludersLieOnTheDeformedRay) {
     int x = -1, y = -1;
     for (int py = 0; py < HEIGHT && x < 0; ++py)
         for (int px = 0; px < WIDTH && x < 0; ++px)
-            if (f.t.shot.pixelSamples(px, py)) x = px, y = py;
+            if (covered(f.t.shot, px, py)) x = px, y = py;
     rig.lights[0].colors[2] = {0.5f, 0.5f, 1.f};
     ASSERT_TRUE(f.picker->occluder(rig, bent.name, x, y).ok());
     EXPECT_EQ(f.picker->stats().deformedBuilds, buildsBefore + 1);
@@ -226,7 +232,7 @@ TEST(Picker, StraightBendyLightAgreesWithItsSpot) {
     size_t both = 0, differ = 0;
     for (int y = 0; y < HEIGHT; y += 3)
         for (int x = 0; x < WIDTH; x += 3) {
-            if (!f.t.shot.pixelSamples(x, y)) continue;
+            if (!covered(f.t.shot, x, y)) continue;
             auto a = f.picker->occluder(rig, "key", x, y);
             auto b = f.picker->occluder(rig, "straight", x, y);
             ASSERT_TRUE(a.ok() && b.ok());
@@ -254,7 +260,7 @@ TEST(Picker, BadInput) {
     int x = -1, y = -1;
     for (int py = HEIGHT / 2; py < HEIGHT && x < 0; ++py)
         for (int px = WIDTH / 2; px < WIDTH && x < 0; ++px)
-            if (f.t.shot.pixelSamples(px, py)) x = px, y = py;
+            if (covered(f.t.shot, px, py)) x = px, y = py;
     ASSERT_GE(x, 0);
     auto unknown = f.picker->occluder(f.rig, "nobody", x, y);
     ASSERT_FALSE(unknown.ok());

@@ -15,7 +15,11 @@ TEST(Messages, EveryClientMessageRoundTrips) {
     const std::vector<std::string> texts = {
         encode(HelloMessage{1, "alice"}), encode(e), encode(UndoMessage{8}), encode(RedoMessage{9}), encode(TimeMessage{10, 1.5}),
         encode(ViewMessage{11, {{"output", "shadow:key"}, {"encoding", "png"}}}), encode(PickMessage{12, 3, 4}),
-        encode(PresenceMessage{std::string("key")}), encode(PresenceMessage{})};
+        encode(PresenceMessage{std::string("key")}), encode(PresenceMessage{}),
+        encode(DragMessage{13, DragPhase::Begin, "shadow", "key", 10, 20, {}}),
+        encode(DragMessage{14, DragPhase::Begin, "localShadowMove", "bendy", 1, 2, {1, 3}}),
+        encode(DragMessage{15, DragPhase::Update, "", "", 11, 21, {}}), encode(DragMessage{16, DragPhase::End, "", "", 0, 0, {}}),
+        encode(DragMessage{17, DragPhase::Cancel, "", "", 0, 0, {}})};
     for (const std::string& t : texts) {
         auto m = parseClientMessage(t);
         ASSERT_TRUE(m.ok()) << t << " -> " << m.error().toString();
@@ -59,7 +63,23 @@ TEST(Messages, RefusesMalformedMessagesNamingTheProblem) {
                           Case{R"({"type":"view","seq":1,"output":"layer:N","encoding":"exr"})", ErrorCode::InvalidValue, "layer"},
                           Case{R"({"type":"pick","seq":1,"x":1.5,"y":2})", ErrorCode::Protocol, "pick.x"},
                           Case{R"({"type":"pick","seq":1,"x":1})", ErrorCode::Protocol, "pick.y"},
-                          Case{R"({"type":"presence","editing":[1]})", ErrorCode::Protocol, "presence.editing"}}) {
+                          Case{R"({"type":"presence","editing":[1]})", ErrorCode::Protocol, "presence.editing"},
+                          Case{R"({"type":"drag","seq":1,"x":1,"y":1})", ErrorCode::Protocol, "drag.phase"},
+                          Case{R"({"type":"drag","seq":1,"phase":"begin","light":"k","x":1,"y":1})", ErrorCode::Protocol, "drag.mode"},
+                          Case{R"({"type":"drag","seq":1,"phase":"begin","mode":"wobble","light":"k","x":1,"y":1})", ErrorCode::Protocol,
+                               "shadow, hotspot"},
+                          Case{R"({"type":"drag","seq":1,"phase":"begin","mode":"shadow","x":1,"y":1})", ErrorCode::Protocol, "drag.light"},
+                          Case{R"({"type":"drag","seq":1,"phase":"begin","mode":"shadow","light":"k","x":-1,"y":1})", ErrorCode::Protocol, "drag.x"},
+                          Case{R"({"type":"drag","seq":1,"phase":"update","x":1})", ErrorCode::Protocol, "drag.y"},
+                          Case{R"({"type":"drag","seq":1,"phase":"update","x":1,"y":1,"mode":"shadow"})", ErrorCode::Protocol, "only a begin"},
+                          Case{R"({"type":"drag","seq":1,"phase":"end","x":1})", ErrorCode::Protocol, "drag.x"},
+                          Case{R"({"type":"drag","seq":1,"phase":"begin","mode":"shadow","light":"k","x":1,"y":1,"points":[0]})",
+                               ErrorCode::Protocol, "cp[0]"},
+                          Case{R"({"type":"drag","seq":1,"phase":"begin","mode":"shadow","light":"k","x":1,"y":1,"points":[1.5]})",
+                               ErrorCode::Protocol, "drag.points"},
+                          Case{R"({"type":"drag","seq":1,"phase":"begin","mode":"shadow","light":"k","x":1,"y":1,"points":[1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17]})",
+                               ErrorCode::Protocol, "at most 16"},
+                          Case{R"({"type":"drag","phase":"end"})", ErrorCode::Protocol, "drag.seq"}}) {
         auto m = parseClientMessage(c.text);
         ASSERT_FALSE(m.ok()) << c.text;
         EXPECT_EQ(m.error().code, c.code) << c.text << " -> " << m.error().toString();

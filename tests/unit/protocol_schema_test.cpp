@@ -5,6 +5,7 @@
 #include "support/SchemaEdits.h"
 
 #include <dfb/protocol/Codec.h>
+#include <dfb/protocol/DragModes.h>
 #include <dfb/protocol/Schema.h>
 
 #include <gtest/gtest.h>
@@ -52,6 +53,46 @@ TEST(Schema, DocsPropertyTableIsGeneratedFromTheSchema) {
     }
     EXPECT_EQ(text.substr(b + BEGIN.size(), e - b - BEGIN.size()), table)
         << "docs/protocol.md's property table differs from the schema: run DFB_UPDATE_DOCS=1 " << "build/tests/protocol_schema_test";
+}
+
+// The drag modes (dfb/protocol/DragModes.h): every enumerator has one row, names and shortcuts
+// are unique (the browser binds the shortcuts), the schema lists them, and docs/protocol.md's
+// table is generated from them.
+TEST(Schema, DragModesAreOneTableAndTheDocsShowIt) {
+    std::set<std::string> names, keys;
+    for (int m = 0; m <= int(DragMode::DiffuseMove); ++m) {
+        EXPECT_EQ(int(dragModeInfo(DragMode(m)).mode), m);
+    }
+    for (const DragModeInfo& m : dragModes()) {
+        EXPECT_TRUE(names.insert(m.name).second) << m.name;
+        EXPECT_TRUE(keys.insert(m.shortcut).second) << m.shortcut;
+        EXPECT_EQ(std::string(m.shortcut).size(), 1u);
+        auto parsed = parseDragMode(m.name);
+        ASSERT_TRUE(parsed.ok());
+        EXPECT_EQ(parsed.value(), m.mode);
+        EXPECT_NE(m.lights, 0u);
+    }
+    // The browser's own shortcuts (client/web/main.js) are not taken.
+    for (const char* k : {"f", "h", "k", "1"}) EXPECT_EQ(keys.count(k), 0u) << k;
+    EXPECT_EQ(schemaJson()["dragModes"].size(), dragModes().size());
+    EXPECT_FALSE(parseDragMode("Shadow").ok());
+
+    const std::string DRAG_BEGIN = "<!-- drag-modes:begin -->\n", DRAG_END = "<!-- drag-modes:end -->";
+    std::ifstream in(DOCS);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::string text = ss.str();
+    const size_t b = text.find(DRAG_BEGIN), e = text.find(DRAG_END);
+    ASSERT_NE(b, std::string::npos) << "docs/protocol.md lacks " << DRAG_BEGIN;
+    ASSERT_NE(e, std::string::npos) << "docs/protocol.md lacks " << DRAG_END;
+    const std::string table = dragModesMarkdown();
+    if (std::getenv("DFB_UPDATE_DOCS")) {
+        text = text.substr(0, b + DRAG_BEGIN.size()) + table + text.substr(e);
+        std::ofstream(DOCS) << text;
+        return;
+    }
+    EXPECT_EQ(text.substr(b + DRAG_BEGIN.size(), e - b - DRAG_BEGIN.size()), table)
+        << "docs/protocol.md's drag-mode table differs from DragModes.cpp: run DFB_UPDATE_DOCS=1 build/tests/protocol_schema_test";
 }
 
 TEST(Schema, ToJsonWritesExactlyTheRowsWithValuesAndTheyRoundTrip) {

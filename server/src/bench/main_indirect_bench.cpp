@@ -1,7 +1,7 @@
 // dfb-indirect-bench: the server side of an indirect-editing drag (issue 17 point 9), per mode:
-// the pick of the pointer's pixel (Picker) plus the solve of the edited light (IndirectEdit.h),
-// and update -> frame (pick + solve + the engine's preview frame + JPEG encoding), as the
-// protocol's drag updates will run them. Each update solves from the light as it was when the
+// the pick of the pointer's pixel plus the solve of the edited light (dfb/server/Drag.h, what the
+// server runs for each drag update), and update -> frame (pick + solve + the engine's preview
+// frame + JPEG encoding). Each update solves from the light as it was when the
 // drag began. A benchmark prints numbers; nothing here passes or fails.
 //
 //   dfb-indirect-bench SHOT.exr [--scene SCENE] [--updates N] [--quality Q]
@@ -11,8 +11,7 @@
 #include <dfb/gbuffer/Scene.h>
 #include <dfb/server/Engine.h>
 #include <dfb/server/ImageCodec.h>
-#include <dfb/server/IndirectEdit.h>
-#include <dfb/server/Picker.h>
+#include <dfb/server/Drag.h>
 
 #include "BenchShot.h"
 
@@ -20,35 +19,23 @@
 
 #include <chrono>
 #include <cstdio>
-#include <functional>
 #include <iostream>
 #include <optional>
 
 using namespace dfb;
-using glm::dvec3;
 using Clock = std::chrono::steady_clock;
 
 namespace {
 
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-// What a drag began on: the pixel and what the picker found there.
-struct Grab {
-    int x = 0, y = 0;
-    PickResult at;
-    OccluderResult occluder;
-};
-
-// One mode: which light it edits, whether it needs an occluder under the grabbed pixel, and the
-// solve of one update from the begin light, the grab and the pointer's new pick.
+// One row: a drag mode on the key light (straight or bent), optionally on selected control points.
 struct Mode {
     const char* name;
+    protocol::DragMode mode;
     bool bendy;
-    bool needsOccluder;
-    std::function<Result<indirect::Edit>(const Light&, const Grab&, const PickResult&, const dvec3& eye)> solve;
+    indirect::Selection points;
 };
-
-dvec3 d(const glm::vec3& v) { return dvec3(v); }
 
 // A BendyLight bent sideways over a length fitted to the scene (as dfb-bench's).
 void bend(Light& l, const Bounds& b) {
@@ -58,27 +45,20 @@ void bend(Light& l, const Bounds& b) {
     l.controlPoints[3][2] += 0.2f * size;
 }
 
-// The first pixel on a coarse scan from the image's centre outwards whose grab `ok` accepts.
-std::optional<Grab> findGrab(const Picker& picker, const Rig& rig, int width, int height, bool needsOccluder,
-                             const std::function<bool(const Grab&)>& ok) {
+// The first pixel on a coarse scan from the image's centre outwards where the drag begins and
+// its first update (2 px right) solves, as the server would run them (dfb/server/Drag.h).
+std::optional<DragGrab> findGrab(const Picker& picker, const DeepBuffer& shot, const Rig& rig, const Mode& m) {
+    const int width = shot.width, height = shot.height;
     for (int r = 0; r < std::max(width, height) / 2; r += 4)
         for (int dy = -r; dy <= r; dy += 4)
             for (int dx = -r; dx <= r; dx += 4) {
                 if (std::max(std::abs(dx), std::abs(dy)) != r) continue;
-                Grab g;
-                g.x = width / 2 + dx;
-                g.y = height / 2 + dy;
-                auto p = picker.pick(g.x, g.y);
-                if (!p) continue;
-                g.at = p.value();
-                if (needsOccluder) {
-                    auto o = picker.occluder(rig, rig.lights[0].name, g.x, g.y);
-                    // An occluder well off the receiver (a tenth of the way to the light): near a
-                    // contact eq. 11's ratio |Pl - P| / |P - M| flings the light away per pixel.
-                    if (!o || !o->found || glm::length(o->S - g.at.P) < 0.1f * glm::length(o->rayFrom - g.at.P)) continue;
-                    g.occluder = o.value();
-                }
-                if (ok(g)) return g;
+                auto g = beginDrag(picker, shot, rig, {m.mode, rig.lights[0].name, width / 2 + dx, height / 2 + dy, m.points});
+                if (!g) continue;
+                // An occluder well off the receiver (a tenth of the way to the light): near a
+                // contact eq. 11's ratio |Pl - P| / |P - M| flings the light away per pixel.
+                if (g->occluder && glm::length(g->occluder->S - g->at.P) < 0.1f * glm::length(g->occluder->rayFrom - g->at.P)) continue;
+                if (dragTo(picker, shot, g.value(), std::min(g->x + 2, width - 1), g->y)) return g.value();
             }
     return std::nullopt;
 }
@@ -106,44 +86,18 @@ int main(int argc, char** argv) {
     const Rig base = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     Rig bent = base;
     bend(bent.lights[0], b);
-    const dvec3 eye = d(opened.shot.camera.position());
     const int W = opened.shot.width, H = opened.shot.height;
 
-    using indirect::Edit;
-    auto hitPoint = [](const PickResult& p) { return d(p.P); };
+    using protocol::DragMode;
     const std::vector<Mode> modes = {
-        {"shadow drag", false, true,
-         [&](const Light& l, const Grab& g, const PickResult& now, const dvec3&) {
-             return indirect::shadowDrag(l, d(g.occluder.S), hitPoint(g.at), hitPoint(now));
-         }},
-        {"hotspot drag", false, false,
-         [&](const Light& l, const Grab& g, const PickResult& now, const dvec3&) {
-             return indirect::hotspotDrag(l, hitPoint(g.at), hitPoint(now));
-         }},
-        {"highlight drag", false, false,
-         [&](const Light& l, const Grab&, const PickResult& now, const dvec3& e) {
-             return indirect::highlightDrag(l, hitPoint(now), d(now.N), glm::normalize(e - hitPoint(now)));
-         }},
-        {"physical shadow move", false, true,
-         [&](const Light& l, const Grab& g, const PickResult& now, const dvec3&) {
-             return indirect::physicalShadowMove(l, d(g.occluder.S), hitPoint(g.at), hitPoint(now));
-         }},
-        {"diffuse move", false, false,
-         [&](const Light& l, const Grab& g, const PickResult& now, const dvec3&) {
-             return indirect::diffuseMove(l, hitPoint(g.at), d(g.at.N), hitPoint(now), d(now.N));
-         }},
-        {"Bendy shadow drag", true, true,
-         [&](const Light& l, const Grab& g, const PickResult& now, const dvec3&) {
-             return indirect::shadowDrag(l, d(g.occluder.S), hitPoint(g.at), hitPoint(now));
-         }},
-        {"Bendy hotspot drag", true, false,
-         [&](const Light& l, const Grab& g, const PickResult& now, const dvec3&) {
-             return indirect::hotspotDrag(l, hitPoint(g.at), hitPoint(now));
-         }},
-        {"Bendy highlight, cp 3-4", true, false,
-         [&](const Light& l, const Grab&, const PickResult& now, const dvec3& e) {
-             return indirect::highlightDrag(l, hitPoint(now), d(now.N), glm::normalize(e - hitPoint(now)), {3, 4});
-         }},
+        {"shadow drag", DragMode::Shadow, false, {}},
+        {"hotspot drag", DragMode::Hotspot, false, {}},
+        {"highlight drag", DragMode::Highlight, false, {}},
+        {"physical shadow move", DragMode::PhysicalShadowMove, false, {}},
+        {"diffuse move", DragMode::DiffuseMove, false, {}},
+        {"Bendy shadow drag", DragMode::Shadow, true, {}},
+        {"Bendy hotspot drag", DragMode::Hotspot, true, {}},
+        {"Bendy highlight, cp 3-4", DragMode::Highlight, true, {3, 4}},
     };
 
     std::printf("device:   %s\n", opened.engine->deviceDescription().c_str());
@@ -161,10 +115,7 @@ int main(int argc, char** argv) {
         opened.engine->setPreview(false);
         if (!opened.engine->render(start)) return 3;
         const auto t0 = Clock::now();
-        auto grab = findGrab(*picker.value(), start, W, H, m.needsOccluder, [&](const Grab& g) {
-            auto probe = picker.value()->pick(std::min(g.x + 2, W - 1), g.y);
-            return probe && m.solve(start.lights[0], g, probe.value(), eye).ok();
-        });
+        auto grab = findGrab(*picker.value(), opened.shot, start, m);
         const double grabMs = msSince(t0);
         if (!grab) {
             std::printf("%-24s no pixel found where the mode applies\n", m.name);
@@ -178,20 +129,18 @@ int main(int argc, char** argv) {
         for (int i = 1; i <= updates; ++i) {
             const int x = std::min(grab->x + 2 * i, W - 1);
             const auto u0 = Clock::now();
-            auto now = picker.value()->pick(x, grab->y);
-            Result<Edit> e = now ? m.solve(start.lights[0], *grab, now.value(), eye) : Result<Edit>(now.error());
-            const double s = msSince(u0);
-            if (!e) {
-                if (!refused++) firstRefusal = e.error().message; // a refused update changes nothing: no frame
+            auto step = dragTo(*picker.value(), opened.shot, grab.value(), x, grab->y);
+            if (!step) {
+                if (!refused++) firstRefusal = step.error().message; // a refused update changes nothing: no frame
                 continue;
             }
-            rig.lights[0] = e->light;
+            rig.lights[0] = step->light;
             ++rig.version;
             auto img = opened.engine->render(rig);
             if (!img || !encodeJpeg(img.value(), quality)) return 4;
-            solveMs.push_back(s);
+            solveMs.push_back(step->solveMs);
             frameMs.push_back(msSince(u0));
-            iterations.push_back(double(e->iterations));
+            iterations.push_back(double(step->iterations));
         }
         opened.engine->setPreview(false);
         if (solveMs.empty()) {

@@ -5,6 +5,7 @@
 #include <dfb/protocol/Codec.h>
 #include <dfb/protocol/Messages.h>
 #include <dfb/protocol/Schema.h>
+#include <dfb/server/Drag.h>
 
 #include <cctype>
 #include <cstdlib>
@@ -414,6 +415,92 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
             }
             asio::post(self->mStream.get_executor(), [self, r = std::move(res)]() mutable { self->send(std::move(r)); });
         }, /*fullQuality=*/true);
+        return;
+    }
+    if (resource == "drag") {
+        // A whole drag in one request (docs/protocol.md "Drags"): begin at `from`, one update to
+        // `to`, end; one edit, one undo step.
+        if (!post) return notAllowed("POST");
+        if (!editorOnly()) return;
+        auto expected = ifMatch(req);
+        if (!expected) return refuse(expected.error());
+        auto parsedBody = protocol::parseJson(req.body(), MAX_BODY_BYTES, "POST drag: the body");
+        if (!parsedBody) return refuse(parsedBody.error());
+        const json& body = parsedBody.value();
+        if (!body.is_object()) {
+            return refuse(makeError(ErrorCode::Protocol, "POST drag: the body must be a JSON object {\"mode\", \"light\", \"from\", \"to\"}"));
+        }
+        for (auto it = body.begin(); it != body.end(); ++it) {
+            if (it.key() != "mode" && it.key() != "light" && it.key() != "from" && it.key() != "to" && it.key() != "points") {
+                return refuse(makeError(ErrorCode::Protocol, "POST drag: unknown field '" + it.key().substr(0, 64) +
+                                                                 "' (expected mode, light, from, to, points)"));
+            }
+        }
+        int xy[2][2] = {};
+        for (int i = 0; i < 2; ++i) {
+            const char* f = i == 0 ? "from" : "to";
+            if (!body.contains(f) || !body[f].is_array() || body[f].size() != 2) {
+                return refuse(makeError(ErrorCode::Protocol, std::string("POST drag: ") + f + ": expected a pixel [x, y]"));
+            }
+            for (int k = 0; k < 2; ++k) {
+                const json& v = body[f][size_t(k)];
+                if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > (1 << 20)) {
+                    return refuse(makeError(ErrorCode::Protocol, std::string("POST drag: ") + f +
+                                                                     ": expected non-negative integer pixel coordinates"));
+                }
+                xy[i][k] = int(v.get<int64_t>());
+            }
+        }
+        // The begin goes through the WebSocket's codec (mode, light and points checked there).
+        json begin{{"type", "drag"}, {"seq", uint64_t(0)}, {"phase", "begin"}, {"x", xy[0][0]}, {"y", xy[0][1]}};
+        for (const char* f : {"mode", "light", "points"}) {
+            if (body.contains(f)) begin[f] = body[f];
+        }
+        auto parsed = protocol::clientMessageFromJson(begin);
+        if (!parsed) return refuse(parsed.error());
+        const auto& m = std::get<protocol::DragMessage>(parsed.value());
+        DragStart start;
+        start.mode = protocol::parseDragMode(m.mode).value();
+        start.light = m.light;
+        start.x = m.x;
+        start.y = m.y;
+        start.points = m.points;
+        const int toX = xy[1][0], toY = xy[1][1];
+        const std::optional<uint64_t> ifVersion = expected.value();
+        hub->render().requestPickerJob([self = shared_from_this(), hub, start, toX, toY, ifVersion, version, keepAlive](
+                                           const Picker& picker, const DeepBuffer& shot) {
+            // Solved here (render thread); applied and answered on the connection's strand.
+            Result<std::pair<json, std::vector<protocol::Change>>> solved = [&]() -> Result<std::pair<json, std::vector<protocol::Change>>> {
+                auto g = beginDrag(picker, shot, hub->session().rig(), start);
+                if (!g) return g.error();
+                auto step = dragTo(picker, shot, g.value(), toX, toY);
+                if (!step) return step.error();
+                return std::make_pair(json{{"grab", toJson(g.value())}, {"step", toJson(step.value())}}, step->changes);
+            }();
+            asio::post(self->mStream.get_executor(), [self, hub, solved = std::move(solved), ifVersion, version, keepAlive]() mutable {
+                auto fail = [&](const Error& e) {
+                    hub->metrics().editRefused(hub->id());
+                    self->send(errorResponse(version, keepAlive, makeError(e.code, self->mState->redact(e.message)),
+                                             e.code == ErrorCode::MissingData ? std::optional(http::status::bad_request) : std::nullopt));
+                };
+                if (!solved) return fail(solved.error());
+                json answer{{"drag", solved->first}};
+                uint64_t rigVersion = hub->session().rigVersion();
+                if (!solved->second.empty()) {
+                    auto out = hub->session().edit(solved->second, Author{0, "http"}, std::nullopt, ifVersion);
+                    if (!out) return fail(out.error());
+                    hub->published(out.value(), nullptr);
+                    rigVersion = out->info.rigVersion;
+                } else if (ifVersion && *ifVersion != rigVersion) {
+                    return fail(makeError(ErrorCode::Conflict, "the rig is at version " + std::to_string(rigVersion) + ", not " +
+                                                                   std::to_string(*ifVersion) + "; nothing was changed"));
+                }
+                answer["rigVersion"] = rigVersion;
+                auto res = makeResponse(version, keepAlive, http::status::ok, "application/json", protocol::dump(answer, 2));
+                res.set(http::field::etag, etag(rigVersion));
+                self->send(std::move(res));
+            });
+        });
         return;
     }
     if (resource == "pick") {

@@ -32,6 +32,9 @@ constexpr size_t MAX_PENDING_CHANGES = 100000;
 // (a slow link still drains its buffer, a stopped reader does not).
 constexpr auto STALL_TIMEOUT = std::chrono::seconds(20);
 constexpr auto STALL_CHECK = std::chrono::seconds(2);
+// Drag messages a client may have waiting for the solver: the browser keeps one update in flight;
+// a script that sends faster is told to wait instead of queueing work without end.
+constexpr int MAX_DRAG_JOBS = 16;
 
 // Bytes written to the socket that the peer has not acknowledged yet (Linux SIOCOUTQ); -1 when
 // unknown.
@@ -40,6 +43,14 @@ int unsentBytes(int fd) {
     return ::ioctl(fd, SIOCOUTQ, &n) == 0 ? n : -1;
 }
 } // namespace
+
+// One drag of this client. `grab` lives on the render thread (written by the begin's job, read by
+// the updates' jobs, which run after it in order); the rest on the network thread.
+struct WebSocketSession::DragState {
+    std::optional<DragGrab> grab;             // render thread
+    bool applied = false;                     // network thread: an update changed the rig (the next merges)
+    std::vector<protocol::Change> restore;    // network thread: what a cancel applies
+};
 
 WebSocketSession::WebSocketSession(Stream&& stream, std::shared_ptr<SharedState> state, std::shared_ptr<SessionHub> hub,
                                    protocol::Role role, std::shared_ptr<void> slot)
@@ -137,16 +148,7 @@ void WebSocketSession::handleText(const std::string& text) {
             mHub->metrics().editRefused(mHub->id());
             return replyError(makeError(ErrorCode::Forbidden, "this connection has a viewer token: viewers cannot change the rig"), seq);
         }
-        Result<ChangeOutcome> r = doIt();
-        if (!r) {
-            mHub->metrics().editRefused(mHub->id());
-            return replyError(r.error(), seq);
-        }
-        nlohmann::json extra = nlohmann::json::object();
-        if (!r->overwrote.empty()) extra["overwrote"] = r->overwrote;
-        if (r->info.rig) extra["kind"] = r->info.kind;
-        reply(protocol::encodeAck(seq, r->info.rigVersion, extra));
-        mHub->published(r.value(), this);
+        answerChange(seq, doIt());
     };
     std::visit(
         [&](auto&& m) {
@@ -187,9 +189,104 @@ void WebSocketSession::handleText(const std::string& text) {
                 });
             } else if constexpr (std::is_same_v<T, protocol::PresenceMessage>) {
                 setEditing(m.editing.value_or(""));
+            } else if constexpr (std::is_same_v<T, protocol::DragMessage>) {
+                if (mRole != protocol::Role::Editor) {
+                    mHub->metrics().editRefused(mHub->id());
+                    return replyError(makeError(ErrorCode::Forbidden, "this connection has a viewer token: viewers cannot drag lights"), m.seq);
+                }
+                handleDrag(m);
             }
         },
         parsed.value());
+}
+
+void WebSocketSession::answerChange(uint64_t seq, Result<ChangeOutcome> r, nlohmann::json extra) {
+    if (!r) {
+        mHub->metrics().editRefused(mHub->id());
+        return replyError(r.error(), seq);
+    }
+    if (!r->overwrote.empty()) extra["overwrote"] = r->overwrote;
+    if (r->info.rig) extra["kind"] = r->info.kind;
+    reply(protocol::encodeAck(seq, r->info.rigVersion, extra));
+    mHub->published(r.value(), this);
+}
+
+void WebSocketSession::handleDrag(const protocol::DragMessage& m) {
+    using protocol::DragPhase;
+    const char* phase = protocol::toString(m.phase);
+    if (m.phase != DragPhase::Begin && !mDrag) {
+        return replyError(makeError(ErrorCode::Protocol, std::string("drag ") + phase + ": no drag is going on (send a begin first)"), m.seq);
+    }
+    if (mDragJobs >= MAX_DRAG_JOBS) {
+        return replyError(makeError(ErrorCode::LimitExceeded, "drag " + std::string(phase) + ": " + std::to_string(MAX_DRAG_JOBS) +
+                                                                  " drag messages are waiting for the solver; send the next when one is "
+                                                                  "acknowledged"),
+                          m.seq);
+    }
+    if (m.phase == DragPhase::Begin) {
+        mDrag = std::make_shared<DragState>(); // a begin ends the drag before
+        setEditing(m.light);
+    }
+    auto state = mDrag;
+    if (m.phase == DragPhase::End || m.phase == DragPhase::Cancel) mDrag.reset();
+    ++mDragJobs;
+    // On the render thread: the begin's pick or the update's pick and solve, never the session's
+    // rig (that is applied back here, on the network thread, like any edit).
+    Session& session = mHub->session();
+    mHub->render().requestPickerJob([self = weak_from_this(), ioc = &mState->ioc(), state, m, &session](const Picker& picker,
+                                                                                                      const DeepBuffer& shot) {
+        // What the network thread does with the answer.
+        auto post = [&](auto&& then) {
+            asio::post(*ioc, [self, then = std::move(then)]() mutable {
+                auto s = self.lock();
+                if (!s) return;
+                --s->mDragJobs;
+                then(*s);
+            });
+        };
+        switch (m.phase) {
+        case DragPhase::Begin: {
+            DragStart start;
+            start.mode = protocol::parseDragMode(m.mode).value(); // validated by the codec
+            start.light = m.light;
+            start.x = m.x;
+            start.y = m.y;
+            start.points = m.points;
+            auto g = beginDrag(picker, shot, session.rig(), start);
+            if (!g) return post([seq = m.seq, e = g.error()](WebSocketSession& s) { s.replyError(e, seq); });
+            state->grab = g.value();
+            return post([seq = m.seq, state, restore = restoreChanges(g.value()), j = toJson(g.value())](WebSocketSession& s) mutable {
+                state->restore = std::move(restore);
+                s.reply(protocol::encodeAck(seq, s.mHub->session().rigVersion(), {{"drag", j}}));
+            });
+        }
+        case DragPhase::Update: {
+            if (!state->grab) {
+                return post([seq = m.seq](WebSocketSession& s) {
+                    s.replyError(makeError(ErrorCode::Protocol, "drag update: the drag's begin was refused (see its error)"), seq);
+                });
+            }
+            auto step = dragTo(picker, shot, *state->grab, m.x, m.y);
+            if (!step) return post([seq = m.seq, e = step.error()](WebSocketSession& s) { s.replyError(e, seq); });
+            return post([seq = m.seq, state, changes = step->changes, j = toJson(step.value())](WebSocketSession& s) {
+                if (changes.empty()) return s.reply(protocol::encodeAck(seq, s.mHub->session().rigVersion(), {{"drag", j}}));
+                const Author me{s.mClientId, s.mName};
+                auto r = s.mHub->session().edit(changes, me, std::nullopt, std::nullopt, /*merge=*/state->applied);
+                if (r) state->applied = true;
+                s.answerChange(seq, std::move(r), {{"drag", j}});
+            });
+        }
+        case DragPhase::End:
+        case DragPhase::Cancel:
+            return post([seq = m.seq, state, cancel = m.phase == DragPhase::Cancel](WebSocketSession& s) {
+                const nlohmann::json j{{"ended", cancel ? "cancel" : "end"}};
+                if (!cancel || !state->applied) return s.reply(protocol::encodeAck(seq, s.mHub->session().rigVersion(), {{"drag", j}}));
+                // The light as it was at the begin, in the drag's own undo step.
+                const Author me{s.mClientId, s.mName};
+                s.answerChange(seq, s.mHub->session().edit(state->restore, me, std::nullopt, std::nullopt, /*merge=*/true), {{"drag", j}});
+            });
+        }
+    });
 }
 
 void WebSocketSession::disconnect(const char* why) {

@@ -14,6 +14,7 @@
 #include "net/Stream.h"
 
 #include <dfb/protocol/Messages.h>
+#include <dfb/server/Drag.h>
 
 #include <chrono>
 #include <deque>
@@ -50,6 +51,13 @@ private:
     void reply(const std::string& message) { sendText(std::make_shared<const std::string>(message)); }
     void replyError(const Error& e, std::optional<uint64_t> seq);
     void setEditing(const std::string& what);
+    // Acknowledges (and broadcasts) an accepted change of the rig or replies its error.
+    void answerChange(uint64_t seq, Result<ChangeOutcome> r, nlohmann::json extra = nlohmann::json::object());
+    // Indirect-editing drags (docs/protocol.md "Drags"): solved on the render thread, in order.
+    void handleDrag(const protocol::DragMessage& m);
+    struct DragState;
+    std::shared_ptr<DragState> mDrag; // this client's drag, if one is going on
+    int mDragJobs = 0;                // drag messages waiting for the render thread
     void pumpFrames();
     void onEncoded(uint64_t viewGeneration, Result<std::shared_ptr<const EncodedFrame>> frame);
     void writeNext();

@@ -244,10 +244,14 @@ Result<std::unique_ptr<Picker>> Picker::create(const DeepBuffer& shot, const Sha
     for (int y = 0; y < shot.height; ++y)
         for (int x = 0; x < shot.width; ++x) {
             Front& f = m.front[size_t(y) * size_t(shot.width) + size_t(x)];
-            f.samples = shot.pixelSamples(x, y);
+            // Samples are sorted nearest first (docs/gbuffer-format.md): the front one is the first
+            // that covers anything (a flat shot's uncovered pixels hold one sample with A = 0: the
+            // background).
+            size_t s = shot.firstSample(x, y);
+            const size_t end = s + shot.pixelSamples(x, y);
+            while (s < end && s < shot.A.size() && !(shot.A[s] > 0.f)) ++s;
+            f.samples = uint32_t(end - s);
             if (!f.samples) continue;
-            // Samples are sorted nearest first (docs/gbuffer-format.md): the front one is the first.
-            const size_t s = shot.firstSample(x, y);
             f.P = shot.position(s);
             f.N = shot.normal(s);
             f.Ng = hasNg ? glm::vec3(shot.Ng[s * 3], shot.Ng[s * 3 + 1], shot.Ng[s * 3 + 2]) : f.N;

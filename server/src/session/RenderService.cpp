@@ -58,6 +58,14 @@ void RenderService::requestPick(int x, int y, PickCallback done) {
     mWake.notify_one();
 }
 
+void RenderService::requestPickerJob(PickerJob job) {
+    {
+        std::lock_guard lock(mMutex);
+        mPickerJobs.push_back(std::move(job));
+    }
+    mWake.notify_one();
+}
+
 uint64_t RenderService::imageSerial() const {
     std::lock_guard lock(mMutex);
     return mImageSerial;
@@ -136,15 +144,14 @@ Result<nlohmann::json> RenderService::pick(Engine& engine, const Rig& rig, int x
                                                       std::to_string(mShot.height) + " image");
     }
     nlohmann::json j{{"x", x}, {"y", y}};
-    const size_t p = size_t(y) * size_t(mShot.width) + size_t(x);
-    if (mShot.sampleOffset[p] == mShot.sampleOffset[p + 1]) {
+    auto front = mPicker->pick(x, y); // the front covered sample, as drags grab it
+    if (!front) {
         j["hit"] = false; // background: nothing was baked there
         j["lights"] = nlohmann::json::array();
         return j;
     }
-    const size_t s = mShot.firstSample(x, y);
-    const glm::vec3 P = mShot.position(s), N = mShot.normal(s);
-    const uint32_t id = s < mShot.objectId.size() ? mShot.objectId[s] : 0;
+    const glm::vec3 P = front->P, N = front->N;
+    const uint32_t id = front->objectId;
     j["hit"] = true;
     j["position"] = {P.x, P.y, P.z};
     j["normal"] = {N.x, N.y, N.z};
@@ -176,6 +183,13 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
         engine = std::move(e.value());
         engine->setAssetDirectory(mSession.assetDirectory()); // set before start, fixed for the server's life
         mDevice = engine->deviceDescription();
+        // The picker's hierarchy of the same casters, built once (issue 17 point 1).
+        auto p = Picker::create(mShot, casters);
+        if (!p) {
+            ready->set_value(p.error());
+            return;
+        }
+        mPicker = std::move(p.value());
         casters = {};
         ready->set_value(okStatus()); // `ready` must not be touched after this
     }
@@ -184,13 +198,15 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
     for (;;) {
         std::deque<EncodeRequest> encodes;
         std::deque<std::tuple<int, int, PickCallback>> picks;
+        std::deque<PickerJob> jobs;
         bool refine = false;
         std::chrono::milliseconds window{}, settle{};
         {
             std::unique_lock lock(mMutex);
             window = mRefineWindow;
             settle = mRefineSettle;
-            auto wake = [&] { return mStop || mFrameWanted || !mEncodeRequests.empty() || !mPickRequests.empty(); };
+            auto wake = [&] { return mStop || mFrameWanted || !mEncodeRequests.empty() || !mPickRequests.empty() ||
+                               !mPickerJobs.empty(); };
             if (mImagePreview) {
                 // A preview is on screen: refine it once changes have stopped for `settle`.
                 refine = !mWake.wait_for(lock, settle, wake);
@@ -201,6 +217,7 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
             mFrameWanted = false;
             encodes.swap(mEncodeRequests);
             picks.swap(mPickRequests);
+            jobs.swap(mPickerJobs);
         }
         // Keyframed properties take their values at the session's time.
         const Rig rig = protocol::evaluateRig(mSession.rig());
@@ -219,6 +236,7 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
                 std::fprintf(stderr, "dfb-server: session %s: render failed: %s\n", mSession.id().c_str(), r.error().toString().c_str());
                 for (auto& req : encodes) req.done(r.error());
                 for (auto& req : picks) std::get<2>(req)(r.error());
+                for (auto& job : jobs) job(*mPicker, mShot); // they do not need the image
                 mImagePreview = false;
                 continue;
             }
@@ -239,6 +257,7 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
         for (auto& req : encodes) req.done(encode(*engine, rig, req.view));
         if (!picks.empty()) engine->setPreview(false);
         for (auto& [x, y, cb] : picks) cb(pick(*engine, rig, x, y));
+        for (auto& job : jobs) job(*mPicker, mShot);
     }
 }
 

@@ -16,6 +16,7 @@
 #include <dfb/protocol/Messages.h>
 #include <dfb/server/Engine.h>
 #include <dfb/server/Outputs.h>
+#include <dfb/server/Picker.h>
 
 #include <chrono>
 #include <condition_variable>
@@ -52,6 +53,9 @@ public:
     using ImageCallback = std::function<void(uint64_t rigVersion, uint64_t imageSerial)>;
     using FrameCallback = std::function<void(Result<std::shared_ptr<const EncodedFrame>>)>;
     using PickCallback = std::function<void(Result<nlohmann::json>)>;
+    /// Work on the session's picker (indirect-editing drags, dfb/server/Drag.h): run on the render
+    /// thread in the order asked, after the frame and the picks asked before it.
+    using PickerJob = std::function<void(const Picker& picker, const DeepBuffer& shot)>;
 
     /// Starts the thread and creates the engine on it; returns its error if that fails. `shot`
     /// must outlive the service (pick reads it); `metrics` may be null.
@@ -74,6 +78,8 @@ public:
     /// What is at pixel (x, y): position, normal, object, and each light's contribution there
     /// (`done` on the render thread). InvalidValue outside the image.
     void requestPick(int x, int y, PickCallback done);
+    /// Queues `job` (cheap, non-blocking). Jobs that share state keep their order.
+    void requestPickerJob(PickerJob job);
     /// The newest image's serial (0 before the first frame).
     uint64_t imageSerial() const;
     std::string deviceDescription() const { return mDevice; }
@@ -104,8 +110,10 @@ private:
     };
     std::deque<EncodeRequest> mEncodeRequests;
     std::deque<std::tuple<int, int, PickCallback>> mPickRequests;
+    std::deque<PickerJob> mPickerJobs;
 
     // Render thread only.
+    std::unique_ptr<Picker> mPicker; // built with the engine, from the same casters (one BVH per session)
     Image8 mImage;
     FrameStats mStats;
     uint64_t mImageVersion = ~0ull;

@@ -113,12 +113,31 @@ struct PickMessage {
     int x = 0; ///< pixel column, 0 = left
     int y = 0; ///< pixel row, 0 = top
 };
+/// One step of an indirect-editing drag (docs/protocol.md "Drags"): `begin` grabs what pixel
+/// (x, y) shows for `mode` on `light` (optionally only the BendyLight control points `points`,
+/// 1..2K); each `update` moves the pointer to (x, y) and becomes an edit of the light (solved from
+/// the light as it was at `begin`; the whole drag is one undo step); `end` keeps the result,
+/// `cancel` puts the light back as it was at `begin`. A client has at most one drag; a `begin`
+/// ends the one before.
+enum class DragPhase { Begin, Update, End, Cancel };
+struct DragMessage {
+    uint64_t seq = 0;
+    DragPhase phase = DragPhase::Begin;
+    std::string mode;        ///< begin only: a name of dragModes() (checked when parsed)
+    std::string light;       ///< begin only
+    int x = 0, y = 0;        ///< begin and update: pixel column and row, 0 = top left
+    std::vector<int> points; ///< begin only: selected control points (empty: the whole light)
+};
+/// Most control points a drag may select: a chain's 2K.
+constexpr size_t MAX_DRAG_POINTS = 2 * MAX_BENDY_SEGMENTS;
+const char* toString(DragPhase phase);
+
 /// What this client is manipulating now (e.g. "key" or "key.position"), or nothing.
 struct PresenceMessage {
     std::optional<std::string> editing;
 };
 using ClientMessage = std::variant<HelloMessage, EditMessage, UndoMessage, RedoMessage, TimeMessage, ViewMessage,
-                                   PickMessage, PresenceMessage>;
+                                   PickMessage, PresenceMessage, DragMessage>;
 
 /// Parses and validates one text message from a client (types and fields; rig values are checked
 /// when applied). Errors: Protocol, naming the message type and field; LimitExceeded for a
@@ -137,6 +156,7 @@ std::string encode(const TimeMessage& m);
 std::string encode(const ViewMessage& m);
 std::string encode(const PickMessage& m);
 std::string encode(const PresenceMessage& m);
+std::string encode(const DragMessage& m);
 
 // ---- server -> client ---------------------------------------------------------------------------
 /// One connected client as presence reports it.
