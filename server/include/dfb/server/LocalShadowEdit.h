@@ -72,7 +72,7 @@
 
 namespace dfb::indirect {
 
-/// Levenberg-Marquardt iterations (Jacobians) at most per solve; a drag update converges in 3-8
+/// Levenberg-Marquardt iterations (Jacobians) at most per solve; a drag update converges in 3-5
 /// (dfb-local-shadow-bench), the cap only ends hopeless solves.
 constexpr int LOCAL_MAX_ITERATIONS = 50;
 /// Largest accepted tube-coordinate residual sqrt(E) (see the file comment), and the residual at
