@@ -2,6 +2,7 @@
 
 #include <dfb/protocol/Schema.h>
 #include <dfb/server/BendyChain.h>
+#include <dfb/server/LocalShadowEdit.h>
 
 #include <algorithm>
 #include <chrono>
@@ -110,11 +111,8 @@ Result<DragStep> dragTo(const Picker& picker, const DeepBuffer& shot, const Drag
     case DragMode::Highlight: e = indirect::highlightDrag(g.light, Mnew, Nnew, viewDirection(g, Mnew), g.points); break;
     case DragMode::PhysicalShadowMove: e = indirect::physicalShadowMove(g.light, S, M, Mnew, g.points); break;
     case DragMode::DiffuseMove: e = indirect::diffuseMove(g.light, M, N, Mnew, Nnew, g.points); break;
-    case DragMode::LocalShadowMove:
-    case DragMode::LocalShadowScale:
-        e = makeError(ErrorCode::InvalidValue, std::string("drag mode '") + protocol::dragModeInfo(g.mode).name +
-                                                   "' is not available in this build");
-        break;
+    case DragMode::LocalShadowMove: e = indirect::localShadowMove(g.light, S, M, Mnew, g.points); break;
+    case DragMode::LocalShadowScale: e = indirect::localShadowScale(g.light, S, M, Mnew, g.points); break;
     }
     if (!e) return makeError(e.error().code, "drag: " + e.error().message);
     if (g.light.type == LightType::Bendy && chainWarning(g.light).empty()) {
