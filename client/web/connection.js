@@ -6,6 +6,7 @@ import { Cam } from "./camera.js";
 import { $, showMessage } from "./dom.js";
 import { flushLive, sendView, applyChange } from "./edits.js";
 import { endDrag } from "./drag.js";
+import { abortIndirect, setDragModes } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { refreshUi, renderLights, renderView, setRig, updateEditable } from "./panels.js";
 import { renderClients, renderShare } from "./presence.js";
@@ -59,6 +60,7 @@ export function connect() {
     renderClients();
     renderLights();
     if (S.drag) endDrag(null);
+    abortIndirect();
     document.body.classList.add("offline");
     // Back off from 0.5 s to 5 s so that a restarting server is found quickly but not hammered.
     const delay = Math.min(5000, 500 * 2 ** Math.min(S.attempts, 4));
@@ -149,6 +151,7 @@ function onAck(msg) {
     refreshHistory();
   }
   if (p.live) { S.live.inFlight = false; flushLive(); }
+  p.onAck?.(msg); // a drag's phases (indirect.js)
   // Undo and redo change what only the server knows (the change goes to the others, not to us).
   if (p.refetch || msg.kind) scheduleRefetch(0);
 }
@@ -170,7 +173,8 @@ function onChange(msg) {
 function onError(msg) {
   const p = msg.seq !== undefined ? S.pending.get(msg.seq) : null;
   if (p) S.pending.delete(msg.seq);
-  showMessage(`${msg.code}: ${msg.message}`);
+  if (p?.onError) p.onError(msg); // a drag's phases (indirect.js) show their own
+  else showMessage(`${msg.code}: ${msg.message}`);
   if (p?.live) { S.live.inFlight = false; flushLive(); }
   // Our optimistic copy may now be wrong: take the server's.
   if (p && p.kind !== "view" && p.kind !== "pick") scheduleRefetch(0);
@@ -225,7 +229,8 @@ export function scheduleRefetch(delay = 150) {
 }
 async function refetchRig() {
   // Not while our own edits are unacknowledged either: the server's copy would lack them.
-  const unacked = [...S.pending.values()].some((p) => p.kind !== "view" && p.kind !== "pick");
+  // (A drag's messages are not applied here: the server's rig is the news.)
+  const unacked = [...S.pending.values()].some((p) => p.kind !== "view" && p.kind !== "pick" && p.kind !== "drag");
   if (S.drag || S.live.inFlight || S.live.queued || unacked) return scheduleRefetch(300);
   try {
     const r = await api("GET", "rig");
@@ -275,6 +280,7 @@ export async function loadSchema() {
     const schema = await jsonOf(await fetch("/v1/schema"));
     if (schema?.schema !== 1 || !Array.isArray(schema.light)) return false; // a version this page does not read
     setSchema(schema);
+    setDragModes(schema.dragModes); // the drag-mode selector and its keys
     S.schemaLoaded = true;
     return true;
   } catch (e) {

@@ -6,6 +6,7 @@
 import { connect, loadSchema, renderStats, send } from "./connection.js";
 import { $, showMessage } from "./dom.js";
 import { addLight, canEdit, deleteLight, duplicateLight, redo, undo } from "./edits.js";
+import { cancelIndirect, dragModeKey, setDragMode } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { initPanels } from "./panels.js";
 import { initPresence } from "./presence.js";
@@ -25,10 +26,13 @@ $("redo").onclick = redo;
 $("addLight").onclick = () => addLight($("addType").value);
 $("dupLight").onclick = duplicateLight;
 $("delLight").onclick = deleteLight;
+$("dragMode").onchange = () => setDragMode($("dragMode").value);
 document.addEventListener("keydown", (e) => {
   const t = e.target;
   const typing = t instanceof HTMLInputElement && !["checkbox", "range", "color"].includes(t.type) || t instanceof HTMLSelectElement || t instanceof HTMLTextAreaElement;
   const mod = e.ctrlKey || e.metaKey;
+  // Escape during an indirect drag cancels it (the server puts the light back), wherever the focus is.
+  if (e.key === "Escape" && cancelIndirect()) { e.preventDefault(); return; }
   if (mod && !typing && e.key.toLowerCase() === "z") { e.preventDefault(); return e.shiftKey ? redo() : undo(); }
   if (mod && !typing && e.key.toLowerCase() === "y") { e.preventDefault(); return redo(); }
   if (mod && !typing && e.key.toLowerCase() === "d") { e.preventDefault(); return canEdit() && duplicateLight(); }
@@ -45,7 +49,8 @@ document.addEventListener("keydown", (e) => {
   case ".": return stepKey(1);
   case "Delete": return canEdit() && deleteLight();
   case "Escape": S.pickResult = null; return scheduleOverlay();
-  default: return;
+  // "d" (direct handles) and the drag modes' keys, from the server's schema (indirect.js).
+  default: if (dragModeKey(e.key)) e.preventDefault(); return;
   }
 });
 window.addEventListener("resize", scheduleOverlay);

@@ -18,6 +18,33 @@ export function scheduleOverlay() {
   requestAnimationFrame(() => { scheduleOverlay.pending = false; drawOverlay(); });
 }
 
+// What an indirect drag (indirect.js) grabbed, until it ends: the grabbed point (the begin's
+// `point`, projected), for shadow modes the occluder point S and the line from S to the pointer
+// (the shadow ray the solver makes pass through it), and the pointer itself.
+function drawGrab(root) {
+  const d = S.indirect;
+  if (!d) return;
+  const g = svg("g", { class: "grab", "data-grab": d.mode }, root);
+  const at = (p) => { const P = Cam.project(p); return P.front ? toScreen(P) : null; };
+  const ptr = d.pointer ? toScreen(d.pointer) : null;
+  const color = d.refused ? "#f66" : "#5ef";
+  const grab = d.grab;
+  const gp = grab?.point ? at(grab.point) : toScreen({ x: d.x + 0.5, y: d.y + 0.5 });
+  const S_ = grab?.occluder?.S ? at(grab.occluder.S) : null;
+  if (S_ && gp) svg("line", { x1: S_.x, y1: S_.y, x2: gp.x, y2: gp.y, stroke: color, "stroke-width": 1, "stroke-dasharray": "2 3", opacity: 0.7 }, g);
+  if (S_ && ptr) svg("line", { x1: S_.x, y1: S_.y, x2: ptr.x, y2: ptr.y, stroke: color, "stroke-width": 1.5, class: "grab-ray" }, g);
+  else if (gp && ptr) svg("line", { x1: gp.x, y1: gp.y, x2: ptr.x, y2: ptr.y, stroke: color, "stroke-width": 1, "stroke-dasharray": "4 3" }, g);
+  if (gp) {
+    svg("circle", { cx: gp.x, cy: gp.y, r: 5, fill: "none", stroke: color, "stroke-width": 2, class: "grab-point" }, g);
+    svg("text", { x: gp.x + 8, y: gp.y + 14, fill: color }, g).textContent = d.refused ? "refused" : grab ? "grabbed" : "…";
+  }
+  if (S_) {
+    svg("path", { d: `M${S_.x},${S_.y - 6}l6,6l-6,6l-6,-6z`, fill: color, stroke: "#000", "stroke-width": 1, class: "grab-occluder" }, g);
+    svg("text", { x: S_.x + 8, y: S_.y - 6, fill: color }, g).textContent = "S";
+  }
+  if (ptr) svg("circle", { cx: ptr.x, cy: ptr.y, r: 2.5, fill: color }, g);
+}
+
 /** Handle world positions of a light (pass it evaluated at the session time). */
 export function handlesOf(l) {
   const f = lightFrame(l);
@@ -40,6 +67,7 @@ function drawOverlay() {
     const s = toScreen({ x: S.pickResult.x + 0.5, y: S.pickResult.y + 0.5 });
     svg("path", { d: `M${s.x - 7},${s.y}h5m4,0h5M${s.x},${s.y - 7}v5m0,4v5`, stroke: "#0ff", "stroke-width": 1.5 }, root);
   }
+  drawGrab(root);
   if (!S.showHandles) return;
   // Labels of lights at (nearly) one place (a duplicate in place) are stacked, not overprinted.
   const placed = [];

@@ -5,6 +5,7 @@ import { renderStats, scheduleRefetch } from "./connection.js";
 import { $, div, labelEl, numberInput, showMessage, unitEl } from "./dom.js";
 import { beginGesture, canEdit, edit, endGesture, sendView, sendViewThrottled, setLightProp, setPresence } from "./edits.js";
 import { hexToLinear, linearToHex, parseNumber } from "./format.js";
+import { renderDragModes } from "./indirect.js";
 import { V } from "./linalg.js";
 import { scheduleOverlay } from "./overlay.js";
 import { clientColor, editorsOf } from "./presence.js";
@@ -35,6 +36,7 @@ export function refreshUi(rebuild = false) {
   renderOutputs();
   renderKeyWhat();
   renderTimeline();
+  renderDragModes();
   scheduleOverlay();
   renderStats();
   updateEditable();

@@ -19,6 +19,8 @@ export const S = {
   live: { inFlight: false, queued: null }, // one live (drag/slider) edit in flight, the newest queued
   drag: null, gesture: null, zoom: 1, panX: 0, panY: 0, fitted: false, showHandles: true,
   pickResult: null, timeEnd: 4, refetchTimer: null,
+  dragMode: "direct", // "direct" (handles, drag.js) or a schema drag mode (indirect.js)
+  indirect: null, lastIndirect: null, // the indirect drag going on; a summary of the last one
   schemaLoaded: false, // GET /v1/schema read into rig.js (connection.js loadSchema)
 };
 

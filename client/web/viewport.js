@@ -8,6 +8,7 @@ import { nextSeq, send } from "./connection.js";
 import { $, div, showMessage } from "./dom.js";
 import { endDrag, moveDrag, startDrag } from "./drag.js";
 import { canEdit } from "./edits.js";
+import { beginIndirect, endIndirect, indirectActive, moveIndirect } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { selectLight } from "./panels.js";
 import { S } from "./state.js";
@@ -47,9 +48,15 @@ export function eventToImage(e) {
   return { x: (e.clientX - r.left - S.panX) / S.zoom, y: (e.clientY - r.top - S.panY) / S.zoom };
 }
 
-function pickAt(p) {
+/** The shot's pixel under an image point (integers, row 0 at the top), or null outside the image. */
+export function pixelAt(p) {
   const x = Math.floor(p.x), y = Math.floor(p.y);
-  if (!Cam.W || x < 0 || y < 0 || x >= Cam.W || y >= Cam.H) return;
+  return !Cam.W || x < 0 || y < 0 || x >= Cam.W || y >= Cam.H ? null : { x, y };
+}
+function pickAt(p) {
+  const px = pixelAt(p);
+  if (!px) return;
+  const { x, y } = px;
   if (!send({ type: "pick", seq: nextSeq("pick"), x, y })) showMessage("not connected: cannot pick");
 }
 /** Shows a pick answer in the Pick panel (and its marker in the overlay). */
@@ -96,10 +103,20 @@ export function initViewport() {
     zoomAt(S.zoom * Math.exp(-e.deltaY * 0.0015), e.clientX - r.left, e.clientY - r.top);
   }, { passive: false });
 
-  // Handles drag, background drags pan, a click picks.
+  // Handles drag, background drags pan, a click picks. In a drag mode (indirect.js) a press on
+  // the image grabs what it shows instead (the handles do not take the pointer then).
   let press = null;
   $("viewport").addEventListener("pointerdown", (e) => {
     const t = e.target;
+    if (e.button === 0 && indirectActive() && !S.drag) {
+      const p = eventToImage(e);
+      const px = pixelAt(p);
+      if (px) {
+        e.preventDefault();
+        if (beginIndirect(px.x, px.y, p)) $("viewport").setPointerCapture(e.pointerId);
+        return;
+      }
+    }
     if (t.classList?.contains("handle")) {
       e.preventDefault();
       if (!canEdit()) return showMessage(S.connected ? "viewers cannot move lights (this page was opened with a viewer link)" : "not connected");
@@ -113,6 +130,13 @@ export function initViewport() {
   });
   $("viewport").addEventListener("pointermove", (e) => {
     if (S.drag) { moveDrag(e); return; }
+    if (S.indirect) {
+      // Off the image the newest pixel inside it is kept (the server refuses pixels outside).
+      const p = eventToImage(e);
+      const px = pixelAt({ x: Math.min(Math.max(p.x, 0), Cam.W - 0.5), y: Math.min(Math.max(p.y, 0), Cam.H - 0.5) });
+      if (px) moveIndirect(px.x, px.y, p);
+      return;
+    }
     if (!press) return;
     const dx = e.clientX - press.x, dy = e.clientY - press.y;
     if (!press.panning && Math.hypot(dx, dy) > 3) { press.panning = true; $("viewport").classList.add("panning"); }
@@ -120,11 +144,12 @@ export function initViewport() {
   });
   $("viewport").addEventListener("pointerup", (e) => {
     if (S.drag) { endDrag(); return; }
+    if (S.indirect) { endIndirect(); return; }
     if (!press) return;
     const wasPan = press.panning;
     press = null;
     $("viewport").classList.remove("panning");
     if (!wasPan && e.button === 0) pickAt(eventToImage(e));
   });
-  $("viewport").addEventListener("pointercancel", () => { if (S.drag) endDrag(); press = null; });
+  $("viewport").addEventListener("pointercancel", () => { if (S.drag) endDrag(); if (S.indirect) endIndirect(); press = null; });
 }

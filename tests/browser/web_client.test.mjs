@@ -123,6 +123,19 @@ function meanAbsDiff(a, b) {
   for (let i = 0; i < a.length; i += 4) s += Math.abs(a[i] - b[i]) + Math.abs(a[i + 1] - b[i + 1]) + Math.abs(a[i + 2] - b[i + 2]);
   return s / (a.length / 4) / 3;
 }
+// The same within `radius` pixels of any of `points` (a 320-wide frame).
+function meanAbsDiffNear(a, b, points, radius) {
+  let s = 0, n = 0;
+  for (let y = 0; y < 180; y++) {
+    for (let x = 0; x < 320; x++) {
+      if (!points.some((p) => Math.abs(p.x - x) <= radius && Math.abs(p.y - y) <= radius)) continue;
+      const i = 4 * (y * 320 + x);
+      s += Math.abs(a[i] - b[i]) + Math.abs(a[i + 1] - b[i + 1]) + Math.abs(a[i + 2] - b[i + 2]);
+      n++;
+    }
+  }
+  return n ? s / n / 3 : 0;
+}
 // Waits until the page shows a loaded frame of at least rig version v.
 async function frameAtLeast(page, v) {
   await page.waitForFunction((v) => {
@@ -552,6 +565,186 @@ try {
     await a.waitForFunction((n) => document.querySelector("#lights li.selected")?.dataset.light === n, other, WAIT);
     await a.keyboard.press("h");
     await shot(a, "09-pick.png");
+  });
+
+  await check("drag modes: the selector and keys are the schema's; each mode edits the light by what it does in the image", async () => {
+    const t0 = Date.now();
+    const schema = await (await fetch(new URL("/v1/schema", server.base))).json();
+    const modes = schema.dragModes;
+    assert(Array.isArray(modes) && modes.length >= 7, `schema dragModes: ${JSON.stringify(modes)}`);
+    const options = await a.$$eval("#dragMode option", (os) => os.map((o) => [o.value, o.textContent, o.title]));
+    assert(JSON.stringify(options.map((o) => o[0])) === JSON.stringify(["direct", ...modes.map((m) => m.name)]), `selector options ${options.map((o) => o[0])}`);
+    for (const m of modes) {
+      const o = options.find((x) => x[0] === m.name);
+      assert(o[1].includes(m.label) && o[1].includes(m.shortcut.toUpperCase()) && o[2].includes(m.doc), `option ${JSON.stringify(o)} for ${m.name}`);
+    }
+    // A mode for another light type: its option is disabled, its key refused with a message.
+    const bendyOnly = modes.find((m) => !m.lights.includes("spot"));
+    await a.click('#lights li[data-light="fill"] .lname');
+    assert(await a.$eval(`#dragMode option[value="${bendyOnly.name}"]`, (o) => o.disabled), `${bendyOnly.name} is offered for a spot light`);
+    await a.keyboard.press(bendyOnly.shortcut);
+    await waitMessage(a, new RegExp(`does not apply to spot light 'fill'`));
+    assert(await a.$eval("#dragMode", (e) => e.value) === "direct", "a refused shortcut changed the mode");
+
+    // key is a BendyLight by now (every mode applies to it).
+    await a.click('#lights li[data-light="key"] .lname');
+    const rig0 = await getRig();
+    const key0 = rig0.lights.find((l) => l.name === "key");
+    assert(modes.every((m) => m.lights.includes(key0.type)), `a mode does not apply to key (${key0.type})`);
+    const shape = (l) => JSON.stringify([l.position, l.direction, l.controlPoints, l.radii]);
+    // Which pixels show key's shadow, key's light or the background: a second connection asks
+    // (a pick per pixel, and a shadow drag's begin, which changes nothing) on a grid.
+    const STEP = 10;
+    const cells = await a.evaluate(async ({ step }) => {
+      const { S } = window.dfb;
+      const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/v1/sessions/${encodeURIComponent(S.sessionId)}/ws?token=${encodeURIComponent(S.token)}`);
+      const waiting = new Map();
+      let welcomed;
+      const welcome = new Promise((r) => { welcomed = r; });
+      ws.onmessage = (ev) => {
+        if (typeof ev.data !== "string") return;
+        const m = JSON.parse(ev.data);
+        if (m.type === "welcome") welcomed();
+        if (m.seq && waiting.has(m.seq)) { waiting.get(m.seq)(m); waiting.delete(m.seq); }
+      };
+      await new Promise((r) => { ws.onopen = r; });
+      ws.send(JSON.stringify({ type: "hello", protocol: 1, name: "probe" }));
+      await welcome;
+      let seq = 0;
+      const ask = (msg) => new Promise((r) => { msg.seq = ++seq; waiting.set(msg.seq, r); ws.send(JSON.stringify(msg)); });
+      const out = [];
+      const jobs = [];
+      for (let y = step / 2; y < S.session.height; y += step) {
+        for (let x = step / 2; x < S.session.width; x += step) jobs.push([x, y]);
+      }
+      const run = async ([x, y]) => {
+        const pick = await ask({ type: "pick", x, y });
+        const begin = pick.hit ? await ask({ type: "drag", phase: "begin", mode: "shadow", light: "key", x, y }) : null;
+        out.push({ x, y, hit: pick.hit, reached: pick.lights.some((l) => l.name === "key"), shadowed: begin?.type === "ack", why: begin?.message });
+      };
+      for (let i = 0; i < jobs.length; i += 8) await Promise.all(jobs.slice(i, i + 8).map(run));
+      ws.close();
+      return out;
+    }, { step: STEP });
+    const at = (x, y) => cells.find((c) => c.x === x && c.y === y);
+    const shadowed = cells.filter((c) => c.shadowed);
+    const lit = cells.filter((c) => c.hit && c.reached && !c.shadowed);
+    const background = cells.filter((c) => !c.hit);
+    console.log(`     ${cells.length} pixels asked in ${((Date.now() - t0) / 1000).toFixed(1)} s: ${shadowed.length} in key's shadow, ${lit.length} lit by it, ${background.length} background`);
+    assert(shadowed.length >= 3 && lit.length >= 3, "too few shadowed or lit pixels to drag");
+    assert((await getRig()).version === rig0.version, "the begins changed the rig");
+    // Grabs inside a region (most grid neighbours alike) first; targets: surface pixels one or two steps away.
+    const around = (c) => [[1, 0], [-1, 0], [0, 1], [0, -1], [2, 0], [-2, 0], [0, 2], [0, -2], [1, 1], [-1, -1]]
+      .map(([dx, dy]) => at(c.x + dx * STEP, c.y + dy * STEP)).filter((n) => n?.hit);
+    const interior = (list, same) => list.map((c) => [c, around(c).slice(0, 4).filter(same).length]).sort((p, q) => q[1] - p[1]).map((p) => p[0]);
+    const grabs = { shadow: interior(shadowed, (n) => n.shadowed), lit: interior(lit, (n) => n.reached && !n.shadowed) };
+
+    await frameAtLeast(a, rig0.version);
+    const img0 = await framePixels(a);
+    const version = async () => (await getRig()).version;
+    // One drag with the real pointer, from pixel `from` to pixel `to`; resolves with the page's
+    // summary of it (indirect.js S.lastIndirect).
+    async function dragPixels(from, to, { escape = false, screenshot = null } = {}) {
+      await a.evaluate(() => { window.dfb.S.lastIndirect = null; });
+      const p = await imageToScreen(a, from.x + 0.5, from.y + 0.5);
+      const q = await imageToScreen(a, to.x + 0.5, to.y + 0.5);
+      await a.mouse.move(p.x, p.y);
+      await a.mouse.down();
+      // The cue: the grabbed point is drawn once the begin is answered (or the refusal).
+      await a.waitForFunction(() => { const d = window.dfb.S.indirect; return !d || d.grab || d.refused; }, null, WAIT);
+      for (let i = 1; i <= 6; i++) await a.mouse.move(p.x + (q.x - p.x) * i / 6, p.y + (q.y - p.y) * i / 6);
+      let cue = null;
+      cue = await a.evaluate(() => ({ point: !!document.querySelector("#overlay .grab .grab-point"), occluder: !!document.querySelector("#overlay .grab .grab-occluder"),
+                                      ray: !!document.querySelector("#overlay .grab .grab-ray"), grab: window.dfb.S.indirect?.grab ?? null }));
+      if (screenshot) {
+        await a.waitForFunction(() => !window.dfb.S.indirect || window.dfb.S.indirect.changed > 0 || window.dfb.S.indirect.lastError, null, WAIT);
+        await shot(a, screenshot);
+      }
+      if (escape) {
+        await a.waitForFunction(() => window.dfb.S.indirect?.changed > 0 || window.dfb.S.indirect?.lastError, null, WAIT);
+        await a.keyboard.press("Escape");
+      }
+      await a.mouse.up();
+      const summary = await a.waitForFunction(() => window.dfb.S.lastIndirect, null, WAIT).then((h) => h.jsonValue());
+      return { ...summary, cue };
+    }
+    const unavailable = /not available in this build/;
+    const results = [];
+    let shotTaken = false;
+    for (const [i, m] of modes.entries()) {
+      // Choose the mode: its key, except one from the selector.
+      if (i === 1) await a.selectOption("#dragMode", m.name);
+      else await a.keyboard.press(m.shortcut);
+      await a.waitForFunction((n) => window.dfb.S.dragMode === n && document.getElementById("dragMode").value === n, m.name, WAIT);
+      const v0 = await version();
+      const list = m.needsOccluder ? grabs.shadow : grabs.lit;
+      let done = null;
+      for (const from of list.slice(0, 3)) {
+        for (const to of around(from).slice(0, 3)) {
+          const r = await dragPixels(from, to, { screenshot: m.needsOccluder && !shotTaken ? "13-shadow-drag.png" : null });
+          if (m.needsOccluder) shotTaken = true;
+          assert(r.refused === false && r.grab, `${m.name}: the begin at (${from.x}, ${from.y}) was refused: ${r.lastError}`);
+          assert(r.cue.point && r.cue.occluder === m.needsOccluder && r.cue.ray === m.needsOccluder,
+                 `${m.name}: the cue shows ${JSON.stringify(r.cue)}`);
+          assert(!m.needsOccluder || Array.isArray(r.grab.occluder?.S), `${m.name}: the begin's ack has no occluder`);
+          if (r.changed > 0 || unavailable.test(r.lastError ?? "")) { done = { ...r, from, to }; break; }
+        }
+        if (done) break;
+      }
+      assert(done, `${m.name}: no drag changed the light`);
+      if (done.changed === 0) {
+        // This build's server does not solve it: the refusal is shown and nothing changed.
+        assert(["localShadowMove", "localShadowScale"].includes(m.name), `${m.name}: ${done.lastError}`);
+        await waitMessage(a, unavailable);
+        assert(await version() === v0, `${m.name}: a refused drag changed the rig`);
+        results.push(`${m.name} refused (${done.lastError})`);
+        continue;
+      }
+      const rig1 = await waitRig((r) => shape(r.lights.find((l) => l.name === "key")) !== shape(key0) && r.version > v0, `${m.name} changes key`);
+      const key1 = rig1.lights.find((l) => l.name === "key");
+      const moved = ["position", "direction", "controlPoints", "radii"].filter((p) => JSON.stringify(key1[p]) !== JSON.stringify(key0[p]));
+      // The page holds the server's light after the drag (read back: the change goes to the others).
+      await a.waitForFunction((s) => { const l = window.dfb.S.rig.lights.find((x) => x.name === "key"); return JSON.stringify([l.position, l.direction, l.controlPoints, l.radii]) === s; },
+                              shape(key1), WAIT);
+      await frameAtLeast(a, rig1.version);
+      const img1 = await framePixels(a);
+      const diff = meanAbsDiff(img0, img1);
+      // A shadow mode moves the grabbed shadow: the image changed where it was grabbed and dropped.
+      // (A lit mode's change may lie anywhere: a turned beam's interior is as bright as before.)
+      const near = meanAbsDiffNear(img0, img1, [done.from, done.to], 12);
+      assert(diff > 0.01 && (!m.needsOccluder || near > 0.2), `${m.name}: the image did not change (${diff} overall, ${near} around the drag)`);
+      results.push(`${m.name} (${done.from.x},${done.from.y})->(${done.to.x},${done.to.y}): ${done.changed} change(s) of ${moved.join(", ")}, ` +
+                   `image ${diff.toFixed(2)}, around the drag ${near.toFixed(2)}`);
+      // One drag, one undo step.
+      await a.keyboard.press("Control+Z");
+      await waitRig((r) => shape(r.lights.find((l) => l.name === "key")) === shape(key0), `undo takes the ${m.name} drag back`);
+    }
+    console.log(`     ${results.join("\n     ")}`);
+
+    // Escape during a drag cancels it: the light is back as it was.
+    const plain = modes.find((m) => !m.needsOccluder);
+    await a.keyboard.press(plain.shortcut);
+    const c = await dragPixels(grabs.lit[0], around(grabs.lit[0])[0], { escape: true });
+    assert(c.ended === "cancelled", `Escape ended the drag as ${c.ended}`);
+    await waitRig((r) => shape(r.lights.find((l) => l.name === "key")) === shape(key0), "cancel restores key");
+    // Refused grabs: a shadow mode on a lit pixel, a mode on the background; nothing changes.
+    const vRefused = await version();
+    const shadowMode = modes.find((m) => m.name === "shadow") ?? modes.find((m) => m.needsOccluder);
+    await a.keyboard.press(shadowMode.shortcut);
+    const r1 = await dragPixels(lit[0], around(lit[0])[0]);
+    assert(r1.refused && r1.changed === 0, `${shadowMode.name} on a lit pixel: ${JSON.stringify(r1)}`);
+    await waitMessage(a, /not in a shadow of light 'key'/);
+    if (background.length) {
+      await a.keyboard.press(plain.shortcut);
+      const bg = background[0];
+      const r2 = await dragPixels(bg, { x: bg.x + (bg.x + STEP < 320 ? STEP : -STEP), y: bg.y });
+      assert(r2.refused && r2.changed === 0, `${plain.name} on the background: ${JSON.stringify(r2)}`);
+      await waitMessage(a, /shows no surface \(the background\)/);
+    }
+    assert(await version() === vRefused, "a refused drag changed the rig");
+    // Back to the handles ("d").
+    await a.keyboard.press("d");
+    await a.waitForFunction(() => window.dfb.S.dragMode === "direct" && !document.body.classList.contains("dragmode"), null, WAIT);
   });
 
   await check("keys at two times, scrubbing shows the animated value", async () => {
