@@ -668,7 +668,9 @@ try {
       const summary = await a.waitForFunction(() => window.dfb.S.lastIndirect, null, WAIT).then((h) => h.jsonValue());
       return { ...summary, cue };
     }
-    const unavailable = /not available in this build/;
+    // The local modes refuse a drag that would fold the tube (the chain this test has bent by then
+    // already folds: radius x curvature above 1), naming why; that refusal is shown and changes nothing.
+    const unavailable = /would fold the tube/;
     const results = [];
     let shotTaken = false;
     for (const [i, m] of modes.entries()) {
@@ -678,7 +680,7 @@ try {
       await a.waitForFunction((n) => window.dfb.S.dragMode === n && document.getElementById("dragMode").value === n, m.name, WAIT);
       const v0 = await version();
       const list = m.needsOccluder ? grabs.shadow : grabs.lit;
-      let done = null;
+      let done = null, lastError = null;
       for (const from of list.slice(0, 3)) {
         for (const to of around(from).slice(0, 3)) {
           const r = await dragPixels(from, to, { screenshot: m.needsOccluder && !shotTaken ? "13-shadow-drag.png" : null });
@@ -687,13 +689,14 @@ try {
           assert(r.cue.point && r.cue.occluder === m.needsOccluder && r.cue.ray === m.needsOccluder,
                  `${m.name}: the cue shows ${JSON.stringify(r.cue)}`);
           assert(!m.needsOccluder || Array.isArray(r.grab.occluder?.S), `${m.name}: the begin's ack has no occluder`);
+          lastError = r.lastError ?? lastError;
           if (r.changed > 0 || unavailable.test(r.lastError ?? "")) { done = { ...r, from, to }; break; }
         }
         if (done) break;
       }
-      assert(done, `${m.name}: no drag changed the light`);
+      assert(done, `${m.name}: no drag changed the light (last error: ${lastError})`);
       if (done.changed === 0) {
-        // This build's server does not solve it: the refusal is shown and nothing changed.
+        // The solver refused (the tube would fold): the refusal is shown and nothing changed.
         assert(["localShadowMove", "localShadowScale"].includes(m.name), `${m.name}: ${done.lastError}`);
         await waitMessage(a, unavailable);
         assert(await version() === v0, `${m.name}: a refused drag changed the rig`);

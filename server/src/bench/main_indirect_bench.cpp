@@ -98,6 +98,8 @@ int main(int argc, char** argv) {
         {"Bendy shadow drag", DragMode::Shadow, true, {}},
         {"Bendy hotspot drag", DragMode::Hotspot, true, {}},
         {"Bendy highlight, cp 3-4", DragMode::Highlight, true, {3, 4}},
+        {"Bendy local move, cp 3-4", DragMode::LocalShadowMove, true, {3, 4}},
+        {"Bendy local scale", DragMode::LocalShadowScale, true, {}},
     };
 
     std::printf("device:   %s\n", opened.engine->deviceDescription().c_str());
