@@ -145,6 +145,16 @@ bool flat(const Shot& s, int x, int y) {
     return true;
 }
 
+// The key made a BendyLight bent sideways over its last segment (a chain 1.2 times the key's
+// distance from the origin, two segments).
+void bendKey(Rig& rig) {
+    Light& l = rig.lights[0];
+    const float len = 1.2f * glm::length(glm::vec3(l.position[0], l.position[1], l.position[2]));
+    makeStraightChain(l, len, 2);
+    l.controlPoints[2][2] += 0.05f * len;
+    l.controlPoints[3][2] += 0.1f * len;
+}
+
 Rig edited(const Rig& rig, const Light& l) {
     Rig out = rig;
     *out.find(l.name) = l;
@@ -163,13 +173,7 @@ TEST_P(IndirectImage, ShadowDragPutsTheBoundaryUnderThePointer) {
     Shot& s = shot(GetParam());
     for (bool bendy : {false, true}) {
         Rig rig = s.rig;
-        if (bendy) {
-            Light& l = rig.lights[0];
-            const float len = 1.2f * glm::length(glm::vec3(l.position[0], l.position[1], l.position[2]));
-            makeStraightChain(l, len, 2);
-            l.controlPoints[2][2] += 0.05f * len;
-            l.controlPoints[3][2] += 0.1f * len;
-        }
+        if (bendy) bendKey(rig);
         const auto vis = mask(s, rig, "key");
         auto d = findDrag(s, rig, protocol::DragMode::Shadow, "key", 6, 0, [&](int x, int y) { return boundary(s, vis, x, y); });
         ASSERT_TRUE(d) << s.name << (bendy ? " bent" : " spot") << ": no shadow boundary to grab";
@@ -318,11 +322,7 @@ TEST_P(IndirectImage, DiffuseMoveCarriesTheBrightness) {
 TEST_P(IndirectImage, LocalShadowEditsMoveTheShadowAndKeepTheOccludersShading) {
     Shot& s = shot(GetParam());
     Rig rig = s.rig;
-    Light& l = rig.lights[0];
-    const float len = 1.2f * glm::length(glm::vec3(l.position[0], l.position[1], l.position[2]));
-    makeStraightChain(l, len, 2);
-    l.controlPoints[2][2] += 0.05f * len;
-    l.controlPoints[3][2] += 0.1f * len;
+    bendKey(rig);
     const auto vis = mask(s, rig, "key");
     auto before = s.engine->renderLightLinear(rig, "key");
     ASSERT_TRUE(before.ok());
