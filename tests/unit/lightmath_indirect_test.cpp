@@ -137,6 +137,34 @@ TEST(ShadowDrag, BendyLightBentRayThroughOccluderMeetsNewShadowPointRigidAndNonR
     }
 }
 
+// P's and M''s beam directions agree anywhere along their common ray, so a free solve may slide
+// the light along it: dfb-indirect-bench's grab flung a bent light 15 km away within five 2-px
+// updates (5 s frames). The solve keeps eq. 11's distance along the deformed ray Q'(P) - Q'(M'):
+// over a sweep of drags the light's translation departs from eq. 11's deformed closed form only
+// across that ray, and stays within the scene's scale.
+TEST(ShadowDrag, BendyLightKeepsEqElevenDistanceAlongTheRay) {
+    const Light l = bendy();
+    const auto ch = chainFromLight<double>(l);
+    const dvec3 P = tubePoint(ch, 0, 0.6, 0.25, -0.2);
+    const dvec3 M = tubePoint(ch, 2, 3.0, 0.25, -0.2);
+    const auto deformed = [&](const dvec3& X) { return lightmath::deformedPoint(ch, lightmath::inverseMap(ch, X)); };
+    const dvec3 Pl = d(l.position), Pd = deformed(P), Md = deformed(M);
+    int solved = 0;
+    for (int i = 1; i <= 12; ++i) {
+        const dvec3 Mnew = M + dvec3(0.0, 0.15, 0.1) * double(i);
+        const auto e = shadowDrag(l, P, M, Mnew);
+        if (!e.ok()) continue; // a drag may leave the tube's domain; those are refused, not flung
+        ++solved;
+        const dvec3 MnewD = deformed(Mnew);
+        const dvec3 x0 = Pd + (Pd - MnewD) * (glm::length(Pl - Pd) / glm::length(Pd - Md)) - Pl;
+        const dvec3 ray = glm::normalize(Pd - MnewD);
+        const dvec3 x = d(e->light.position) - Pl;
+        EXPECT_NEAR(glm::dot(x - x0, ray), 0.0, 1e-5 * (1.0 + glm::length(x0))) << "update " << i;
+        EXPECT_LT(glm::length(x), 10.0 * glm::length(Pl - P)) << "update " << i;
+    }
+    EXPECT_GE(solved, 8);
+}
+
 TEST(HotspotDrag, SpotLightAxisPointsAtNewTarget) {
     const Light l = spot();
     const dvec3 Pl = d(l.position);

@@ -365,9 +365,17 @@ inline Result<Edit> shadowDrag(const Light& light, const dvec3& P, const dvec3& 
     if (!(glm::length(Pd - Md) > tiny) || !(glm::length(Pl - Pd) > tiny)) {
         return invalid(light.name, "shadow drag: degenerate deformed points (Q'(M) == Q'(P), or P at the source)");
     }
-    dvec3 x = Pd + (Pd - MnewD) * (glm::length(Pl - Pd) / glm::length(Pd - Md)) - Pl; // eq. 11, deformed
-    auto residual = [&](const dvec3& delta, dvec3& r) {
-        const auto moved = chainOf(light, translated(pose, delta, selected));
+    const dvec3 x0 = Pd + (Pd - MnewD) * (glm::length(Pl - Pd) / glm::length(Pd - Md)) - Pl; // eq. 11, deformed
+    // P's and M''s beam directions agree anywhere along their common ray: the residual's Jacobian
+    // has a null direction, about the ray d = Q'(P) - Q'(M'), along which an undamped step drifts
+    // (a bent light was flung 15 km away, dfb-indirect-bench). Eq. 11 fixes the light's distance
+    // along that ray; the solve keeps it and moves only across the ray (y's part along d is
+    // projected out, so each step is a 2-D correction of the closed form).
+    const dvec3 d = glm::normalize(Pd - MnewD);
+    const auto across = [&](const dvec3& y) { return x0 + (y - d * glm::dot(y, d)); };
+    dvec3 x(0.0);
+    auto residual = [&](const dvec3& y, dvec3& r) {
+        const auto moved = chainOf(light, translated(pose, across(y), selected));
         dvec3 eP, eM;
         if (!beamDirection(moved, P, eP) || !beamDirection(moved, Mnew, eM)) return false;
         r = eP - eM;
@@ -376,13 +384,14 @@ inline Result<Edit> shadowDrag(const Light& light, const dvec3& P, const dvec3& 
     int iterations = 0;
     double res = 0.0;
     if (!solve(residual, 1e-6 * scale, x, iterations, res)) {
-        // The deformed-space guess left the tube's domain: start from where the light is.
-        x = dvec3(0.0);
+        // The closed form left the tube's domain: start from the point of its plane nearest to
+        // where the light is.
+        x = -x0;
         if (!solve(residual, 1e-6 * scale, x, iterations, res)) {
             return invalid(light.name, "shadow drag: the occluder or the new shadow point has no foot in the tube");
         }
     }
-    const Pose out = translated(pose, x, selected);
+    const Pose out = translated(pose, across(x), selected);
     const auto moved = chainOf(light, out);
     lightmath::TubeCoords<double> cP;
     double sP = 0.0, sM = 0.0;
