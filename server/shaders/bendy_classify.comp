@@ -44,10 +44,10 @@ void main() {
             if ((b.x - a.x) * (e.y - a.y) - (e.x - a.x) * (b.y - a.y) > 0.0) return; // counter-clockwise: front
         }
     }
-    float k0 = texelFetch(tDeformed, int(2u * i0 + 1u)).x, k1 = texelFetch(tDeformed, int(2u * i1 + 1u)).x, k2 = texelFetch(tDeformed, int(2u * i2 + 1u)).x;
-    float level = max(bendyEdgeLevel(d1, d2, max(k1, k2), uTexelPerDistance, uMaxLevel),
-                      max(bendyEdgeLevel(d2, d0, max(k2, k0), uTexelPerDistance, uMaxLevel),
-                          bendyEdgeLevel(d0, d1, max(k0, k1), uTexelPerDistance, uMaxLevel)));
+    vec4 k0 = texelFetch(tDeformed, int(2u * i0 + 1u)), k1 = texelFetch(tDeformed, int(2u * i1 + 1u)), k2 = texelFetch(tDeformed, int(2u * i2 + 1u));
+    float level = max(bendyEdgeLevel(d1, d2, k1, k2, uTexelPerDistance, uMaxLevel),
+                      max(bendyEdgeLevel(d2, d0, k2, k0, uTexelPerDistance, uMaxLevel),
+                          bendyEdgeLevel(d0, d1, k0, k1, uTexelPerDistance, uMaxLevel)));
     uint open = closed ? 0u : 1u;
     if (level <= 1.0) {
         // The plain draw has no fragment stage (llvmpipe then skips the per-pixel shader): a

@@ -1,7 +1,8 @@
 #version 450 core
 // Deforms every shadow-casting vertex once per chain edit (eqs. 4-7), for the deformed shadow
-// map's tessellation stages: out[2v] = (Q', 1 if mapped), out[2v+1].x = the local bending
-// curvature kappa_eff (1/length) the control stage sizes its edge levels with.
+// map's tessellation stages: out[2v] = (Q', 1 if mapped), out[2v+1] = (the local bending
+// curvature kappa_eff (1/length), the foot's segment, the lateral growth rho / R, 0): what the
+// control stage sizes its edge levels with (bendyEdgeLevel).
 #include "common_uniforms.glsl"
 #include "common_bendy.glsl"
 
@@ -27,7 +28,15 @@ void main() {
     float speed = max(length(d), 1e-20);
     float kappa = length(cross(d, segmentSecondDerivative(c.g))) / (speed * speed * speed);
     float s = tubeArcLength(c);
-    float ratio = s * uBendy.bendyAxisU.w / max(c.foot.w, 1e-20);
+    float R = max(c.foot.w, 1e-20);
+    float ratio = s * uBendy.bendyAxisU.w / R;
+    // Eq. 7 scales a lateral offset rho by f(s) = s tan(theta) / R(s): where the radius does not
+    // grow as s tan(theta) (a bent chain's radii, the extension's slope) a straight edge along
+    // the tube bends by rho f''(s) even where the chain is straight. With R_s = R_t / |P_t| and
+    // R_ss ~ R_tt / |P_t|^2: f'' = -tan(theta) (s R_ss / R^2 + 2 R_s (R - s R_s) / R^3).
+    float Rs = c.derivative.w / speed, Rss = 2.0 * (c.g.p0.w - 2.0 * c.g.p1.w + c.g.p2.w) / (speed * speed);
+    float rho = length(vec2(c.v, c.w)) * R;
+    float kappaRadius = rho * uBendy.bendyAxisU.w * abs(s * Rss / (R * R) + 2.0 * Rs * (R - s * Rs) / (R * R * R));
     deformed[2u * v] = vec4(deformedPointAt(c, s), 1.0);
-    deformed[2u * v + 1u] = vec4(kappa * max(ratio, 1.0), 0.0, 0.0, 0.0);
+    deformed[2u * v + 1u] = vec4(kappa * max(ratio, 1.0) + kappaRadius, float(c.segment), ratio, 0.0);
 }

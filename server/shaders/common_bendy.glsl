@@ -15,7 +15,7 @@ layout(std140, binding = UBO_BENDY) uniform BendyBlock {
     vec4 bendyEnd;                            // xyz P'(K) (extension direction), w R'(K)
     vec4 bendyConeStart[BENDY_MAX_SEGMENTS]; // per segment: xyz p0, w radius there (toBendyBlock)
     vec4 bendyConeChord[BENDY_MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
-    vec4 bendyConeRadius[BENDY_MAX_SEGMENTS];  // x radius change along the chord, y slope term m
+    vec4 bendyConeRadius[BENDY_MAX_SEGMENTS];  // x radius change along the chord, y slope term m, z largest curvature
 } uBendy;
 
 // Specialised variants fix the number of segments (the segment loops unroll, the control points
@@ -370,9 +370,23 @@ vec3 lightDirection(TubeCoords c, vec3 Q, bool exact) {
 // bendy_classify.comp): a straight edge of deformed length L where the deformation bends with
 // curvature kappa deviates from the true deformed curve by about e = kappa L^2 / 8; n pieces cut
 // that to e / n^2, so n = sqrt(e / tol) with tol = 0.25 shadow-map texels at the edge's distance.
-// a, b: deformed endpoints (w = 1 if mapped).
-float bendyEdgeLevel(vec4 a, vec4 b, float kappa, float texelPerDistance, float maxLevel) {
+// a, b: deformed endpoints (w = 1 if mapped); ka, kb: bendy_deform.comp's second texel of each
+// (x kappa_eff at the vertex, y its segment, z its lateral growth rho / R). The endpoints' own
+// curvature misses a bend that lies between them (a long ground edge whose ends fall on the
+// straight first segment and past the chain's end crosses the whole bend: planar under a bent
+// light, it self-shadowed 3,500 of 26,000 pixels of engine_shadow_bias_test's bunny plane), so
+// kappa is also the largest curvature of every segment the edge's feet span, grown as the
+// endpoints' offsets grow.
+float bendyEdgeKappa(vec4 ka, vec4 kb) {
+    float kappa = max(ka.x, kb.x);
+    int first = int(min(ka.y, kb.y) + 0.5), last = int(max(ka.y, kb.y) + 0.5);
+    float grow = max(1.0, max(ka.z, kb.z));
+    for (int k = first; k <= last && k < bendySegments(); ++k) kappa = max(kappa, uBendy.bendyConeRadius[k].z * grow);
+    return kappa;
+}
+float bendyEdgeLevel(vec4 a, vec4 b, vec4 ka, vec4 kb, float texelPerDistance, float maxLevel) {
     if (a.w < 0.5 || b.w < 0.5) return 1.0; // dropped by the fragment stage anyway
+    float kappa = bendyEdgeKappa(ka, kb);
     vec3 m = 0.5 * (a.xyz + b.xyz);
     float dist = max(dot(m - uBendy.bendyP[0].xyz, uBendy.bendyAxisU.xyz), 1e-6);
     float L = length(a.xyz - b.xyz);

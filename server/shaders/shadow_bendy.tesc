@@ -10,7 +10,7 @@
 layout(vertices = 3) out;
 in vec3 vWorld[];
 in vec4 vDeformed[];
-in float vKappa[];
+in vec4 vBend[];
 out vec3 tcWorld[];
 out vec4 tcDeformed[];
 
@@ -18,7 +18,7 @@ layout(location = LOC_TESS_MAX_LEVEL) uniform float uMaxLevel; // 1 = no subdivi
 layout(location = LOC_TESS_TEXEL_PER_DISTANCE) uniform float uTexelPerDistance; // shadow-map texel size at unit distance
 
 float edgeLevel(int a, int b) {
-    return bendyEdgeLevel(vDeformed[a], vDeformed[b], max(vKappa[a], vKappa[b]), uTexelPerDistance, uMaxLevel);
+    return bendyEdgeLevel(vDeformed[a], vDeformed[b], vBend[a], vBend[b], uTexelPerDistance, uMaxLevel);
 }
 
 void main() {

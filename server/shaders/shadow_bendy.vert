@@ -7,9 +7,9 @@ layout(location = ATTR_POSITION) in vec3 aPosition;
 layout(binding = TEX_DEFORMED) uniform samplerBuffer tDeformed; // (as bendy_classify.comp)
 out vec3 vWorld;
 out vec4 vDeformed; // xyz Q', w 1 if mapped
-out float vKappa;
+out vec4 vBend; // bendy_deform.comp's second texel: kappa_eff, segment, rho / R
 void main() {
     vWorld = aPosition;
     vDeformed = texelFetch(tDeformed, 2 * gl_VertexID);
-    vKappa = texelFetch(tDeformed, 2 * gl_VertexID + 1).x;
+    vBend = texelFetch(tDeformed, 2 * gl_VertexID + 1);
 }

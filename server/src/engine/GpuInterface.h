@@ -186,7 +186,9 @@ struct BendyBlock {
     // Per segment, the round cone around its chord that holds its tube (segmentFootprintContains):
     glm::vec4 coneStart[lightmath::MAX_SEGMENTS]; // xyz p0, w radius at p0
     glm::vec4 coneChord[lightmath::MAX_SEGMENTS]; // xyz p2 - p0, w 1 / |p2 - p0|^2
-    glm::vec4 coneRadius[lightmath::MAX_SEGMENTS];  // x radius at p2 - radius at p0, y slope term m
+    // x radius at p2 - radius at p0, y slope term m; z the segment's largest curvature (1/length)
+    // over t in [0, 1], for the deformed map's edge levels (bendyEdgeLevel in common_bendy.glsl)
+    glm::vec4 coneRadius[lightmath::MAX_SEGMENTS];
 };
 // std140: vec4 arrays are tightly packed, 16 bytes an element.
 constexpr size_t POINTS_BYTES = lightmath::MAX_CONTROL_POINTS * 16, SEGMENTS_BYTES = lightmath::MAX_SEGMENTS * 16;
@@ -227,7 +229,16 @@ inline BendyBlock toBendyBlock(const lightmath::Chain<float>& ch, bool exactDire
                                                                     : (dr >= 0.f ? 1e30f : -1e30f);
         b.coneStart[k] = glm::vec4(p0, ra);
         b.coneChord[k] = glm::vec4(chord, 1.f / std::max(L2, 1e-30f));
-        b.coneRadius[k] = glm::vec4(dr, m, 0.f, 0.f);
+        // Curvature of the quadratic B(t) = p0 (1-t)^2 + 2 p1 t (1-t) + p2 t^2 (eq. 1): with
+        // a = p1 - p0, e = p2 - p1, B' = 2 (a + (e - a) t) and B'' = 2 (e - a), so
+        // |B' x B''| = 4 |a x e| and kappa(t) = |a x e| / (2 |a + (e - a) t|^3), largest where
+        // |B'| is least: t* = -a.(e - a) / |e - a|^2 clamped to [0, 1].
+        const glm::vec3 a = p1 - p0, e = p2 - p1, da = e - a;
+        const float dd = glm::dot(da, da);
+        const float ts = dd > 0.f ? std::clamp(-glm::dot(a, da) / dd, 0.f, 1.f) : 0.f;
+        const float speed = glm::length(a + da * ts);
+        const float kappaMax = speed > 0.f ? glm::length(glm::cross(a, e)) / (2.f * speed * speed * speed) : 0.f;
+        b.coneRadius[k] = glm::vec4(dr, m, kappaMax, 0.f);
     }
     return b;
 }
