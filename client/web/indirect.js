@@ -8,6 +8,12 @@
 // Pacing as for handle drags: the begin, then at most one update in flight; the newest pointer
 // position waits for the previous answer (ack or error). The pointer's release sends `end` once
 // nothing is in flight, Escape sends `cancel` (the server puts the light back).
+//
+// Control-point selection (paper 000 section 5, last paragraph; Kasai et al. 4.2.1): in a mode the
+// schema marks `selectable`, Shift+click on a BendyLight's control-point handle (or its button in
+// the drag toolbar) adds or removes it; a drag then sends the selection as the begin's `points`
+// (cp indices 1..2K) and the server moves only those. The selection belongs to one light: it is
+// dropped when another light is selected or the light's segment count changes.
 
 import { nextSeq, scheduleRefetch, send } from "./connection.js";
 import { $, showMessage } from "./dom.js";
@@ -26,6 +32,69 @@ export function setDragModes(list) {
   renderDragModes(true);
 }
 export const dragModeInfo = (name) => modes.find((m) => m.name === name) ?? null;
+
+// ---- control-point selection ---------------------------------------------------------------
+
+// The light it was made on (name), its number of control points (2K) and the sorted cp indices.
+const NO_POINTS = { light: null, count: 0, points: [] };
+/** The selected control points of the selected light (sorted cp indices 1..2K; [] for none). */
+export function selectedPoints() {
+  const sel = S.cpSelection;
+  const l = findLight(S.selected);
+  const count = l?.type === "bendy" ? l.controlPoints?.length ?? 0 : 0;
+  if (sel.points.length && (sel.light !== l?.name || sel.count !== count)) S.cpSelection = { ...NO_POINTS };
+  return S.cpSelection.points;
+}
+/** Whether control points can be chosen now: a `selectable` mode and a BendyLight with a chain. */
+export function pointsSelectable() {
+  const m = dragModeInfo(S.dragMode);
+  const l = findLight(S.selected);
+  return !!(m?.selectable && l?.type === "bendy" && l.controlPoints?.length);
+}
+/** Adds control point i (1..2K) of the selected light to the selection, or removes it. */
+export function togglePoint(i) {
+  const l = findLight(S.selected);
+  if (!pointsSelectable() || !(i >= 1 && i <= l.controlPoints.length)) return false;
+  const now = selectedPoints();
+  const points = now.includes(i) ? now.filter((p) => p !== i) : [...now, i].sort((a, b) => a - b);
+  S.cpSelection = { light: l.name, count: l.controlPoints.length, points };
+  renderDragModes();
+  scheduleOverlay();
+  return true;
+}
+export function clearPoints() {
+  S.cpSelection = { ...NO_POINTS };
+  renderDragModes();
+  scheduleOverlay();
+}
+
+// The toolbar's list: one toggle per control point of the selected BendyLight, and Clear.
+function renderPoints() {
+  const box = $("dragPoints");
+  if (!box) return;
+  const l = findLight(S.selected);
+  const chosen = selectedPoints();
+  if (!pointsSelectable()) { box.replaceChildren(); delete box.dataset.sig; box.hidden = true; return; }
+  box.hidden = false;
+  const n = l.controlPoints.length;
+  if (box.dataset.sig !== `${l.name}|${n}`) {
+    box.dataset.sig = `${l.name}|${n}`;
+    const label = Object.assign(document.createElement("span"), { className: "hint", id: "dragPointsLabel" });
+    box.replaceChildren(label);
+    for (let i = 1; i <= n; i++) {
+      const b = Object.assign(document.createElement("button"), { textContent: `p${i}`, title: `Move only the selected control points (Shift+click a handle, or here); p${i} of ${l.name}` });
+      b.dataset.point = String(i);
+      b.onclick = () => togglePoint(i);
+      box.append(b);
+    }
+    const clear = Object.assign(document.createElement("button"), { textContent: "Clear", id: "dragPointsClear", title: "No selection: the drag moves the whole light" });
+    clear.onclick = clearPoints;
+    box.append(clear);
+  }
+  for (const b of box.querySelectorAll("button[data-point]")) b.classList.toggle("on", chosen.includes(Number(b.dataset.point)));
+  $("dragPointsClear").disabled = !chosen.length;
+  $("dragPointsLabel").textContent = chosen.length ? `points ${chosen.map((i) => `p${i}`).join(", ")}:` : "points: all (Shift+click handles to choose)";
+}
 
 const typeLabel = (t) => (t === "bendy" ? "BendyLight" : `${t} light`);
 /** Why `mode` cannot be used on the selected light now, or null. */
@@ -62,6 +131,7 @@ export function renderDragModes(rebuild = false) {
   $("dragHint").textContent = !m ? "" : why ? `⚠ ${why}` : `drag from ${m.needsOccluder ? "a shadowed" : "a lit"} pixel`;
   $("dragHint").classList.toggle("warn", !!why);
   document.body.classList.toggle("dragmode", !!m);
+  renderPoints();
 }
 
 /** Chooses a mode (DIRECT or a schema name); refuses one that does not apply to the selected light. */
@@ -74,6 +144,7 @@ export function setDragMode(name, { fromKey = false } = {}) {
   }
   S.dragMode = name;
   renderDragModes();
+  scheduleOverlay(); // the selected control points are drawn in the modes that use them
   return true;
 }
 /** A plain key (no modifier, not while typing): "d" or a schema mode's shortcut. */
@@ -100,15 +171,15 @@ export function beginIndirect(x, y, pointer) {
   const why = refusal(m, l);
   if (why) { showMessage(why); return false; }
   if (S.indirect) cancelIndirect(); // a begin ends the drag before anyway
-  const d = { mode: m.name, light: l.name, x, y, pointer, sentAt: [x, y], grab: null, refused: false, inFlight: true, queued: null, ending: false,
+  const points = m.selectable && l.type === "bendy" ? selectedPoints().slice() : [];
+  const d = { mode: m.name, light: l.name, points, x, y, pointer, sentAt: [x, y], grab: null, refused: false, inFlight: true, queued: null, ending: false,
               updates: 0, changed: 0, lastError: null, solveMs: null, shownErrors: new Set() };
   S.indirect = d;
   const msg = { type: "drag", seq: 0, phase: "begin", mode: m.name, light: l.name, x, y };
-  // BendyLight control points chosen in the page would go in `points` for `selectable` modes;
-  // the page has no selection of control points (yet): the whole light moves.
+  if (points.length) msg.points = points; // only these control points move (absent: the whole light)
   msg.seq = track(d, "begin");
   if (!send(msg)) { S.indirect = null; showMessage("not connected: the drag was not sent"); return false; }
-  showInfo(`${m.label}: grabbing (${x}, ${y})…`);
+  showInfo(`${m.label}: grabbing (${x}, ${y})${points.length ? ` with ${points.map((i) => `p${i}`).join(", ")}` : ""}…`);
   scheduleOverlay();
   return true;
 }
@@ -163,7 +234,7 @@ function flush(d) {
 function finish(d, how) {
   d.done = true;
   if (S.indirect === d) S.indirect = null;
-  S.lastIndirect = { mode: d.mode, light: d.light, x: d.x, y: d.y, grab: d.grab, refused: d.refused, updates: d.updates,
+  S.lastIndirect = { mode: d.mode, light: d.light, points: d.points, x: d.x, y: d.y, grab: d.grab, refused: d.refused, updates: d.updates,
                      changed: d.changed, lastError: d.lastError, ended: how };
   if (how) {
     const m = dragModeInfo(d.mode);

@@ -4,6 +4,7 @@
 
 import { Cam } from "./camera.js";
 import { $, SVGNS, svg } from "./dom.js";
+import { pointsSelectable, selectedPoints } from "./indirect.js";
 import { V, bezier } from "./linalg.js";
 import { selectLight } from "./panels.js";
 import { clientColor, editorsOf } from "./presence.js";
@@ -119,6 +120,8 @@ function drawOverlay() {
       for (let i = 0; i + 1 < h.points.length; i++) line(h.points[i], h.points[i + 1], { "stroke-dasharray": "3 3", opacity: 0.6 });
       const n = h.points.length, end = h.points[n - 1], tan = V.norm(V.sub(end, h.points[n - 2]));
       line(end, V.add(end, V.scale(tan, V.len(V.sub(end, h.points[0])) * 0.3)), { "stroke-dasharray": "1 4", opacity: 0.6 });
+      // Control points selected for a drag mode (indirect.js): filled, with a ring.
+      const chosen = pointsSelectable() ? selectedPoints() : [];
       h.points.forEach((p, i) => {
         const Pp = Cam.project(p);
         if (!Pp.front) return;
@@ -128,8 +131,12 @@ function drawOverlay() {
         const rad = Math.hypot(Rp.x - sp.x, Rp.y - sp.y);
         svg("circle", { cx: sp.x, cy: sp.y, r: rad, fill: "none", stroke: color, "stroke-width": 1, opacity: 0.45 }, g);
         if (i > 0) {
-          const hc = svg("circle", { cx: sp.x, cy: sp.y, r: 6, fill: "#222", stroke: color, "stroke-width": 2, class: "handle", "data-handle": "cp", "data-index": i }, g);
-          hc.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: `p${i}: drag in the image plane, Shift+drag in depth` }));
+          const on = chosen.includes(i);
+          if (on) svg("circle", { cx: sp.x, cy: sp.y, r: 10, fill: "none", stroke: "#5ef", "stroke-width": 2, class: "cp-ring" }, g);
+          const hc = svg("circle", { cx: sp.x, cy: sp.y, r: 6, fill: on ? "#5ef" : "#222", stroke: color, "stroke-width": 2,
+                                     class: on ? "handle cp-selected" : "handle", "data-handle": "cp", "data-index": i }, g);
+          hc.append(Object.assign(document.createElementNS(SVGNS, "title"), {
+            textContent: `p${i}${on ? " (selected)" : ""}: drag in the image plane, Shift+drag in depth; in a drag mode Shift+click selects it` }));
           svg("text", { x: sp.x + 8, y: sp.y - 6, fill: color }, g).textContent = `p${i}`;
         }
         const rh = svg("rect", { x: Rp.x - 4, y: Rp.y - 4, width: 8, height: 8, fill: "#222", stroke: color, "stroke-width": 1.5,

@@ -21,6 +21,7 @@ export const S = {
   pickResult: null, timeEnd: 4, refetchTimer: null,
   dragMode: "direct", // "direct" (handles, drag.js) or a schema drag mode (indirect.js)
   indirect: null, lastIndirect: null, // the indirect drag going on; a summary of the last one
+  cpSelection: { light: null, count: 0, points: [] }, // BendyLight control points a drag moves (indirect.js)
   schemaLoaded: false, // GET /v1/schema read into rig.js (connection.js loadSchema)
 };
 

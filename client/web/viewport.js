@@ -8,7 +8,7 @@ import { nextSeq, send } from "./connection.js";
 import { $, div, showMessage } from "./dom.js";
 import { endDrag, moveDrag, startDrag } from "./drag.js";
 import { canEdit } from "./edits.js";
-import { beginIndirect, endIndirect, indirectActive, moveIndirect } from "./indirect.js";
+import { beginIndirect, endIndirect, indirectActive, moveIndirect, pointsSelectable, togglePoint } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { selectLight } from "./panels.js";
 import { S } from "./state.js";
@@ -90,6 +90,19 @@ export function onPick(msg) {
   scheduleOverlay();
 }
 
+// The index of the control-point handle drawn under the pointer (within 9 px of its centre; the
+// handles let the pointer through in a drag mode, so they are found by position), or 0.
+function cpHandleAt(e) {
+  const r = $("viewport").getBoundingClientRect();
+  const x = e.clientX - r.left, y = e.clientY - r.top;
+  let best = 0, bestD = 9;
+  for (const h of $("overlay").querySelectorAll('[data-handle="cp"]')) {
+    const d = Math.hypot(Number(h.getAttribute("cx")) - x, Number(h.getAttribute("cy")) - y);
+    if (d <= bestD) { bestD = d; best = Number(h.dataset.index); }
+  }
+  return best;
+}
+
 /** The zoom buttons, the wheel and the pointer in the viewport. */
 export function initViewport() {
   $("zoomIn").onclick = () => zoomAt(S.zoom * 1.25, ...vpCenter());
@@ -104,10 +117,15 @@ export function initViewport() {
   }, { passive: false });
 
   // Handles drag, background drags pan, a click picks. In a drag mode (indirect.js) a press on
-  // the image grabs what it shows instead (the handles do not take the pointer then).
+  // the image grabs what it shows instead (the handles do not take the pointer then), and
+  // Shift+click on a BendyLight control-point handle selects it (or deselects it).
   let press = null;
   $("viewport").addEventListener("pointerdown", (e) => {
     const t = e.target;
+    if (e.button === 0 && e.shiftKey && indirectActive() && !S.drag && !S.indirect && pointsSelectable()) {
+      const i = cpHandleAt(e);
+      if (i) { e.preventDefault(); togglePoint(i); return; }
+    }
     if (e.button === 0 && indirectActive() && !S.drag) {
       const p = eventToImage(e);
       const px = pixelAt(p);
