@@ -147,7 +147,7 @@ TEST(LocalShadowMove, OccluderSamplesKeepTheirTubeCoordinates) {
         EXPECT_EQ(kept->samples, int(occluder.size()));
         // The hard part as without samples: the bound, and the shadow of S on C't.
         EXPECT_LE(kept->residual, LOCAL_ACCEPTED);
-        EXPECT_LE(kept->iterations, LOCAL_MAX_ITERATIONS);
+        EXPECT_LE(kept->iterations, MAX_EXPECTED_ITERATIONS); // both runs: measured 4
         expectShadowOfSOn(sc, kept->light, CtNew);
         // Read back through the rig's floats.
         const double before = rmsChange(sc.light, alone->light, occluder), after = rmsChange(sc.light, kept->light, occluder);
