@@ -12,6 +12,7 @@
 #include <dfb/server/Drag.h>
 #include <dfb/protocol/Schema.h>
 #include <dfb/server/Engine.h>
+#include <dfb/server/LocalShadowEdit.h>
 
 #include <gtest/gtest.h>
 
@@ -319,6 +320,7 @@ TEST_P(IndirectImage, DiffuseMoveCarriesTheBrightness) {
 // occluder's own shading changes little (the median over the occluder's pixels of the relative
 // change of the light's radiance). Local shadow scale (eq. 13, E2) on the same grab: the shadow
 // changes (only the radial part of a drag is reachable by radii) and the occluder's shading the same.
+// The drag passes the occluder's lit points (DragGrab::occluderSamples, up to 32) besides S.
 TEST_P(IndirectImage, LocalShadowEditsMoveTheShadowAndKeepTheOccludersShading) {
     Shot& s = shot(GetParam());
     Rig rig = s.rig;
@@ -328,9 +330,18 @@ TEST_P(IndirectImage, LocalShadowEditsMoveTheShadowAndKeepTheOccludersShading) {
     ASSERT_TRUE(before.ok());
     for (protocol::DragMode mode : {protocol::DragMode::LocalShadowMove, protocol::DragMode::LocalShadowScale}) {
         const char* name = protocol::dragModeInfo(mode).name;
-        // Local: the points of the chain's last segment (past the occluder) move; the tube up to the
-        // occluder keeps its shape.
-        auto d = findDrag(s, rig, mode, "key", 6, 0, [&](int x, int y) { return boundary(s, vis, x, y); }, {3, 4});
+        // Local: the move bends the chain's last segment (cp 3-4), which holds both the vase (S at
+        // u = 1.18, its lit points at u = 1.13 to 1.41) and its shadow (u = 1.76). Six unknowns
+        // against the six hard residuals of C't and S: no freedom is left for the occluder samples
+        // (the median is the same without them). The move with more control points (cp 2-4,
+        // 1-4) keeps the samples' (u, v, w) 6 times better but changes the radiance more (6.9 %,
+        // 3.9 %): the shading also follows the arc length s(u) (the 1 / |Q' - p0|^2 falloff) and
+        // the light's direction, which a stretched segment changes at the same (u, v, w). The
+        // scale varies r2-r4 (3 unknowns): radii move neither the centre line nor the arc length,
+        // and the samples take the median from 5.0 % (S alone) to 1.1 %.
+        const indirect::Selection points =
+            mode == protocol::DragMode::LocalShadowMove ? indirect::Selection{3, 4} : indirect::Selection{2, 3, 4};
+        auto d = findDrag(s, rig, mode, "key", 6, 0, [&](int x, int y) { return boundary(s, vis, x, y); }, points);
         ASSERT_TRUE(d) << s.name << " " << name << ": no boundary pixel from which the drag solves";
         const Rig after = edited(rig, d->step.light);
         const auto vis2 = mask(s, after, "key");
@@ -350,6 +361,7 @@ TEST_P(IndirectImage, LocalShadowEditsMoveTheShadowAndKeepTheOccludersShading) {
         // occluder shows no lit pixel to the camera, so only the shadow is measured there.
         if (GetParam() == 0) {
             ASSERT_GT(change.size(), 20u) << s.name << " " << name << ": the occluder shows too few lit pixels";
+            EXPECT_EQ(d->grab.occluderSamples.size(), size_t(indirect::LOCAL_MAX_OCCLUDER_SAMPLES)) << name;
         }
         double median = 0;
         if (!change.empty()) {
@@ -360,18 +372,22 @@ TEST_P(IndirectImage, LocalShadowEditsMoveTheShadowAndKeepTheOccludersShading) {
         size_t moved = 0;
         for (size_t i = 0; i < vis.size(); ++i) moved += (vis[i] > 0.5f) != (vis2[i] > 0.5f);
         std::printf("%s %s (%d,%d) -> (%d,%d): boundary %.2f px from the pointer, %zu shadow pixels changed, occluder's "
-                    "radiance median change %.3f %% over %zu pixels; %d iterations, residual %.1e\n",
+                    "radiance median change %.3f %% over %zu pixels (%zu occluder samples); %d iterations, residual %.1e\n",
                     s.name.c_str(), name, d->grab.x, d->grab.y, d->step.x, d->step.y, dist, moved, 100 * median, change.size(),
-                    d->step.iterations, d->step.residual);
-        // Measured 2.6 % (move) and 2.3 % (scale) on the tabletop's vase: E1 and E2 keep the tube
-        // coordinates of S alone, and the vase spans the moved segment. The issue's 1 % is NOT met
-        // yet (issue 17's note); this bound keeps what is.
-        EXPECT_LT(median, 0.03) << s.name << " " << name;
+                    d->grab.occluderSamples.size(), d->step.iterations, d->step.residual);
+        // The issue's 1 % is NOT met: measured on the tabletop's vase 2.61 % for the move (5
+        // iterations, residual 1.2e-10; the same 2.61 % before the samples) and 1.14 % for the scale
+        // (4 iterations). These bounds keep what is, with a little room for llvmpipe.
+        EXPECT_LT(median, mode == protocol::DragMode::LocalShadowMove ? 0.027 : 0.012) << s.name << " " << name;
         EXPECT_GT(moved, 10u) << s.name << " " << name;
-        EXPECT_LE(d->step.iterations, 20) << s.name << " " << name;
+        EXPECT_LE(d->step.iterations, 10) << s.name << " " << name;
         if (mode == protocol::DragMode::LocalShadowMove) {
             EXPECT_LE(dist, 3.0) << s.name << " " << name;
             EXPECT_LE(d->step.residual, indirect::ACCEPTED);
+        } else {
+            // sqrt(E2) keeps the drag's unreachable (tangential) part: 5e-2 here; the reachable
+            // part, which the bound judges, is not reported by a DragStep.
+            EXPECT_LT(d->step.residual, 0.1) << s.name << " " << name;
         }
     }
 }

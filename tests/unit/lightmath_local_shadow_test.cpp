@@ -2,13 +2,16 @@
 // al. section 4.2.1, eqs. 11-14): after the edit, read back through chainFromLight (the engine's
 // path, the rig's floats), the dragged point C't has the tube coordinates Ct had at the click, so
 // it shares S's (v, w): S's shadow falls on it; S keeps its (u, v, w); the chain passes
-// chainWarning. The scale mode changes radii only and widens / narrows the tube at C't. Bad input
+// chainWarning. The scale mode changes radii only and widens / narrows the tube at C't. Occluder
+// samples keep their (u, v, w) far better than S alone does, the hard part unchanged. Bad input
 // and drags that would fold the tube are errors; the paper's steepest descent gets no lower E
 // than Levenberg-Marquardt on the same budget.
 
 #include <dfb/server/LocalShadowEdit.h>
 
 #include <gtest/gtest.h>
+
+#include <cstdio>
 
 using namespace dfb;
 using namespace dfb::indirect;
@@ -105,6 +108,73 @@ TEST(LocalShadowMove, ShadowOfTheOccluderFallsOnTheDraggedPoint) {
             }
         }
     }
+}
+
+// An occluder around S: 16 points of the straight first segment and the bend's start (u 0.55 to
+// 1.15, spread over the tube's cross-section), S among them.
+std::vector<dvec3> occluderAround(const Scene& sc) {
+    std::vector<dvec3> out;
+    const double vw[4][2] = {{0.3, -0.2}, {0.1, 0.1}, {-0.2, 0.3}, {0.4, 0.2}};
+    for (double u : {0.55, 0.75, 0.95, 1.15})
+        for (const auto& c : vw) out.push_back(tubePoint(sc.ch, int(u), u - std::floor(u), c[0], c[1]));
+    return out;
+}
+
+double rmsChange(const Light& before, const Light& after, const std::vector<dvec3>& points) {
+    double sum = 0.0;
+    for (const dvec3& X : points) {
+        const dvec3 d = coords(after, X) - coords(before, X);
+        sum += glm::dot(d, d);
+    }
+    return std::sqrt(sum / double(points.size()));
+}
+
+// Issue 17 point 8: with the occluder's points passed, they keep their (u, v, w) (the shading
+// there) far better than with S alone, while C't and S still meet the bound exactly as before.
+TEST(LocalShadowMove, OccluderSamplesKeepTheirTubeCoordinates) {
+    const Scene sc;
+    const std::vector<dvec3> occluder = occluderAround(sc);
+    ASSERT_LE(occluder.size(), size_t(LOCAL_MAX_OCCLUDER_SAMPLES));
+    const dvec3 CtNew = sc.Ct + dvec3(0.24, 0.0, 0.18);
+    for (const Selection& sel : {Selection{}, Selection{1, 2, 3, 4}}) {
+        SCOPED_TRACE(::testing::Message() << "selection of " << sel.size());
+        const auto alone = localShadowSolve(sc.light, sc.S, sc.Ct, CtNew, sel, local::Mode::Move);
+        const auto kept = localShadowSolve(sc.light, sc.S, sc.Ct, CtNew, sel, local::Mode::Move, occluder);
+        ASSERT_TRUE(alone.ok() && kept.ok());
+        ASSERT_EQ(alone->refused, "");
+        ASSERT_EQ(kept->refused, "") << kept->refused;
+        EXPECT_EQ(alone->samples, 0);
+        EXPECT_EQ(kept->samples, int(occluder.size()));
+        // The hard part as without samples: the bound, and the shadow of S on C't.
+        EXPECT_LE(kept->residual, LOCAL_ACCEPTED);
+        EXPECT_LE(kept->iterations, MAX_EXPECTED_ITERATIONS); // both runs: measured 4
+        expectShadowOfSOn(sc, kept->light, CtNew);
+        // Read back through the rig's floats.
+        const double before = rmsChange(sc.light, alone->light, occluder), after = rmsChange(sc.light, kept->light, occluder);
+        std::printf("selection of %zu: occluder rms (u, v, w) change %.2e with S alone (%d iterations), %.2e with the "
+                    "samples (%d iterations)\n",
+                    sel.size(), before, alone->iterations, after, kept->iterations);
+        EXPECT_GT(before, 5e-3); // S alone does move the rest of the occluder in the tube (measured ~1e-2)
+        EXPECT_LT(after, 0.1 * before);
+        EXPECT_NEAR(after, kept->occluder, 1e-5);
+    }
+}
+
+TEST(LocalShadowEdit, OccluderSamplesAreBoundedAndChecked) {
+    const Scene sc;
+    const dvec3 CtNew = sc.Ct + dvec3(0.1, 0.0, 0.1);
+    const std::vector<dvec3> many(size_t(LOCAL_MAX_OCCLUDER_SAMPLES) + 1, sc.S);
+    auto e = localShadowMove(sc.light, sc.S, sc.Ct, CtNew, {}, many);
+    ASSERT_FALSE(e.ok());
+    EXPECT_NE(e.error().message.find("occluder samples, more than"), std::string::npos) << e.error().message;
+    e = localShadowScale(sc.light, sc.S, sc.Ct, CtNew, {}, {sc.S, dvec3(std::numeric_limits<double>::quiet_NaN())});
+    ASSERT_FALSE(e.ok());
+    EXPECT_NE(e.error().message.find("occluder sample is not finite"), std::string::npos) << e.error().message;
+    // Points outside the begin tube are not lit by it: dropped, not an error.
+    const auto o = localShadowSolve(sc.light, sc.S, sc.Ct, CtNew, {}, local::Mode::Move,
+                                    {sc.S, tubePoint(sc.ch, 0, 0.7, 1.5, 0.0)});
+    ASSERT_TRUE(o.ok()) << o.error().toString();
+    EXPECT_EQ(o->samples, 1);
 }
 
 TEST(LocalShadowScale, ShadowGrowsAndShrinksAboutTheCentreLine) {

@@ -44,6 +44,38 @@ dvec3 viewDirection(const DragGrab& g, const dvec3& X) {
     return glm::normalize(g.eye - X);
 }
 
+// Local shadow modes: points of the occluder's object (objectId) that `light` reaches, whose tube
+// coordinates the solve keeps besides S's (LocalShadowEdit.h; issue 17 point 8: S alone is one
+// point of a vase that spans the moved segment). The front samples of the object's pixels inside
+// the tube, on a grid of at most ~65,536 pixels; the lit ones among up to 4x the bound of them,
+// evenly spaced in scan order (one shadow ray each, so the begin stays cheap), then the bound of
+// those, evenly spaced again.
+std::vector<dvec3> occluderSamples(const Picker& picker, const DeepBuffer& shot, const Light& light, uint32_t objectId) {
+    std::vector<dvec3> out;
+    if (objectId == 0) return out;
+    const auto ch = chainFromLight<double>(light);
+    const int stride = std::max(1, int(std::ceil(std::sqrt(double(shot.width) * shot.height / 65536.0))));
+    std::vector<PickResult> inTube;
+    for (int y = 0; y < shot.height; y += stride)
+        for (int x = 0; x < shot.width; x += stride) {
+            auto p = picker.pick(x, y);
+            if (!p || p->objectId != objectId) continue;
+            dvec3 uvw;
+            bool inside = false;
+            if (indirect::local::coordsOf(ch, dvec3(p->P), uvw, &inside) && inside) inTube.push_back(p.value());
+        }
+    const size_t tries = std::min(inTube.size(), size_t(4 * indirect::LOCAL_MAX_OCCLUDER_SAMPLES));
+    std::vector<dvec3> lit;
+    for (size_t i = 0; i < tries; ++i) {
+        const PickResult& c = inTube[i * inTube.size() / tries];
+        auto o = picker.occluder(light, c.P, c.Ng);
+        if (o && !o->found) lit.push_back(dvec3(c.P));
+    }
+    const size_t n = std::min(lit.size(), size_t(indirect::LOCAL_MAX_OCCLUDER_SAMPLES));
+    for (size_t i = 0; i < n; ++i) out.push_back(lit[i * lit.size() / n]);
+    return out;
+}
+
 } // namespace
 
 Result<DragGrab> beginDrag(const Picker& picker, const DeepBuffer& shot, const Rig& rig, const DragStart& start) {
@@ -79,6 +111,9 @@ Result<DragGrab> beginDrag(const Picker& picker, const DeepBuffer& shot, const R
                                                          "' (nothing lies between it and the light): grab a shadowed pixel");
         }
         g.occluder = o.value();
+        if (start.mode == DragMode::LocalShadowMove || start.mode == DragMode::LocalShadowScale) {
+            g.occluderSamples = occluderSamples(picker, shot, light, o->objectId);
+        }
     }
     g.eye = dvec3(shot.camera.position());
     g.orthographic = shot.camera.orthographic;
@@ -111,8 +146,8 @@ Result<DragStep> dragTo(const Picker& picker, const DeepBuffer& shot, const Drag
     case DragMode::Highlight: e = indirect::highlightDrag(g.light, Mnew, Nnew, viewDirection(g, Mnew), g.points); break;
     case DragMode::PhysicalShadowMove: e = indirect::physicalShadowMove(g.light, S, M, Mnew, g.points); break;
     case DragMode::DiffuseMove: e = indirect::diffuseMove(g.light, M, N, Mnew, Nnew, g.points); break;
-    case DragMode::LocalShadowMove: e = indirect::localShadowMove(g.light, S, M, Mnew, g.points); break;
-    case DragMode::LocalShadowScale: e = indirect::localShadowScale(g.light, S, M, Mnew, g.points); break;
+    case DragMode::LocalShadowMove: e = indirect::localShadowMove(g.light, S, M, Mnew, g.points, g.occluderSamples); break;
+    case DragMode::LocalShadowScale: e = indirect::localShadowScale(g.light, S, M, Mnew, g.points, g.occluderSamples); break;
     }
     if (!e) return makeError(e.error().code, "drag: " + e.error().message);
     if (g.light.type == LightType::Bendy && chainWarning(g.light).empty()) {
@@ -176,7 +211,10 @@ json toJson(const DragGrab& g) {
            {"objectId", g.at.objectId},
            {"points", g.points}};
     if (g.occluder) {
-        j["occluder"] = {{"S", vec(g.occluder->S)}, {"objectId", g.occluder->objectId}, {"distance", g.occluder->distance}};
+        j["occluder"] = {{"S", vec(g.occluder->S)},
+                         {"objectId", g.occluder->objectId},
+                         {"distance", g.occluder->distance},
+                         {"samples", g.occluderSamples.size()}};
     }
     return j;
 }

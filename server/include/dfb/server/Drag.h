@@ -44,6 +44,11 @@ struct DragGrab {
     int x = 0, y = 0;
     PickResult at;                          ///< the grabbed pixel's front sample (M, C, Ct of the papers)
     std::optional<OccluderResult> occluder; ///< shadow modes: the occluder point S
+    /// Local shadow modes: points of the occluder's object that the light reaches at the begin
+    /// (front G-buffer positions of its lit pixels inside the tube, evenly spread over them, at
+    /// most indirect::LOCAL_MAX_OCCLUDER_SAMPLES; LocalShadowEdit.h keeps their tube coordinates
+    /// too). Chosen once, so every update solves the same problem.
+    std::vector<glm::dvec3> occluderSamples;
     glm::dvec3 eye{0.0};                    ///< the camera's position (perspective) for view directions
     bool orthographic = false;
     glm::dvec3 forward{0.0, 0.0, -1.0};     ///< the camera's view direction (orthographic views)
@@ -82,7 +87,8 @@ std::vector<protocol::Change> dragChanges(const DragGrab& grab, const Light& sol
 /// position, direction, chain and keys.
 std::vector<protocol::Change> restoreChanges(const DragGrab& grab);
 
-/// For acknowledgements: the grab (mode, light, pixel, the grabbed point, S) and a step
+/// For acknowledgements: the grab (mode, light, pixel, the grabbed point, S and the number of
+/// occluder samples) and a step
 /// (pixel, point, iterations, residual, solve time).
 nlohmann::json toJson(const DragGrab& grab);
 nlohmann::json toJson(const DragStep& step);

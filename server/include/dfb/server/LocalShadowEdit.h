@@ -15,6 +15,25 @@
 // stretches), E2 (eq. 13) over their radii (local shadow scale: the tube widens or narrows at C't,
 // so the shadow grows or shrinks about the tube's centre line).
 //
+// Occluder samples (issue 17 point 8: the occluder's radiance changes by under 1 %): S is one
+// point, while the occluder (a vase) spans the part of the tube the edit moves, so keeping S's
+// coordinates alone lets the rest of the occluder's shading change (2.6 % median on the tabletop's
+// vase). The caller may pass up to LOCAL_MAX_OCCLUDER_SAMPLES more points of the occluder's object
+// that the light reaches (Drag.cpp: G-buffer positions of the occluder's lit pixels, chosen once at
+// the drag's begin); each keeps its click (u, v, w) as a soft residual. The six residuals of C't
+// and S are the hard part: the bound, the refusals and `residual` are about them alone, and the
+// samples only choose among the lights that meet them (where the unknowns leave freedom after the
+// six: a square or overdetermined problem gives the samples nothing, and the hard part wins). Two
+// Levenberg-Marquardt runs do that: (1) the six plus the samples at OCCLUDER_WEIGHT / sqrt(n)
+// each (together OCCLUDER_WEIGHT, small against the six so that the compromise stays near the
+// hard part's solution set, large against TIKHONOV so that the samples, not the least change,
+// pick the point in it), stopped by MINPACK's tests at LOCAL_OCCLUDER_TOL; (2) the six alone from
+// there, with the Tikhonov term about run (1)'s result instead of the begin light, so that it
+// closes the hard part's last bit (~OCCLUDER_WEIGHT^2 of the samples' residual) by the least
+// change and keeps what run (1) gained; it stops at LOCAL_CONVERGED as a plain solve does.
+// Samples outside the begin tube (the light does not reach them) are dropped. Without samples
+// the solve is run (2) alone from the begin light: the six residuals, as before.
+//
 // Solver: Eigen's Levenberg-Marquardt (unsupported/Eigen/LevenbergMarquardt, MINPACK's lmder) on
 // the six tube residuals plus a regulariser, with a central-difference Jacobian from Eigen's
 // NumericalDiff. Not AutoDiff: lightmath's Chain<T> stores glm::vec<3, T>, whose union members
@@ -32,9 +51,9 @@
 //    pairs further apart along the chain than twice their radii (chainWarning's pairs), onset =
 //    APART_ONSET (1.1) or the begin chain's least ratio if lower (chainWarning refuses below 1);
 //  - scale mode: PENALTY_WEIGHT * max(0, -r_i) / L, radii stay >= 0 (the chain uses max(r_i, 0));
-//  - Tikhonov: TIKHONOV * (x_j - 1), the displacement from the begin light in units of L, so that
-//    underdetermined selections (every control point: 3 (2K + 1) unknowns for 6 residuals) take
-//    the least change. Its pull leaves about TIKHONOV^2 |x - 1| / sigma(J) <= 1e-8 in the tube
+//  - Tikhonov: TIKHONOV * (x_j - 1), the displacement from the begin light in units of L (in run
+//    (2) after occluder samples: from run (1)'s result), so that underdetermined selections
+//    (every control point: 3 (2K + 1) unknowns for 6 residuals) take the least change. Its pull leaves about TIKHONOV^2 |x - 1| / sigma(J) <= 1e-8 in the tube
 //    residuals (|x - 1| < 1, sigma(J) ~ 1), a hundredth of the bound.
 //
 // Bounds: the solve is accepted when the tube-coordinate residual |r| = sqrt(E) is at most
@@ -92,6 +111,22 @@ constexpr double TIKHONOV = 1e-4;
 static_assert(TIKHONOV * TIKHONOV <= 1e-2 * LOCAL_ACCEPTED, "the Tikhonov pull must stay far under the bound");
 /// NumericalDiff's epsfcn: steps of sqrt(1e-12) = 1e-6 in x, i.e. 1e-6 L in the world.
 constexpr double LOCAL_EPSFCN = 1e-12;
+/// Occluder samples at most per solve (see the file comment). Each adds three residuals and an
+/// inverse map per function evaluation (2n + 1 evaluations per iteration, n unknowns), so the
+/// bound caps the cost of an update; 32 points cover an object's lit side at a few pixels'
+/// spacing at 320x180, finer than the light's shading varies across it.
+constexpr int LOCAL_MAX_OCCLUDER_SAMPLES = 32;
+/// The samples' weight, all together, against the six hard residuals (weight 1). The hard part's
+/// share of the compromise of run (1) is ~OCCLUDER_WEIGHT^2 times the samples' residual (~1e-4 x
+/// 0.1), which run (2) closes; TIKHONOV^2 / OCCLUDER_WEIGHT^2 = 1e-4: the samples choose.
+constexpr double OCCLUDER_WEIGHT = 1e-2;
+static_assert(TIKHONOV <= 1e-2 * OCCLUDER_WEIGHT, "the samples, not the least change, must choose the light");
+/// MINPACK's ftol and xtol for run (1): relative changes of the compromise below 1e-6 do not show
+/// in the image (the samples' residual is ~1e-2, their radiance follows it to first order).
+constexpr double LOCAL_OCCLUDER_TOL = 1e-6;
+/// Iterations at most of run (1); run (2) gets the rest of LOCAL_MAX_ITERATIONS.
+constexpr int LOCAL_OCCLUDER_ITERATIONS = 30;
+static_assert(LOCAL_OCCLUDER_ITERATIONS < LOCAL_MAX_ITERATIONS, "run (2) needs iterations of its own");
 
 namespace local {
 
@@ -101,14 +136,17 @@ enum class Mode { Move, Scale };
 
 inline const char* modeName(Mode m) { return m == Mode::Move ? "local shadow move" : "local shadow scale"; }
 
-/// A solve's result before it becomes an Edit: the (rounded) light, the solver's iterations, the
-/// tube residual sqrt(E) in double precision, the part the unknowns can reach (equal to residual
-/// for the move), and why it was refused ("" when accepted).
+/// A solve's result before it becomes an Edit: the (rounded) light, the solver's iterations (both
+/// runs), the tube residual sqrt(E) of C't and S in double precision, the part the unknowns can
+/// reach (equal to residual for the move), the occluder samples' root-mean-square (u, v, w)
+/// residual (0 without samples; not judged) and why it was refused ("" when accepted).
 struct Outcome {
     Light light;
     int iterations = 0;
     double residual = 0.0;
     double reachable = 0.0;
+    double occluder = 0.0;
+    int samples = 0; ///< occluder samples used (inside the begin tube)
     std::string refused;
 };
 
@@ -170,13 +208,17 @@ struct Problem {
     Chain<double> base;      ///< the begin light's chain, prepared
     dvec3 S{0.0}, CtNew{0.0};
     dvec3 targetS{0.0}, targetC{0.0}; ///< (u, v, w) of S and Ct at the click
+    std::vector<dvec3> samples;       ///< occluder samples inside the begin tube
+    std::vector<dvec3> targetSamples; ///< their (u, v, w) at the click
+    double sampleWeight = 0.0;        ///< per residual: OCCLUDER_WEIGHT / sqrt(samples.size())
+    std::vector<double> anchor;       ///< the Tikhonov term's centre (empty: x = 1, the begin light)
     double L = 1.0;          ///< the begin chain's arc length, the unit of the unknowns
     double foldOnset[lightmath::MAX_SEGMENTS] = {};
     double apartOnset = APART_ONSET;
 
     int unknowns() const { return mode == Mode::Move ? 3 * int(vars.size()) : int(vars.size()); }
     int residuals() const {
-        return 6 + base.segments + 1 + (mode == Mode::Scale ? unknowns() : 0) + unknowns();
+        return 6 + 3 * int(samples.size()) + base.segments + 1 + (mode == Mode::Scale ? unknowns() : 0) + unknowns();
     }
 
     /// The chain for unknowns x (x = 1: the begin chain). Scale: radii clamped at 0.
@@ -206,6 +248,20 @@ struct Problem {
         return true;
     }
 
+    /// The occluder samples' root-mean-square (u, v, w) residual (0 without; inf where one has no
+    /// foot).
+    double occluderResidual(const Chain<double>& ch) const {
+        if (samples.empty()) return 0.0;
+        double sum = 0.0;
+        for (size_t i = 0; i < samples.size(); ++i) {
+            dvec3 c;
+            if (!coordsOf(ch, samples[i], c)) return std::numeric_limits<double>::infinity();
+            const dvec3 d = c - targetSamples[i];
+            sum += glm::dot(d, d);
+        }
+        return std::sqrt(sum / double(samples.size()));
+    }
+
     /// The residual's part the unknowns can reach (see the file comment): all of it for the move;
     /// for the scale, S's residual and the radial part of C't's.
     double reachable(const Chain<double>& ch) const {
@@ -233,6 +289,12 @@ struct Functor : Eigen::DenseFunctor<double> {
         if (!p.tube(ch, r)) std::fill(r, r + 6, 1e3);
         int m = 0;
         for (double v : r) f[m++] = v;
+        // The occluder samples after the six (the stopping test reads the head).
+        for (size_t i = 0; i < p.samples.size(); ++i) {
+            dvec3 c;
+            const dvec3 d = coordsOf(ch, p.samples[i], c) ? c - p.targetSamples[i] : dvec3(1e3);
+            for (int k = 0; k < 3; ++k) f[m++] = p.sampleWeight * d[k];
+        }
         const Shape shape = shapeOf(ch);
         for (int k = 0; k < ch.segments; ++k) {
             f[m++] = PENALTY_WEIGHT * std::max(0.0, shape.foldPerSegment[k] - p.foldOnset[k]);
@@ -244,14 +306,15 @@ struct Functor : Eigen::DenseFunctor<double> {
                 f[m++] = PENALTY_WEIGHT * std::max(0.0, -(p.base.r[p.vars[size_t(j)]] + (x[j] - 1.0) * p.L)) / p.L;
             }
         }
-        for (int j = 0; j < n; ++j) f[m++] = TIKHONOV * (x[j] - 1.0);
+        for (int j = 0; j < n; ++j) f[m++] = TIKHONOV * (x[j] - (p.anchor.empty() ? 1.0 : p.anchor[size_t(j)]));
         return 0;
     }
 };
 
 /// Checks the input and builds the problem. Errors name the light and the mode.
 inline Status prepare(const Light& light, const dvec3& S, const dvec3& Ct, const dvec3& CtNew,
-                      const Selection& selected, Mode mode, Problem& out) {
+                      const Selection& selected, Mode mode, Problem& out,
+                      const std::vector<dvec3>& occluderSamples = {}) {
     using namespace detail;
     const std::string what = modeName(mode);
     if (light.type != LightType::Bendy) {
@@ -285,6 +348,13 @@ inline Status prepare(const Light& light, const dvec3& S, const dvec3& Ct, const
         if (!std::isfinite(r) || r < 0.f) return invalid(light.name, what + ": a radius is negative or not finite");
     }
     if (!finite(S) || !finite(Ct) || !finite(CtNew)) return invalid(light.name, what + ": a point is not finite");
+    if (occluderSamples.size() > size_t(LOCAL_MAX_OCCLUDER_SAMPLES)) {
+        return invalid(light.name, what + ": " + std::to_string(occluderSamples.size()) + " occluder samples, more than " +
+                                       std::to_string(LOCAL_MAX_OCCLUDER_SAMPLES));
+    }
+    for (const dvec3& X : occluderSamples) {
+        if (!finite(X)) return invalid(light.name, what + ": an occluder sample is not finite");
+    }
     Problem p;
     p.light = light;
     p.mode = mode;
@@ -308,6 +378,13 @@ inline Status prepare(const Light& light, const dvec3& S, const dvec3& Ct, const
     if (!(p.targetS.x < p.targetC.x)) {
         return invalid(light.name, what + ": S is not between the source and Ct along the tube (u_S >= u_Ct)");
     }
+    for (const dvec3& X : occluderSamples) {
+        dvec3 uvw;
+        if (!coordsOf(p.base, X, uvw, &inside) || !inside) continue; // unlit: nothing to keep
+        p.samples.push_back(X);
+        p.targetSamples.push_back(uvw);
+    }
+    if (!p.samples.empty()) p.sampleWeight = OCCLUDER_WEIGHT / std::sqrt(double(p.samples.size()));
     const Shape begin = shapeOf(p.base);
     for (int k = 0; k < K; ++k) p.foldOnset[k] = std::max(FOLD_ONSET, begin.foldPerSegment[k]);
     p.apartOnset = std::min(APART_ONSET, begin.apart);
@@ -345,6 +422,8 @@ inline Outcome judge(const Problem& p, const double* x, int iterations) {
     o.residual = p.tube(ch, r) ? std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
                                : std::numeric_limits<double>::infinity();
     o.reachable = p.reachable(ch);
+    o.occluder = p.occluderResidual(ch);
+    o.samples = int(p.samples.size());
     o.light = lightAt(p, x);
     char buf[320];
     const char* what = modeName(p.mode);
@@ -391,24 +470,47 @@ inline Outcome judge(const Problem& p, const double* x, int iterations) {
     return o;
 }
 
-/// Levenberg-Marquardt from the begin light (x = 1), at most LOCAL_MAX_ITERATIONS Jacobians.
-inline Outcome solve(const Problem& p) {
+/// One Levenberg-Marquardt run on p from x (updated), at most maxIterations Jacobians; with
+/// untilHard it also stops once the six tube residuals are converged, else MINPACK's tests at
+/// LOCAL_OCCLUDER_TOL end it. Returns the iterations taken.
+inline int runLm(const Problem& p, Eigen::VectorXd& x, int maxIterations, bool untilHard) {
     Functor f(p);
     Eigen::NumericalDiff<Functor, Eigen::Central> diff(f, LOCAL_EPSFCN);
     Eigen::LevenbergMarquardt<Eigen::NumericalDiff<Functor, Eigen::Central>> lm(diff);
-    lm.setMaxfev(LOCAL_MAX_ITERATIONS * (2 * p.unknowns() + 4));
-    Eigen::VectorXd x = Eigen::VectorXd::Ones(p.unknowns());
+    lm.setMaxfev(maxIterations * (2 * p.unknowns() + 4));
+    if (!untilHard) {
+        lm.setFtol(LOCAL_OCCLUDER_TOL);
+        lm.setXtol(LOCAL_OCCLUDER_TOL);
+    }
     auto status = lm.minimizeInit(x);
     int iterations = 0;
-    if (status != Eigen::LevenbergMarquardtSpace::ImproperInputParameters) {
-        do {
-            status = lm.minimizeOneStep(x);
-            ++iterations;
-            // MINPACK's own tests are relative to the whole residual, Tikhonov and penalties
-            // included; where a penalty's hinge is active at the solution they can take many
-            // more steps for nothing the user sees. Stop once the tube residual is converged.
-        } while (status == Eigen::LevenbergMarquardtSpace::Running && iterations < LOCAL_MAX_ITERATIONS &&
-                 lm.fvec().head<6>().norm() > LOCAL_CONVERGED);
+    if (status == Eigen::LevenbergMarquardtSpace::ImproperInputParameters) return 0;
+    if (untilHard && lm.fvec().head<6>().norm() <= LOCAL_CONVERGED) return 0;
+    do {
+        status = lm.minimizeOneStep(x);
+        ++iterations;
+        // MINPACK's own tests are relative to the whole residual, Tikhonov and penalties
+        // included; where a penalty's hinge is active at the solution they can take many
+        // more steps for nothing the user sees. Stop once the tube residual is converged.
+    } while (status == Eigen::LevenbergMarquardtSpace::Running && iterations < maxIterations &&
+             (!untilHard || lm.fvec().head<6>().norm() > LOCAL_CONVERGED));
+    return iterations;
+}
+
+/// Levenberg-Marquardt from the begin light (x = 1), at most LOCAL_MAX_ITERATIONS Jacobians in
+/// all: with occluder samples runs (1) and (2) of the file comment, without run (2) alone.
+inline Outcome solve(const Problem& p) {
+    Eigen::VectorXd x = Eigen::VectorXd::Ones(p.unknowns());
+    int iterations = 0;
+    if (p.samples.empty()) {
+        iterations = runLm(p, x, LOCAL_MAX_ITERATIONS, true);
+    } else {
+        iterations = runLm(p, x, LOCAL_OCCLUDER_ITERATIONS, false);
+        Problem hard = p;
+        hard.samples.clear();
+        hard.targetSamples.clear();
+        hard.anchor.assign(x.data(), x.data() + x.size());
+        iterations += runLm(hard, x, LOCAL_MAX_ITERATIONS - iterations, true);
     }
     return judge(p, x.data(), iterations);
 }
@@ -429,17 +531,28 @@ inline Result<Edit> toEdit(const Light& light, const Outcome& o) {
 /// and the occluder point S keeps its own; S's shadow then falls on C't. `selected`: cp indices
 /// 1..2K that move (3 unknowns each); empty: every control point, the source cp0 (the light's
 /// position) included, as in the paper. S, Ct, C't: world points of the undeformed scene.
-/// Returns the light, Levenberg-Marquardt's iterations and the residual sqrt(E1).
+/// `occluderSamples`: at most LOCAL_MAX_OCCLUDER_SAMPLES more points of the occluder (world, the
+/// undeformed scene) whose (u, v, w) are kept too, softly (see the file comment; those outside the
+/// begin tube are dropped); empty: S alone, the paper's E1.
+/// Returns the light, Levenberg-Marquardt's iterations (both runs) and the residual sqrt(E1) of
+/// C't and S.
 /// Errors (InvalidValue, naming the light and the mode): not a BendyLight, an incomplete chain, a
 /// selection with 0, an index past 2K or one twice, non-finite points, S or Ct outside the tube,
-/// C't without a foot, S not before Ct along the tube; refused solves: residual above
+/// C't without a foot, S not before Ct along the tube, more than LOCAL_MAX_OCCLUDER_SAMPLES
+/// occluder samples or a non-finite one; refused solves: residual above
 /// LOCAL_ACCEPTED (the message says whether folding or self-intersection held it back), a result
 /// chainWarning flags, S outside the solved tube.
 inline Result<Edit> localShadowMove(const Light& light, const dvec3& S, const dvec3& Ct, const dvec3& CtNew,
-                                    const Selection& selected = {}) {
+                                    const Selection& selected, const std::vector<dvec3>& occluderSamples) {
     local::Problem p;
-    if (auto s = local::prepare(light, S, Ct, CtNew, selected, local::Mode::Move, p); !s) return s.error();
+    if (auto s = local::prepare(light, S, Ct, CtNew, selected, local::Mode::Move, p, occluderSamples); !s) return s.error();
     return local::toEdit(light, local::solve(p));
+}
+
+/// The same without occluder samples (S alone, the paper's E1).
+inline Result<Edit> localShadowMove(const Light& light, const dvec3& S, const dvec3& Ct, const dvec3& CtNew,
+                                    const Selection& selected = {}) {
+    return localShadowMove(light, S, Ct, CtNew, selected, std::vector<dvec3>{});
 }
 
 /// Local shadow scale (Kasai et al. section 4.2.1, E2 of eq. 13): as localShadowMove, but the
@@ -447,16 +560,23 @@ inline Result<Edit> localShadowMove(const Light& light, const dvec3& S, const dv
 /// kept >= 0; the centre line does not move. Dragging Ct away from the tube's centre line widens
 /// the tube there (S's shadow grows), towards it narrows it. Only the radial part of the drag is
 /// reachable (see the file comment): the bound applies to it, `residual` is the whole sqrt(E2).
-/// Errors as localShadowMove.
+/// `occluderSamples` as localShadowMove's. Errors as localShadowMove.
 inline Result<Edit> localShadowScale(const Light& light, const dvec3& S, const dvec3& Ct, const dvec3& CtNew,
-                                     const Selection& selected = {}) {
+                                     const Selection& selected, const std::vector<dvec3>& occluderSamples) {
     local::Problem p;
-    if (auto s = local::prepare(light, S, Ct, CtNew, selected, local::Mode::Scale, p); !s) return s.error();
+    if (auto s = local::prepare(light, S, Ct, CtNew, selected, local::Mode::Scale, p, occluderSamples); !s) return s.error();
     return local::toEdit(light, local::solve(p));
 }
 
+/// The same without occluder samples (S alone, the paper's E2).
+inline Result<Edit> localShadowScale(const Light& light, const dvec3& S, const dvec3& Ct, const dvec3& CtNew,
+                                     const Selection& selected = {}) {
+    return localShadowScale(light, S, Ct, CtNew, selected, std::vector<dvec3>{});
+}
+
 /// The paper's own solver, the baseline of dfb-local-shadow-bench (not used by the server):
-/// steepest descent with forward differences, eqs. 12 and 14, on E alone (no regulariser),
+/// steepest descent with forward differences, eqs. 12 and 14, on E alone (no regulariser, no
+/// occluder samples: the paper keeps S's coordinates only),
 ///   x(t + 1) = x(t) - alpha (E(x + D e_j) - E(x)) / D  for every unknown at once,
 /// from the click's values, for at most `maxIterations` steps (or until sqrt(E) <= CONVERGED).
 /// The paper gives no values for D and alpha; here D = stepD L and alpha = alphaL2 L^2 (L the
@@ -514,11 +634,13 @@ inline Result<local::Outcome> localShadowEdit(const Light& light, const dvec3& S
 
 } // namespace paper
 
-/// The LM solve on the public functions' input, refusals in Outcome::refused (for benchmarks).
+/// The LM solve on the public functions' input, refusals in Outcome::refused (for benchmarks and
+/// tests: Outcome::occluder reports the samples' residual).
 inline Result<local::Outcome> localShadowSolve(const Light& light, const dvec3& S, const dvec3& Ct, const dvec3& CtNew,
-                                               const Selection& selected, local::Mode mode) {
+                                               const Selection& selected, local::Mode mode,
+                                               const std::vector<dvec3>& occluderSamples = {}) {
     local::Problem p;
-    if (auto s = local::prepare(light, S, Ct, CtNew, selected, mode, p); !s) return s.error();
+    if (auto s = local::prepare(light, S, Ct, CtNew, selected, mode, p, occluderSamples); !s) return s.error();
     return local::solve(p);
 }
 
