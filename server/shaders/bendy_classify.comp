@@ -57,6 +57,7 @@ void main() {
         uint at = commands[5u * open + 2u] + atomicAdd(commands[5u * open], 3u);
         flatIndices[at] = i0; flatIndices[at + 1u] = i1; flatIndices[at + 2u] = i2;
     } else {
+        atomicAdd(commands[BENDY_TESS_WORK_WORD], uint(level * level));
         uint at = commands[5u * open + 12u] + atomicAdd(commands[5u * open + 10u], 3u);
         tessIndices[at] = i0; tessIndices[at + 1u] = i1; tessIndices[at + 2u] = i2;
     }

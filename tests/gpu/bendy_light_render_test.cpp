@@ -182,3 +182,29 @@ TEST(BendyRender, SubdivisionMattersOnARealAssetScene) {
     EXPECT_GE(fine, 0.99);
     EXPECT_LT(coarse, fine - 0.005) << "subdivision should measurably improve the bent shadows";
 }
+
+// The tessellation work bound (BendyShadow.h, MAX_TESS_TRIANGLES): a chain that narrows to a
+// waist a tenth of its neighbours' radii (what a local shadow scale drag made of the tabletop's
+// key) asks the highest level of most triangles: 4.3 million estimated triangles, 8 s a frame on
+// llvmpipe before the bound. The bound lowers that map's limit (FrameStats::subdivisionLowered)
+// and the frame comes back; the bent key of the tests above keeps the full limit.
+TEST(BendyRender, TessellationWorkIsBoundedOnASharplyNarrowingChain) {
+    Shot shot = makeShot(DFB_SOURCE_DIR "/scenes/tabletop.glb", 240, 135);
+    const Bounds& b = shot.scene.bounds;
+    Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+    rig.lights = {bentKey(rig.lights[0])};
+    FrameStats gentle;
+    ASSERT_TRUE(shot.engine->render(rig, &gentle).ok());
+    EXPECT_EQ(gentle.shadowMapsRendered, 1);
+    EXPECT_EQ(gentle.subdivisionLowered, 0);
+    Light& l = rig.lights[0];
+    l.radii[2] = 0.1f * l.radii[1];
+    l.radii[3] *= 1.5f;
+    ++rig.version;
+    FrameStats waist;
+    auto img = shot.engine->render(rig, &waist);
+    ASSERT_TRUE(img.ok()) << img.error().toString();
+    EXPECT_EQ(waist.shadowMapsRendered, 1);
+    EXPECT_EQ(waist.subdivisionLowered, 1);
+    std::printf("waist chain: shadow %.0f ms (the gentle chain's %.0f ms)\n", waist.shadowMs, gentle.shadowMs);
+}

@@ -3,6 +3,7 @@
 #include "GpuInterface.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <string>
 
@@ -60,22 +61,39 @@ Status BendyShadow::draw(LightCache& c, int subdivisionLimit) {
     const float texelSize = texelPerDistance(l, c.shadowSize);
     // Sort the triangles: plain draw where no edge needs subdividing, tessellation elsewhere.
     const auto closed = uint32_t(mCasters.closedIndexCount());
-    const BendyDrawCommands commands{{0, 1, 0, 0, 0}, {0, 1, closed, 0, 0}, {0, 1, 0, 0, 0}, {0, 1, closed, 0, 0}};
-    glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, &commands);
-    glUseProgram(mClassifyProgram);
     c.casterIndexCount = mCasters.indicesFor(l, c.chain);
     const GLuint triangles = GLuint(c.casterIndexCount / 3);
-    glUniform1ui(LOC_CLASSIFY_TRIANGLE_COUNT, triangles);
-    glUniform1f(LOC_CLASSIFY_MAX_LEVEL, float(subdivisionLimit));
-    glUniform1f(LOC_CLASSIFY_TEXEL_PER_DISTANCE, texelSize);
-    glUniform1ui(LOC_CLASSIFY_CLOSED_TRIANGLES, closed / 3);
-    glBindTextureUnit(TEX_DEFORMED, mDeformedTexture.id());
-    glBindTextureUnit(TEX_CASTER_INDICES, mCasterIndexTexture.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_FLAT_INDICES, mFlatIndices.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_TESS_INDICES, mTessIndices.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_DRAW_COMMANDS, mIndirect.id());
-    glDispatchCompute(groupsFor(triangles), 1, 1);
-    glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+    auto classify = [&](int maxLevel) {
+        const BendyDrawCommands commands{{0, 1, 0, 0, 0}, {0, 1, closed, 0, 0}, {0, 1, 0, 0, 0}, {0, 1, closed, 0, 0}, 0, {}};
+        glNamedBufferSubData(mIndirect.id(), 0, sizeof commands, &commands);
+        glUseProgram(mClassifyProgram);
+        glUniform1ui(LOC_CLASSIFY_TRIANGLE_COUNT, triangles);
+        glUniform1f(LOC_CLASSIFY_MAX_LEVEL, float(maxLevel));
+        glUniform1f(LOC_CLASSIFY_TEXEL_PER_DISTANCE, texelSize);
+        glUniform1ui(LOC_CLASSIFY_CLOSED_TRIANGLES, closed / 3);
+        glBindTextureUnit(TEX_DEFORMED, mDeformedTexture.id());
+        glBindTextureUnit(TEX_CASTER_INDICES, mCasterIndexTexture.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_FLAT_INDICES, mFlatIndices.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_TESS_INDICES, mTessIndices.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_DRAW_COMMANDS, mIndirect.id());
+        glDispatchCompute(groupsFor(triangles), 1, 1);
+        glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT |
+                        GL_BUFFER_UPDATE_BARRIER_BIT);
+    };
+    classify(subdivisionLimit);
+    // Bound the tessellator's work: a chain that narrows sharply (a local shadow scale's waist)
+    // asks the highest level of most triangles, millions of triangles and seconds a frame on
+    // llvmpipe. Over MAX_TESS_TRIANGLES the sort runs again with the limit lowered so that the
+    // estimate (level squared per triangle) fits: the map then is coarser, never late. One read
+    // back of a word per deformed map.
+    uint32_t work = 0;
+    glGetNamedBufferSubData(mIndirect.id(), offsetof(BendyDrawCommands, tessWork), sizeof work, &work);
+    int level = subdivisionLimit;
+    if (work > MAX_TESS_TRIANGLES) {
+        level = std::max(1, int(float(subdivisionLimit) * std::sqrt(float(MAX_TESS_TRIANGLES) / float(work))));
+        classify(level);
+    }
+    c.appliedSubdivision = level;
     glBindBuffer(GL_DRAW_INDIRECT_BUFFER, mIndirect.id());
     glUseProgram(mFlatProgram);
     glBindVertexArray(mFlatVao.id());
@@ -87,7 +105,7 @@ Status BendyShadow::draw(LightCache& c, int subdivisionLimit) {
     glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, commandAt(offsetof(BendyDrawCommands, plainOpen)));
     glUseProgram(tess.value());
     glBindVertexArray(mTessVao.id());
-    glUniform1f(LOC_TESS_MAX_LEVEL, float(subdivisionLimit));
+    glUniform1f(LOC_TESS_MAX_LEVEL, float(level));
     glUniform1f(LOC_TESS_TEXEL_PER_DISTANCE, texelSize);
     glPatchParameteri(GL_PATCH_VERTICES, 3);
     glEnable(GL_CULL_FACE);

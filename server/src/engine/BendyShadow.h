@@ -12,6 +12,10 @@
 
 namespace dfb::engine {
 
+/// Most triangles the tessellator may make for one deformed map (estimated as the sum of the
+/// tessellated triangles' levels squared); over it the subdivision limit is lowered to fit.
+constexpr uint32_t MAX_TESS_TRIANGLES = 1u << 18;
+
 class BendyShadow {
 public:
     BendyShadow(ShaderVariants& shaders, const Casters& casters) : mShaders(shaders), mCasters(casters) {}

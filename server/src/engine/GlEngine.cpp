@@ -65,6 +65,7 @@ Status GlEngine::updateShadows(const Rig& rig, FrameStats& st) {
             if (auto s = mShadows.render(c, mPreview, mSubdivisionLimit); !s) return s;
             ++st.shadowMapsRendered;
             st.shadowCasterTriangles += c.casterIndexCount / 3;
+            if (l.type == LightType::Bendy && c.appliedSubdivision < mSubdivisionLimit) ++st.subdivisionLowered;
         } else if (!l.shadow && !sameShadowInputs(c.params, l)) {
             c.worldToLightClip = lightViewProj(l, mCasters.scene(), mCasters.receivers());
             c.hasShadow = false;

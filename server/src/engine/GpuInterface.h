@@ -86,7 +86,8 @@
     X(BENDY_MAX_POINTS, dfb::lightmath::MAX_CONTROL_POINTS, "a chain's control points (BendyLight.h)") \
     X(COMPUTE_GROUP_SIZE, 64, "local_size_x of the compute passes (the engine dispatches by it)")  \
     X(FOOTPRINT_MAX_TAPS, 16, "edge taps per sample over its pixel footprint (ViewBlock.footprintTaps)") \
-    X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands")
+    X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands") \
+    X(BENDY_TESS_WORK_WORD, offsetof(dfb::engine::BendyDrawCommands, tessWork) / 4, "BendyDrawCommands.tessWork's uint")
 
 // Real-valued limits (GLSL float literals; C++ constexpr float).
 #define DFB_GPU_FLOAT_LIMITS(X)                                                                    \
@@ -115,12 +116,16 @@ struct DrawElementsIndirectCommand {
 };
 /// The deformed shadow map's four indirect draws (SSBO_DRAW_COMMANDS; `commands` in
 /// bendy_classify.comp, which indexes it as uints: 5 per command, in this order). The classify
-/// pass adds to the counts; the engine sets the first indices.
+/// pass adds to the counts; the engine sets the first indices. tessWork: the sum over the
+/// tessellated triangles of their level squared, about the triangles the tessellator will make
+/// (BendyShadow::draw bounds it).
 struct BendyDrawCommands {
     DrawElementsIndirectCommand plainClosed, plainOpen, tessClosed, tessOpen;
+    uint32_t tessWork, pad[3];
 };
 static_assert(offsetof(BendyDrawCommands, plainOpen) == 5 * 4 && offsetof(BendyDrawCommands, tessClosed) == 10 * 4 &&
-              offsetof(BendyDrawCommands, tessOpen) == 15 * 4 && sizeof(BendyDrawCommands) == 20 * 4);
+              offsetof(BendyDrawCommands, tessOpen) == 15 * 4 && offsetof(BendyDrawCommands, tessWork) == 20 * 4 &&
+              sizeof(BendyDrawCommands) == 24 * 4);
 
 enum Limit : unsigned {
 #define DFB_GPU_LIMIT(name, value, what) name = unsigned(value),

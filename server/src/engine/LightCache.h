@@ -35,6 +35,7 @@ struct LightCache {
     GLsizei casterIndexCount = 0; // Casters::indicesFor when its shadow map was last rendered
     gl::Buffer linkMask; // light linking: one bit per object id
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
+    int appliedSubdivision = 0; // the limit the tessellation budget left of it (BendyShadow::draw)
     glm::vec3 scale{1.f};          // colour x intensity: the contribution is shaded at unit radiance
     uint64_t version = 0;          // bumped whenever the contribution or its scale changes
     uint64_t compositedVersion = ~0ull;

@@ -97,6 +97,9 @@ struct FrameStats {
     /// that cannot occlude a light are left out of its map; a BendyLight's sort on the GPU may
     /// drop more).
     long shadowCasterTriangles = 0;
+    /// BendyLight maps whose tessellation limit the work bound lowered (a sharply narrowing
+    /// chain asks the highest level of most triangles: millions of triangles a frame otherwise).
+    int subdivisionLowered = 0;
     int lightsShaded = 0;
 };
 
