@@ -34,25 +34,29 @@ Light lightOfType(LightType t) {
     return l;
 }
 
-} // namespace
-
-TEST(Schema, DocsPropertyTableIsGeneratedFromTheSchema) {
+// docs/protocol.md between `begin` and `end` equals `table` (DFB_UPDATE_DOCS=1 writes it).
+void expectDocsTable(const std::string& begin, const std::string& end, const std::string& table, const char* what) {
     std::ifstream in(DOCS);
     ASSERT_TRUE(in) << DOCS;
     std::stringstream ss;
     ss << in.rdbuf();
     std::string text = ss.str();
-    const size_t b = text.find(BEGIN), e = text.find(END);
-    ASSERT_NE(b, std::string::npos) << "docs/protocol.md lacks " << BEGIN;
-    ASSERT_NE(e, std::string::npos) << "docs/protocol.md lacks " << END;
-    const std::string table = markdownTable();
+    const size_t b = text.find(begin), e = text.find(end);
+    ASSERT_NE(b, std::string::npos) << "docs/protocol.md lacks " << begin;
+    ASSERT_NE(e, std::string::npos) << "docs/protocol.md lacks " << end;
     if (std::getenv("DFB_UPDATE_DOCS")) {
-        text = text.substr(0, b + BEGIN.size()) + table + text.substr(e);
+        text = text.substr(0, b + begin.size()) + table + text.substr(e);
         std::ofstream(DOCS) << text;
         return;
     }
-    EXPECT_EQ(text.substr(b + BEGIN.size(), e - b - BEGIN.size()), table)
-        << "docs/protocol.md's property table differs from the schema: run DFB_UPDATE_DOCS=1 " << "build/tests/protocol_schema_test";
+    EXPECT_EQ(text.substr(b + begin.size(), e - b - begin.size()), table)
+        << "docs/protocol.md's " << what << " differs: run DFB_UPDATE_DOCS=1 build/tests/protocol_schema_test";
+}
+
+} // namespace
+
+TEST(Schema, DocsPropertyTableIsGeneratedFromTheSchema) {
+    expectDocsTable(BEGIN, END, markdownTable(), "property table (from the schema)");
 }
 
 // The drag modes (dfb/protocol/DragModes.h): every enumerator has one row, names and shortcuts
@@ -77,22 +81,8 @@ TEST(Schema, DragModesAreOneTableAndTheDocsShowIt) {
     EXPECT_EQ(schemaJson()["dragModes"].size(), dragModes().size());
     EXPECT_FALSE(parseDragMode("Shadow").ok());
 
-    const std::string DRAG_BEGIN = "<!-- drag-modes:begin -->\n", DRAG_END = "<!-- drag-modes:end -->";
-    std::ifstream in(DOCS);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    std::string text = ss.str();
-    const size_t b = text.find(DRAG_BEGIN), e = text.find(DRAG_END);
-    ASSERT_NE(b, std::string::npos) << "docs/protocol.md lacks " << DRAG_BEGIN;
-    ASSERT_NE(e, std::string::npos) << "docs/protocol.md lacks " << DRAG_END;
-    const std::string table = dragModesMarkdown();
-    if (std::getenv("DFB_UPDATE_DOCS")) {
-        text = text.substr(0, b + DRAG_BEGIN.size()) + table + text.substr(e);
-        std::ofstream(DOCS) << text;
-        return;
-    }
-    EXPECT_EQ(text.substr(b + DRAG_BEGIN.size(), e - b - DRAG_BEGIN.size()), table)
-        << "docs/protocol.md's drag-mode table differs from DragModes.cpp: run DFB_UPDATE_DOCS=1 build/tests/protocol_schema_test";
+    expectDocsTable("<!-- drag-modes:begin -->\n", "<!-- drag-modes:end -->", dragModesMarkdown(),
+                    "drag-mode table (from DragModes.cpp)");
 }
 
 TEST(Schema, ToJsonWritesExactlyTheRowsWithValuesAndTheyRoundTrip) {
