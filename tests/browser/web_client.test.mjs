@@ -809,6 +809,12 @@ try {
       }
       await a.waitForFunction((i) => window.dfb.S.cpSelection.points.includes(i), i, WAIT);
     }
+    // The overlay redraws on the next animation frame: wait for it to show every chosen handle it
+    // draws as selected before reading it (a loaded CI machine showed the old overlay once).
+    await a.waitForFunction((chosen) => chosen.every((i) => {
+      const h = document.querySelector(`#overlay [data-handle="cp"][data-index="${i}"]`);
+      return !h || h.classList.contains("cp-selected");
+    }), chosen, WAIT).catch(() => {});
     const sel = await a.evaluate(() => ({ points: window.dfb.S.cpSelection.points, drawn: [...document.querySelectorAll("#overlay .cp-selected")].map((e) => Number(e.dataset.index)),
                                           handles: [...document.querySelectorAll('#overlay [data-handle="cp"]')].map((e) => Number(e.dataset.index)),
                                           on: [...document.querySelectorAll("#dragPoints button.on")].map((b) => b.textContent),
