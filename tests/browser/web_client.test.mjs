@@ -115,7 +115,13 @@ function cpWorld(light, i) {
 }
 
 // Pixels of the displayed frame, read back through a canvas.
+// A frame may be mid-swap (its new object URL still decoding: naturalWidth 0), so
+// wait for a decoded one first.
 async function framePixels(page) {
+  await page.waitForFunction(() => {
+    const img = document.getElementById("frame");
+    return img.complete && img.naturalWidth > 0;
+  }, null, { timeout: 10000 });
   return page.evaluate(() => {
     const img = document.getElementById("frame");
     const c = document.createElement("canvas");
