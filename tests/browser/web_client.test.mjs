@@ -115,21 +115,23 @@ function cpWorld(light, i) {
 }
 
 // Pixels of the displayed frame, read back through a canvas.
-// A frame may be mid-swap (its new object URL still decoding: naturalWidth 0), so
-// wait for a decoded one first.
+// A frame may be mid-swap (its new object URL still decoding: naturalWidth 0). The check and the
+// copy run in one task, so no swap can come between them; until a decoded frame is there, retry.
 async function framePixels(page) {
-  await page.waitForFunction(() => {
+  return page.evaluate(async () => {
     const img = document.getElementById("frame");
-    return img.complete && img.naturalWidth > 0;
-  }, null, { timeout: 10000 });
-  return page.evaluate(() => {
-    const img = document.getElementById("frame");
-    const c = document.createElement("canvas");
-    c.width = img.naturalWidth;
-    c.height = img.naturalHeight;
-    const ctx = c.getContext("2d");
-    ctx.drawImage(img, 0, 0);
-    return Array.from(ctx.getImageData(0, 0, c.width, c.height).data);
+    for (let tries = 0; ; tries++) {
+      if (img.complete && img.naturalWidth > 0) {
+        const c = document.createElement("canvas");
+        c.width = img.naturalWidth;
+        c.height = img.naturalHeight;
+        const ctx = c.getContext("2d");
+        ctx.drawImage(img, 0, 0);
+        return Array.from(ctx.getImageData(0, 0, c.width, c.height).data);
+      }
+      if (tries >= 500) throw new Error("framePixels: no decoded frame within 10 s");
+      await new Promise((r) => setTimeout(r, 20));
+    }
   });
 }
 function meanAbsDiff(a, b) {
