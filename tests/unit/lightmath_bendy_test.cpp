@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 using namespace dfb::lightmath;
@@ -371,4 +372,28 @@ TEST(BendyPlane, FlowLinesSaidToMissThePlaneNeverDipBelowIt) {
     std::printf("%d chains said to miss the plane, %d not proven; %d dip below it and come back up\n", missing, notProven, dipping);
     EXPECT_GT(missing, 40);
     EXPECT_GT(dipping, 40);
+}
+
+// tubePoint inverts eqs. 5-6: a point placed at tube coordinates inside the tube, away from
+// where two feet compete (mid-segment, well inside), maps back to the same coordinates.
+TEST(BendySolver, TubePointIsTheInverseOfTheTubeCoordinates) {
+    std::mt19937_64 rng(20261203);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    int checked = 0;
+    for (int c = 0; c < 200; ++c) {
+        const Chain<double> ch = randomChain(rng, 1 + c % 4);
+        for (int q = 0; q < 20; ++q) {
+            const int k = int(std::abs(u(rng)) * ch.segments) % ch.segments;
+            const double t = 0.5 + 0.3 * u(rng), v = 0.3 * u(rng), w = 0.3 * u(rng);
+            const dvec3 Q = tubePoint(ch, k, t, v, w);
+            TubeCoords<double> at;
+            ASSERT_TRUE(tubeCoordinates(ch, Q, k, t, at));
+            EXPECT_NEAR(at.v, v, 1e-9);
+            EXPECT_NEAR(at.w, w, 1e-9);
+            // The distance from the curve is the radius times |(v, w)|.
+            EXPECT_NEAR(glm::length(Q - chainPoint(ch, k, t)), chainRadius(ch, k, t) * std::hypot(v, w), 1e-9);
+            ++checked;
+        }
+    }
+    EXPECT_EQ(checked, 4000);
 }

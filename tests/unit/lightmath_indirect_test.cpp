@@ -47,13 +47,6 @@ Light bendy() {
     return l;
 }
 
-// The world point at tube coordinates (segment k, t, v, w): on the flow line of constant (v, w).
-dvec3 tubePoint(const lightmath::Chain<double>& ch, int k, double t, double v, double w) {
-    dvec3 u, vh, wh;
-    lightmath::tubeFrame(ch, k, t, u, vh, wh);
-    return lightmath::chainPoint(ch, k, t) + (vh * v + wh * w) * lightmath::chainRadius(ch, k, t);
-}
-
 dvec3 beam(const lightmath::Chain<double>& ch, const dvec3& X) {
     const auto c = lightmath::inverseMap(ch, X);
     EXPECT_TRUE(c.valid);
@@ -113,8 +106,8 @@ TEST(ShadowDrag, DirectionalLightRayThroughOccluderMeetsNewShadowPoint) {
 TEST(ShadowDrag, BendyLightBentRayThroughOccluderMeetsNewShadowPointRigidAndNonRigid) {
     const Light l = bendy();
     const auto ch = chainFromLight<double>(l);
-    const dvec3 P = tubePoint(ch, 0, 0.6, 0.25, -0.2);   // occluder in the first segment
-    const dvec3 M = tubePoint(ch, 2, 3.0, 0.25, -0.2);   // its bent shadow, on the extension
+    const dvec3 P = lightmath::tubePoint(ch, 0, 0.6, 0.25, -0.2);   // occluder in the first segment
+    const dvec3 M = lightmath::tubePoint(ch, 2, 3.0, 0.25, -0.2);   // its bent shadow, on the extension
     ASSERT_LT(glm::length(beam(ch, P) - beam(ch, M)), 1e-9);
     const dvec3 Mnew = M + dvec3(0.0, 0.8, 0.5);
     for (const Selection& sel : {Selection{}, Selection{3, 4}}) {
@@ -145,8 +138,8 @@ TEST(ShadowDrag, BendyLightBentRayThroughOccluderMeetsNewShadowPointRigidAndNonR
 TEST(ShadowDrag, BendyLightKeepsEqElevenDistanceAlongTheRay) {
     const Light l = bendy();
     const auto ch = chainFromLight<double>(l);
-    const dvec3 P = tubePoint(ch, 0, 0.6, 0.25, -0.2);
-    const dvec3 M = tubePoint(ch, 2, 3.0, 0.25, -0.2);
+    const dvec3 P = lightmath::tubePoint(ch, 0, 0.6, 0.25, -0.2);
+    const dvec3 M = lightmath::tubePoint(ch, 2, 3.0, 0.25, -0.2);
     const auto deformed = [&](const dvec3& X) { return lightmath::deformedPoint(ch, lightmath::inverseMap(ch, X)); };
     const dvec3 Pl = d(l.position), Pd = deformed(P), Md = deformed(M);
     int solved = 0;
@@ -186,7 +179,7 @@ TEST(HotspotDrag, SpotLightAxisPointsAtNewTarget) {
 TEST(HotspotDrag, BendyLightCentreLinePassesThroughNewTarget) {
     const Light l = bendy();
     const auto ch = chainFromLight<double>(l);
-    const dvec3 M = tubePoint(ch, 2, 2.5, 0.0, 0.0); // the bent beam's centre on a receiver
+    const dvec3 M = lightmath::tubePoint(ch, 2, 2.5, 0.0, 0.0); // the bent beam's centre on a receiver
     const dvec3 Mnew = M + dvec3(0.0, -1.0, 1.2);
     for (const Selection& sel : {Selection{}, Selection{2, 3, 4}}) {
         const auto e = hotspotDrag(l, M, Mnew, sel);
@@ -236,7 +229,7 @@ TEST(HighlightDrag, BendyLightBentDirectionIsReflectedViewRigidAndNonRigid) {
         Light l = bendy();
         l.exactDirection = exact;
         const auto ch = chainFromLight<double>(l);
-        const dvec3 X = tubePoint(ch, 1, 0.5, 0.3, 0.2); // inside the bend
+        const dvec3 X = lightmath::tubePoint(ch, 1, 0.5, 0.3, 0.2); // inside the bend
         const auto c0 = lightmath::inverseMap(ch, X);
         const dvec3 Li0 = lightmath::lightDirection(ch, c0, X, exact);
         // The straight direction to the source differs from the bent one: the test would see it.

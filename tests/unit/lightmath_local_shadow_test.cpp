@@ -9,6 +9,8 @@
 
 #include <dfb/server/LocalShadowEdit.h>
 
+#include "support/BentDownLight.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -25,30 +27,6 @@ constexpr double TOL = 1e-5;
 // Levenberg-Marquardt takes 3-8 iterations on these drags (dfb-local-shadow-bench); 20 leaves room.
 constexpr int MAX_EXPECTED_ITERATIONS = 20;
 
-// A horizontal source at (0, 2, 0) shining along +x (frame: uL = x, vL = y, wL = z, so control
-// points read as world offsets), straight for two metres, then bent 90 degrees down onto the
-// ground y = -1, which the straight extension meets at right angles (at t = 1, u = 3); radii near
-// the 10-degree cone's. The bend's R kappa peaks at 0.69 (chainWarning: 1).
-Light bent() {
-    Light l;
-    l.name = "bent";
-    l.type = LightType::Bendy;
-    l.position = {0.f, 2.f, 0.f};
-    l.direction = {1.f, 0.f, 0.f};
-    l.coneAngleDeg = 10.f;
-    l.controlPoints = {{1.f, 0.f, 0.f}, {2.f, 0.f, 0.f}, {3.f, 0.f, 0.f}, {3.f, -1.f, 0.f}};
-    l.radii = {0.f, 0.18f, 0.35f, 0.5f, 0.6f};
-    l.colors.assign(5, Vec3{1.f, 1.f, 1.f});
-    return l;
-}
-
-// The world point at tube coordinates (segment k, t, v, w).
-dvec3 tubePoint(const lightmath::Chain<double>& ch, int k, double t, double v, double w) {
-    dvec3 u, vh, wh;
-    lightmath::tubeFrame(ch, k, t, u, vh, wh);
-    return lightmath::chainPoint(ch, k, t) + (vh * v + wh * w) * lightmath::chainRadius(ch, k, t);
-}
-
 // (u, v, w) of X under the light as the engine reads it.
 dvec3 coords(const Light& l, const dvec3& X) {
     const auto c = lightmath::inverseMap(chainFromLight<double>(l), X);
@@ -57,10 +35,10 @@ dvec3 coords(const Light& l, const dvec3& X) {
 }
 
 struct Scene {
-    Light light = bent();
-    lightmath::Chain<double> ch = chainFromLight<double>(bent());
-    dvec3 S = tubePoint(ch, 0, 0.7, 0.3, -0.2);             // occluder in the straight first segment
-    dvec3 Ct = tubePoint(ch, 2, 1.0, 0.3, -0.2);            // its shadow on the ground y = -1
+    Light light = test::bentDownLight();
+    lightmath::Chain<double> ch = chainFromLight<double>(test::bentDownLight());
+    dvec3 S = lightmath::tubePoint(ch, 0, 0.7, 0.3, -0.2);             // occluder in the straight first segment
+    dvec3 Ct = lightmath::tubePoint(ch, 2, 1.0, 0.3, -0.2);            // its shadow on the ground y = -1
     dvec3 centre = lightmath::chainPoint(ch, 2, 1.0);       // the tube's centre line on the ground
 };
 
@@ -116,7 +94,7 @@ std::vector<dvec3> occluderAround(const Scene& sc) {
     std::vector<dvec3> out;
     const double vw[4][2] = {{0.3, -0.2}, {0.1, 0.1}, {-0.2, 0.3}, {0.4, 0.2}};
     for (double u : {0.55, 0.75, 0.95, 1.15})
-        for (const auto& c : vw) out.push_back(tubePoint(sc.ch, int(u), u - std::floor(u), c[0], c[1]));
+        for (const auto& c : vw) out.push_back(lightmath::tubePoint(sc.ch, int(u), u - std::floor(u), c[0], c[1]));
     return out;
 }
 
@@ -172,7 +150,7 @@ TEST(LocalShadowEdit, OccluderSamplesAreBoundedAndChecked) {
     EXPECT_NE(e.error().message.find("occluder sample is not finite"), std::string::npos) << e.error().message;
     // Points outside the begin tube are not lit by it: dropped, not an error.
     const auto o = localShadowSolve(sc.light, sc.S, sc.Ct, CtNew, {}, local::Mode::Move,
-                                    {sc.S, tubePoint(sc.ch, 0, 0.7, 1.5, 0.0)});
+                                    {sc.S, lightmath::tubePoint(sc.ch, 0, 0.7, 1.5, 0.0)});
     ASSERT_TRUE(o.ok()) << o.error().toString();
     EXPECT_EQ(o->samples, 1);
 }
@@ -249,8 +227,8 @@ TEST(LocalShadowEdit, BadInputIsAnErrorNamingTheLightAndMode) {
         expectError(fn, mode, sc.light, dvec3(nan, 0, 0), sc.Ct, CtNew, {}, "not finite");
         expectError(fn, mode, sc.light, sc.S, dvec3(0, nan, 0), CtNew, {}, "not finite");
         expectError(fn, mode, sc.light, sc.S, sc.Ct, dvec3(0, 0, std::numeric_limits<double>::infinity()), {}, "not finite");
-        expectError(fn, mode, sc.light, tubePoint(sc.ch, 0, 0.7, 1.5, 0.0), sc.Ct, CtNew, {}, "S is outside");
-        expectError(fn, mode, sc.light, sc.S, tubePoint(sc.ch, 2, 1.0, 0.0, 1.3), CtNew, {}, "Ct is outside");
+        expectError(fn, mode, sc.light, lightmath::tubePoint(sc.ch, 0, 0.7, 1.5, 0.0), sc.Ct, CtNew, {}, "S is outside");
+        expectError(fn, mode, sc.light, sc.S, lightmath::tubePoint(sc.ch, 2, 1.0, 0.0, 1.3), CtNew, {}, "Ct is outside");
         // Occluder and shadow swapped: the "occluder" lies beyond the shadow along the tube.
         expectError(fn, mode, sc.light, sc.Ct, sc.S, CtNew, {}, "not between the source and Ct");
         Light broken = sc.light;

@@ -14,6 +14,8 @@
 #include <dfb/core/Stats.h>
 #include <dfb/server/LocalShadowEdit.h>
 
+#include "support/BentDownLight.h"
+
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -28,28 +30,6 @@ using glm::dvec3;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-// Horizontal source at (0, 2, 0) shining along +x (frame: uL = x, vL = y, wL = z), straight for
-// two metres, then bent 90 degrees down onto the ground y = -1, which the straight extension
-// meets at right angles (t = 1). Radii near the 10-degree cone's.
-Light bentLight() {
-    Light l;
-    l.name = "bent";
-    l.type = LightType::Bendy;
-    l.position = {0.f, 2.f, 0.f};
-    l.direction = {1.f, 0.f, 0.f};
-    l.coneAngleDeg = 10.f;
-    l.controlPoints = {{1.f, 0.f, 0.f}, {2.f, 0.f, 0.f}, {3.f, 0.f, 0.f}, {3.f, -1.f, 0.f}};
-    l.radii = {0.f, 0.18f, 0.35f, 0.5f, 0.6f};
-    l.colors.assign(5, Vec3{1.f, 1.f, 1.f});
-    return l;
-}
-
-dvec3 tubePoint(const lightmath::Chain<double>& ch, int k, double t, double v, double w) {
-    dvec3 u, vh, wh;
-    lightmath::tubeFrame(ch, k, t, u, vh, wh);
-    return lightmath::chainPoint(ch, k, t) + (vh * v + wh * w) * lightmath::chainRadius(ch, k, t);
-}
 
 // (u, v, w) of X; zero without a foot (the bench only prints).
 dvec3 coordsOf(const Light& l, const dvec3& X) {
@@ -73,16 +53,16 @@ int main(int argc, char** argv) {
     app.add_option("--paper-step", step, "the paper's step D, in units of L")->check(CLI::Range(1e-12, 1.0));
     CLI11_PARSE(app, argc, argv);
 
-    const Light light = bentLight();
+    const Light light = test::bentDownLight();
     const auto ch = chainFromLight<double>(light);
-    const dvec3 S = tubePoint(ch, 0, 0.7, 0.3, -0.2);  // occluder in the straight first segment
-    const dvec3 Ct = tubePoint(ch, 2, 1.0, 0.3, -0.2); // its shadow on the ground y = -1
+    const dvec3 S = lightmath::tubePoint(ch, 0, 0.7, 0.3, -0.2);  // occluder in the straight first segment
+    const dvec3 Ct = lightmath::tubePoint(ch, 2, 1.0, 0.3, -0.2); // its shadow on the ground y = -1
     const dvec3 centre = lightmath::chainPoint(ch, 2, 1.0);
     // The occluder around S: u 0.55 to 1.15 (the straight part into the bend), four (v, w) each.
     std::vector<dvec3> occluder;
     const double vw[4][2] = {{0.3, -0.2}, {0.1, 0.1}, {-0.2, 0.3}, {0.4, 0.2}};
     for (double u : {0.55, 0.75, 0.95, 1.15})
-        for (const auto& c : vw) occluder.push_back(tubePoint(ch, int(u), u - double(int(u)), c[0], c[1]));
+        for (const auto& c : vw) occluder.push_back(lightmath::tubePoint(ch, int(u), u - double(int(u)), c[0], c[1]));
     auto occluderChange = [&](const Light& after) {
         double sum = 0.0;
         for (const dvec3& X : occluder) {

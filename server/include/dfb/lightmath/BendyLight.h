@@ -250,6 +250,14 @@ template <typename T> bool tubeCoordinates(const Chain<T>& ch, const vec3<T>& Q,
     return true;
 }
 
+/// The inverse of eqs. 5-6: the undeformed world point at tube coordinates (segment k, local t,
+/// v, w), on the flow line of constant (v, w): P(t) + R(t) (v v_hat + w w_hat).
+template <typename T> vec3<T> tubePoint(const Chain<T>& ch, int k, T t, T v, T w) {
+    vec3<T> uHat, vHat, wHat;
+    tubeFrame(ch, k, t, uHat, vHat, wHat);
+    return chainPoint(ch, k, t) + (vHat * v + wHat * w) * chainRadius(ch, k, t);
+}
+
 /// Solves eq. 4, (Q - P(u)) . P'(u) = 0, on every segment and on the extension, and keeps the
 /// foot where Q is inside the tube, the most central if several; if Q is inside at none, the most
 /// central foot anyway (so that geometry outside the tube maps outside the cone).
