@@ -112,7 +112,6 @@ int main(int argc, char** argv) {
                 "update->fr", "p90", "max", "refused");
 
     for (const Mode& m : modes) {
-        if (getenv("DBG") && m.mode != DragMode::LocalShadowScale) continue;
         const Rig& start = m.bendy ? bent : base;
         // Warm the engine (and the picker's deformed hierarchy) on the begin rig, outside the timing.
         opened.engine->setPreview(false);
@@ -143,7 +142,6 @@ int main(int argc, char** argv) {
             if (!img || !encodeJpeg(img.value(), quality)) return 4;
             solveMs.push_back(step->solveMs);
             frameMs.push_back(msSince(u0));
-            if (getenv("DBG") && m.mode == DragMode::LocalShadowScale) { fprintf(stderr, "u%d %.0f ms radii", i, frameMs.back()); for (float r : step->light.radii) fprintf(stderr, " %.3f", r); fprintf(stderr, "\n"); }
             iterations.push_back(double(step->iterations));
         }
         opened.engine->setPreview(false);

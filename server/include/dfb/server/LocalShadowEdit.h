@@ -50,7 +50,9 @@
 //  - self-intersection: PENALTY_WEIGHT * max(0, onset - |p_i - p_j| / (r_i + r_j)) over sample
 //    pairs further apart along the chain than twice their radii (chainWarning's pairs), onset =
 //    APART_ONSET (1.1) or the begin chain's least ratio if lower (chainWarning refuses below 1);
-//  - scale mode: PENALTY_WEIGHT * max(0, -r_i) / L, radii stay >= 0 (the chain uses max(r_i, 0));
+//  - scale mode: PENALTY_WEIGHT * max(0, -r_i, WAIST_ONSET r_i0 - r_i) / L: radii stay >= 0 (the
+//    chain uses max(r_i, 0)) and above WAIST_ONSET of their begin value r_i0 within one drag (a
+//    shrink further than that is refused, naming the limit; a second drag shrinks on);
 //  - Tikhonov: TIKHONOV * (x_j - 1), the displacement from the begin light in units of L (in run
 //    (2) after occluder samples: from run (1)'s result), so that underdetermined selections
 //    (every control point: 3 (2K + 1) unknowns for 6 residuals) take the least change. Its pull leaves about TIKHONOV^2 |x - 1| / sigma(J) <= 1e-8 in the tube
@@ -103,6 +105,14 @@ constexpr double LOCAL_CONVERGED = 1e-3 * LOCAL_ACCEPTED;
 /// distance over the sum of radii below which the self-intersection penalty starts (chainWarning: 1).
 constexpr double FOLD_ONSET = 0.9;
 constexpr double APART_ONSET = 1.1;
+/// Scale mode: a radius under this fraction of its begin value is penalised like a fold (a
+/// waist). The occluder samples alone would pinch the radius between S and C't towards zero to
+/// keep their coordinates while the radii beyond it grow (dfb-indirect-bench, 960x540, a 40-px
+/// drag: r2 1.0 -> 0.09), a tube whose eq. 7 stretches the deformed casters by R0 / R: the
+/// tessellation hit its work bound and frames took 0.27 s. At 0.5 the pinch went but a narrowing
+/// past the last point still stretched the casters (0.23 s); at 0.75, 39 ms. A shadow shrinks by
+/// at most about a quarter per drag (LocalShadowScale.AWaistIsRefusedNamingTheLimit).
+constexpr double WAIST_ONSET = 0.75;
 /// Weight of the penalties against the tube residuals (both dimensionless): a fold of 0.01 past
 /// the onset costs as much as a 0.01-radius miss, so the solve stops short of folding.
 constexpr double PENALTY_WEIGHT = 1.0;
@@ -303,7 +313,9 @@ struct Functor : Eigen::DenseFunctor<double> {
         const int n = p.unknowns();
         if (p.mode == Mode::Scale) {
             for (int j = 0; j < n; ++j) {
-                f[m++] = PENALTY_WEIGHT * std::max(0.0, -(p.base.r[p.vars[size_t(j)]] + (x[j] - 1.0) * p.L)) / p.L;
+                const double r0 = p.base.r[p.vars[size_t(j)]], rj = r0 + (x[j] - 1.0) * p.L;
+                // Below zero, or a waist: under WAIST_ONSET of its begin value (relative to L).
+                f[m++] = PENALTY_WEIGHT * std::max({0.0, -rj, WAIST_ONSET * r0 - rj}) / p.L;
             }
         }
         for (int j = 0; j < n; ++j) f[m++] = TIKHONOV * (x[j] - (p.anchor.empty() ? 1.0 : p.anchor[size_t(j)]));
@@ -413,6 +425,14 @@ inline Light lightAt(const Problem& p, const double* x) {
     return detail::lightOf(out, pose, store);
 }
 
+/// Scale mode: the least ratio of a varied radius to its begin value (1 where none was positive).
+inline double narrowest(const Problem& p, const Chain<double>& ch) {
+    double least = 1.0;
+    for (int i : p.vars)
+        if (p.base.r[i] > 0.0) least = std::min(least, ch.r[i] / p.base.r[i]);
+    return least;
+}
+
 /// Judges a solution: the bound, the tube around S, chainWarning; fills the outcome.
 inline Outcome judge(const Problem& p, const double* x, int iterations) {
     Outcome o;
@@ -441,6 +461,12 @@ inline Outcome judge(const Problem& p, const double* x, int iterations) {
                           "%s: the drag would fold the tube (radius x curvature %.3f at the best compromise; the "
                           "regulariser starts at %.2f, the tube folds at 1); residual %.3g after %d iterations",
                           what, foldOnset + fold, foldOnset, o.reachable, iterations);
+        } else if (double least = p.mode == Mode::Scale ? narrowest(p, ch) : 1.0; least < WAIST_ONSET) {
+            std::snprintf(buf, sizeof buf,
+                          "%s: the drag would narrow the tube to %.0f %% of a radius in one drag (the regulariser "
+                          "starts at %.0f %%): release and drag again to shrink it further; residual %.3g after %d "
+                          "iterations",
+                          what, 100.0 * least, 100.0 * WAIST_ONSET, o.reachable, iterations);
         } else if (shape.apart < p.apartOnset) {
             std::snprintf(buf, sizeof buf,
                           "%s: the drag would make the tube intersect itself (parts of the chain %.3f of their radii "
