@@ -56,9 +56,8 @@ Result<std::vector<NamedImageF>> GlEngine::renderLayers(const Rig& rig) {
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error();
     std::vector<NamedImageF> layers;
-    auto beauty = readFloat(mCompositor.accumulation(), "beauty layer");
+    auto beauty = readLinearBeauty("beauty layer");
     if (!beauty) return beauty.error();
-    for (size_t i = 3; i < beauty->rgba.size(); i += 4) beauty->rgba[i] = 1.f;
     layers.push_back({"", std::move(beauty.value())});
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
@@ -70,10 +69,20 @@ Result<std::vector<NamedImageF>> GlEngine::renderLayers(const Rig& rig) {
     return layers;
 }
 
+// The accumulation's alpha is whatever the blending left there (1 after a full composite, 0 after
+// an incremental one that added a light to the cached sum): the linear beauty is opaque, alpha 1,
+// whichever path made it.
+Result<ImageF> GlEngine::readLinearBeauty(const char* what) {
+    auto beauty = readFloat(mCompositor.accumulation(), what);
+    if (!beauty) return beauty.error();
+    for (size_t i = 3; i < beauty->rgba.size(); i += 4) beauty->rgba[i] = 1.f;
+    return beauty;
+}
+
 Result<ImageF> GlEngine::renderLinear(const Rig& rig) {
     FrameStats st;
     if (auto s = renderAccumulation(rig, st); !s) return s.error();
-    return readFloat(mCompositor.accumulation(), "relight frame (linear)");
+    return readLinearBeauty("relight frame (linear)");
 }
 
 } // namespace dfb::engine

@@ -50,6 +50,7 @@ private:
     Status updateContributions(const Rig& rig, FrameStats& st);
     Status waitGpu(const char* stage);
     Result<ImageF> readFloat(GLuint texture, const char* what, glm::vec3 scale = glm::vec3(1.f));
+    Result<ImageF> readLinearBeauty(const char* what); ///< the accumulation, alpha 1
 
     // First: destroyed last, after every GL object below.
     std::unique_ptr<gl::Context> mContext;

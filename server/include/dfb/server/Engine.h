@@ -116,7 +116,7 @@ public:
     virtual Result<Image8> render(const Rig& rig, FrameStats* stats = nullptr) = 0;
 
     /// Renders like render() but returns the linear sum of emission and light contributions,
-    /// before exposure and the view transform (for compositing and tests).
+    /// before exposure and the view transform (for compositing and tests); alpha 1.
     virtual Result<ImageF> renderLinear(const Rig& rig) = 0;
 
     /// One light's contribution alone (linear radiance, before exposure), from the same cache as
