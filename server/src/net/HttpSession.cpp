@@ -104,6 +104,25 @@ Result<std::optional<uint64_t>> ifMatch(const http::request<http::string_body>& 
     return std::optional<uint64_t>{std::stoull(h)};
 }
 
+// An editor's request body (PUT rig, POST edits, POST drag): the If-Match version and the JSON
+// body, bounded by MAX_BODY_BYTES; `objectShape` (non-null) requires a JSON object and names its
+// shape in the error. `what` names the request ("POST edits").
+struct EditorBody {
+    std::optional<uint64_t> expected;
+    json body;
+};
+Result<EditorBody> editorBody(const http::request<http::string_body>& req, const std::string& what,
+                              const char* objectShape = nullptr) {
+    auto expected = ifMatch(req);
+    if (!expected) return expected.error();
+    auto body = protocol::parseJson(req.body(), MAX_BODY_BYTES, what + ": the body");
+    if (!body) return body.error();
+    if (objectShape && !body->is_object()) {
+        return makeError(ErrorCode::Protocol, what + ": the body must be a JSON object " + objectShape);
+    }
+    return EditorBody{expected.value(), std::move(body.value())};
+}
+
 std::string etag(uint64_t version) { return "\"" + std::to_string(version) + "\""; }
 
 // The browser page's file that `path` names, or an empty view: "/" is index.html, "/NAME" the
@@ -343,32 +362,28 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         }
         if (!put) return notAllowed("GET, HEAD, PUT");
         if (!editorOnly()) return;
-        auto expected = ifMatch(req);
-        if (!expected) return refuse(expected.error());
-        auto body = protocol::parseJson(req.body(), MAX_BODY_BYTES, "PUT rig: the body");
-        if (!body) return refuse(body.error());
-        auto rig = protocol::rigFromJson(body.value());
+        auto in = editorBody(req, "PUT rig");
+        if (!in) return refuse(in.error());
+        auto rig = protocol::rigFromJson(in->body);
         if (!rig) return refuse(rig.error(), http::status::bad_request);
-        auto out = session.replace(rig.value(), author, expected.value());
+        auto out = session.replace(rig.value(), author, in->expected);
         if (!out) return refuse(out.error());
         return accepted(out.value(), json::object());
     }
     if (resource == "edits") {
         if (!post) return notAllowed("POST");
         if (!editorOnly()) return;
-        auto expected = ifMatch(req);
-        if (!expected) return refuse(expected.error());
         // The body is an edit message without "type" and "seq": parsed by the WebSocket's codec.
-        auto parsedBody = protocol::parseJson(req.body(), MAX_BODY_BYTES, "POST edits: the body");
-        if (!parsedBody) return refuse(parsedBody.error());
-        json& body = parsedBody.value();
-        if (!body.is_object()) return refuse(makeError(ErrorCode::Protocol, "POST edits: the body must be a JSON object {\"changes\": [...]}"));
+        auto in = editorBody(req, "POST edits", "{\"changes\": [...]}");
+        if (!in) return refuse(in.error());
+        const std::optional<uint64_t> expected = in->expected;
+        json& body = in->body;
         body["type"] = "edit";
         body["seq"] = uint64_t(0);
         auto parsed = protocol::clientMessageFromJson(body);
         if (!parsed) return refuse(parsed.error());
         auto& edit = std::get<protocol::EditMessage>(parsed.value());
-        if (expected.value() && !edit.ifVersion) edit.ifVersion = expected.value();
+        if (expected && !edit.ifVersion) edit.ifVersion = expected;
         auto out = session.edit(edit.changes, author, edit.base, edit.ifVersion);
         if (!out) return refuse(out.error(), out.error().code == ErrorCode::MissingData ? std::optional(http::status::bad_request) : std::nullopt);
         json extra = json::object();
@@ -422,14 +437,10 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         // `to`, end; one edit, one undo step.
         if (!post) return notAllowed("POST");
         if (!editorOnly()) return;
-        auto expected = ifMatch(req);
-        if (!expected) return refuse(expected.error());
-        auto parsedBody = protocol::parseJson(req.body(), MAX_BODY_BYTES, "POST drag: the body");
-        if (!parsedBody) return refuse(parsedBody.error());
-        const json& body = parsedBody.value();
-        if (!body.is_object()) {
-            return refuse(makeError(ErrorCode::Protocol, "POST drag: the body must be a JSON object {\"mode\", \"light\", \"from\", \"to\"}"));
-        }
+        auto in = editorBody(req, "POST drag", "{\"mode\", \"light\", \"from\", \"to\"}");
+        if (!in) return refuse(in.error());
+        const std::optional<uint64_t> expected = in->expected;
+        const json& body = in->body;
         for (auto it = body.begin(); it != body.end(); ++it) {
             if (it.key() != "mode" && it.key() != "light" && it.key() != "from" && it.key() != "to" && it.key() != "points") {
                 return refuse(makeError(ErrorCode::Protocol, "POST drag: unknown field '" + it.key().substr(0, 64) +
@@ -466,7 +477,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         start.y = m.y;
         start.points = m.points;
         const int toX = xy[1][0], toY = xy[1][1];
-        const std::optional<uint64_t> ifVersion = expected.value();
+        const std::optional<uint64_t> ifVersion = expected;
         hub->render().requestPickerJob([self = shared_from_this(), hub, start, toX, toY, ifVersion, version, keepAlive](
                                            const Picker& picker, const DeepBuffer& shot) {
             // Solved here (render thread); applied and answered on the connection's strand.
