@@ -14,6 +14,8 @@
 #include <dfb/server/Engine.h>
 
 #include <gtest/gtest.h>
+
+#include <tuple>
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
@@ -303,4 +305,29 @@ TEST_F(Drags, BadDragsAreRefusedAndChangeNothing) {
     EXPECT_EQ(bad.status, 400) << bad.body;
     // Still serving.
     EXPECT_EQ(test::http(mServer->port, "GET", "/healthz").status, 200);
+}
+
+// The editor's HTTP bodies (PUT rig, POST edits, POST drag) are read by one helper: an unreadable
+// If-Match, a body that is not JSON and (edits, drag) one that is not an object are refused alike,
+// naming the request, and change nothing.
+TEST_F(Drags, EditorBodiesAreCheckedAlike) {
+    const std::string base = "/v1/sessions/" + mSession;
+    const std::string rigBefore = mServer->rig(mSession).dump();
+    const std::string validEdit = json{{"changes", json::array()}}.dump();
+    for (const auto& [method, path, label] : {std::tuple{"PUT", "/rig", "PUT rig"}, std::tuple{"POST", "/edits", "POST edits"},
+                                              std::tuple{"POST", "/drag", "POST drag"}}) {
+        SCOPED_TRACE(label);
+        auto r = test::http(mServer->port, method, base + path, mToken, validEdit, {{"If-Match", "\"twelve\""}});
+        EXPECT_EQ(r.status, 400) << r.body;
+        EXPECT_NE(r.body.find("If-Match: expected the rig version"), std::string::npos) << r.body;
+        r = test::http(mServer->port, method, base + path, mToken, "{not json");
+        EXPECT_EQ(r.status, 400) << r.body;
+        EXPECT_NE(r.body.find(std::string(label) + ": the body"), std::string::npos) << r.body;
+        if (std::string(method) == "POST") {
+            r = test::http(mServer->port, method, base + path, mToken, "[1, 2]");
+            EXPECT_EQ(r.status, 400) << r.body;
+            EXPECT_NE(r.body.find(std::string(label) + ": the body must be a JSON object {"), std::string::npos) << r.body;
+        }
+    }
+    EXPECT_EQ(mServer->rig(mSession).dump(), rigBefore);
 }
