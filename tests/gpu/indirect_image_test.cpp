@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -154,6 +155,56 @@ void bendKey(Rig& rig) {
     makeStraightChain(l, len, 2);
     l.controlPoints[2][2] += 0.05f * len;
     l.controlPoints[3][2] += 0.1f * len;
+}
+
+// The key's segment k split at t0 by de Casteljau's construction (positions, radii and colours
+// are quadratic Bezier curves in t, eqs. 1-3): the same tube with one more segment, so that
+// control points past the split can move while the part before it stays.
+void splitSegment(Light& l, int k, float t0) {
+    auto lerp = [t0](auto a, auto b) {
+        auto out = a;
+        for (size_t i = 0; i < a.size(); ++i) out[i] = a[i] + (b[i] - a[i]) * t0;
+        return out;
+    };
+    auto split = [&](auto& v, auto origin) { // v: entries for cp0..cp2K (origin: cp0's)
+        const size_t i = size_t(2 * k);
+        const auto a = i == 0 ? origin : v[i], b = v[i + 1], c = v[i + 2];
+        const auto A = lerp(a, b), B = lerp(b, c), M = lerp(A, B);
+        v[i + 1] = A;
+        v.insert(v.begin() + std::ptrdiff_t(i) + 2, {M, B});
+    };
+    // controlPoints holds cp1..cp2K (cp0 is the light's position, the frame's origin): pad it.
+    std::vector<Vec3> cps{Vec3{0.f, 0.f, 0.f}};
+    cps.insert(cps.end(), l.controlPoints.begin(), l.controlPoints.end());
+    split(cps, Vec3{0.f, 0.f, 0.f});
+    l.controlPoints.assign(cps.begin() + 1, cps.end());
+    std::vector<std::array<float, 1>> radii;
+    for (float r : l.radii) radii.push_back({r});
+    split(radii, radii[0]);
+    l.radii.clear();
+    for (const auto& r : radii) l.radii.push_back(r[0]);
+    split(l.colors, l.colors[0]);
+}
+
+// Per pixel of object `objectId` lit in `before`, |after / before - 1| of the RGB sum.
+std::vector<double> radianceChange(const Shot& s, const ImageF& before, const ImageF& after, uint32_t objectId) {
+    std::vector<double> change;
+    for (int y = 0; y < HEIGHT; ++y)
+        for (int x = 0; x < WIDTH; ++x) {
+            auto p = s.picker->pick(x, y);
+            const size_t i = (size_t(y) * WIDTH + size_t(x)) * 4;
+            const double a = double(before.rgba[i]) + before.rgba[i + 1] + before.rgba[i + 2];
+            if (!p || p->objectId != objectId || !(a > 0)) continue;
+            const double b = double(after.rgba[i]) + after.rgba[i + 1] + after.rgba[i + 2];
+            change.push_back(std::abs(b / a - 1));
+        }
+    return change;
+}
+
+double medianOf(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+    return v[v.size() / 2];
 }
 
 Rig edited(const Rig& rig, const Light& l) {
@@ -345,27 +396,14 @@ TEST_P(IndirectImage, LocalShadowEditsMoveTheShadowAndKeepTheOccludersShading) {
         const auto vis2 = mask(s, after, "key");
         auto img = s.engine->renderLightLinear(after, "key");
         ASSERT_TRUE(img.ok());
-        std::vector<double> change;
-        for (int y = 0; y < HEIGHT; ++y)
-            for (int x = 0; x < WIDTH; ++x) {
-                auto p = s.picker->pick(x, y);
-                const size_t i = (size_t(y) * WIDTH + size_t(x)) * 4;
-                const double a = double(before->rgba[i]) + before->rgba[i + 1] + before->rgba[i + 2];
-                if (!p || p->objectId != d->grab.occluder->objectId || !(a > 0)) continue;
-                const double b = double(img->rgba[i]) + img->rgba[i + 1] + img->rgba[i + 2];
-                change.push_back(std::abs(b / a - 1));
-            }
+        std::vector<double> change = radianceChange(s, before.value(), img.value(), d->grab.occluder->objectId);
         // On the tabletop the occluder (a vase) is in view; in the Cornell box the grabbed shadow's
         // occluder shows no lit pixel to the camera, so only the shadow is measured there.
         if (GetParam() == 0) {
             ASSERT_GT(change.size(), 20u) << s.name << " " << name << ": the occluder shows too few lit pixels";
             EXPECT_EQ(d->grab.occluderSamples.size(), size_t(indirect::LOCAL_MAX_OCCLUDER_SAMPLES)) << name;
         }
-        double median = 0;
-        if (!change.empty()) {
-            std::nth_element(change.begin(), change.begin() + std::ptrdiff_t(change.size() / 2), change.end());
-            median = change[change.size() / 2];
-        }
+        const double median = medianOf(change);
         const double dist = boundaryDistance(s, vis2, d->step.x, d->step.y, 6);
         size_t moved = 0;
         for (size_t i = 0; i < vis.size(); ++i) moved += (vis[i] > 0.5f) != (vis2[i] > 0.5f);
@@ -388,6 +426,58 @@ TEST_P(IndirectImage, LocalShadowEditsMoveTheShadowAndKeepTheOccludersShading) {
             EXPECT_LT(d->step.residual, 0.1) << s.name << " " << name;
         }
     }
+}
+
+// Issue 17 point 8's 1 % for the local shadow move, with the control points selected past the
+// occluder (the paper's local edit: bend the light after the object to move its shadow). The
+// bent key's last segment, which holds the vase (u 1.13-1.41) and its shadow (u 1.76), is split at
+// t = 0.5 into two (the same tube: checked), and the move varies cp 5-6 only: the vase's segment,
+// arc length and frame stay, so its shading does; the shadow lands under the pointer. (With the
+// vase inside the moved segment the change is 2.6 %, the test above: eq. 9's direction there
+// turns with the segment.)
+TEST(IndirectImageTabletop, LocalShadowMovePastTheOccluderKeepsItsShadingWithinOnePercent) {
+    Shot& s = shot(0);
+    Rig two = s.rig;
+    bendKey(two);
+    Rig rig = two;
+    splitSegment(rig.lights[0], 1, 0.5f);
+    ASSERT_EQ(rig.lights[0].segments(), 3);
+    auto same = s.engine->renderLightLinear(two, "key");
+    auto before = s.engine->renderLightLinear(rig, "key");
+    ASSERT_TRUE(same.ok() && before.ok());
+    std::vector<double> split;
+    for (size_t i = 0; i < same->rgba.size(); i += 4) {
+        const double a = double(same->rgba[i]) + same->rgba[i + 1] + same->rgba[i + 2];
+        const double b = double(before->rgba[i]) + before->rgba[i + 1] + before->rgba[i + 2];
+        if (a > 0) split.push_back(std::abs(b / a - 1));
+    }
+    const double splitMedian = medianOf(split);
+    EXPECT_LT(splitMedian, 1e-4) << "the split chain is the same tube";
+    const auto vis = mask(s, rig, "key");
+    auto d = findDrag(s, rig, protocol::DragMode::LocalShadowMove, "key", 6, 0, [&](int x, int y) { return boundary(s, vis, x, y); },
+                      indirect::Selection{5, 6});
+    ASSERT_TRUE(d) << "no boundary pixel from which the drag solves";
+    ASSERT_TRUE(d->grab.occluder);
+    const Rig after = edited(rig, d->step.light);
+    auto img = s.engine->renderLightLinear(after, "key");
+    ASSERT_TRUE(img.ok());
+    const auto change = radianceChange(s, before.value(), img.value(), d->grab.occluder->objectId);
+    const double median = medianOf(change);
+    const auto vis2 = mask(s, after, "key");
+    const double dist = boundaryDistance(s, vis2, d->step.x, d->step.y, 6);
+    size_t moved = 0;
+    for (size_t i = 0; i < vis.size(); ++i) moved += (vis[i] > 0.5f) != (vis2[i] > 0.5f);
+    std::printf("tabletop split chain (median change against the unsplit %.1e); local shadow move on cp 5-6 (%d,%d) -> "
+                "(%d,%d): boundary %.2f px from the pointer, %zu shadow pixels changed, occluder's radiance median change %.3f %% "
+                "over %zu pixels; %d iterations, residual %.1e\n",
+                splitMedian, d->grab.x, d->grab.y, d->step.x, d->step.y, dist, moved, 100 * median, change.size(),
+                d->step.iterations, d->step.residual);
+    EXPECT_GT(moved, 10u);
+    EXPECT_GT(change.size(), 20u);
+    EXPECT_LT(median, 0.01);
+    EXPECT_LE(dist, 3.0);
+    EXPECT_LE(d->step.residual, indirect::ACCEPTED);
+    EXPECT_LE(d->step.iterations, 10);
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, IndirectImage, ::testing::Values(0, 1),
