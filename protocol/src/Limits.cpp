@@ -9,7 +9,10 @@ uint64_t lightMemoryBytes(const Light& l, const RigLimits& limits) {
     uint64_t bytes = limits.imagePixels * 16; // its contribution image, RGBA32F
     if (l.shadow) {
         const uint64_t side = uint64_t(l.shadowMapSize);
-        bytes += side * side * 4 * (l.type == LightType::Point ? 6 : 1);
+        const uint64_t maps = l.type == LightType::Point ? 6
+                              : l.type == LightType::Area ? uint64_t(l.shadowGrid[0]) * uint64_t(l.shadowGrid[1])
+                                                          : 1;
+        bytes += side * side * 4 * maps;
     }
     return bytes;
 }

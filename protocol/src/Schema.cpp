@@ -76,9 +76,12 @@ Status setName(const Property&, Light& l, const json& v, const std::string& path
 
 Status setType(const Property&, Light& l, const json& v, const std::string& path, int) {
     const auto t = v.is_string() ? lightTypeFromName(v.get<std::string>()) : std::nullopt;
-    if (!t) return invalid(path + ": unknown light type " + excerpt(v) + " (\"spot\", \"point\", \"bendy\" or \"directional\")");
+    if (!t) return invalid(path + ": unknown light type " + excerpt(v) + " (\"spot\", \"point\", \"bendy\", \"directional\" or \"area\")");
     // A new chain starts straight along the axis, matching the cone: it looks like the spot.
     if (*t == LightType::Bendy && l.controlPoints.empty()) makeStraightChain(l, 4.f);
+    // An area light's shadow is a grid of maps (shadowGrid, 4 x 4 by default) of this size each:
+    // soft shadows need far fewer texels than one hard map.
+    if (*t == LightType::Area && l.type != LightType::Area) l.shadowMapSize = std::min(l.shadowMapSize, AREA_DEFAULT_MAP_SIZE);
     l.type = *t;
     return ok();
 }
@@ -147,6 +150,62 @@ Status setWarning(const Property&, Light&, const json& v, const std::string& pat
     if (!v.is_string()) return invalid(path + ": expected a string");
     return ok();
 }
+
+// ---- area lights --------------------------------------------------------------------------------
+
+Status setShape(const Property&, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_string() || (v.get<std::string>() != "rect" && v.get<std::string>() != "disk")) {
+        return invalid(path + ": unknown area light shape " + excerpt(v) + " (\"rect\" or \"disk\")");
+    }
+    l.areaShape = v.get<std::string>() == "disk" ? AreaShape::Disk : AreaShape::Rect;
+    return ok();
+}
+json getShape(const Light& l) { return l.areaShape == AreaShape::Disk ? "disk" : "rect"; }
+
+Status setAreaSize(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_array() || v.size() != 2) return invalid(path + ": expected [width, height] in scene units (a disk: [diameter, any])");
+    std::array<float, 2> size{};
+    for (size_t i = 0; i < 2; ++i) {
+        auto n = getNumber(v[i], path + "[" + std::to_string(i) + "]", p.min, p.max);
+        if (!n) return n.error();
+        size[i] = n.value();
+    }
+    l.areaSize = size;
+    return ok();
+}
+
+Status setShadowGrid(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_array() || v.size() != 2) return invalid(path + ": expected [m, n], shadow maps across x across the emitter");
+    std::array<int, 2> grid{};
+    for (size_t i = 0; i < 2; ++i) {
+        if (!v[i].is_number_integer() || v[i].get<int64_t>() < int64_t(p.min) || v[i].get<int64_t>() > int64_t(p.max)) {
+            return invalid(path + "[" + std::to_string(i) + "]: must be an integer in [1, " + std::to_string(MAX_AREA_SHADOW_GRID) + "]");
+        }
+        grid[i] = int(v[i].get<int64_t>());
+    }
+    l.shadowGrid = grid;
+    return ok();
+}
+
+Status setPattern(const Property&, Light& l, const json& v, const std::string& path, int) {
+    if (!v.is_string()) return invalid(path + ": expected a file name (string)");
+    const std::string c = v.get<std::string>();
+    if (c.size() > 255 || (!c.empty() && (c[0] == '/' || c.find("..") != std::string::npos || c.find('\\') != std::string::npos ||
+                                          c.find('\0') != std::string::npos))) {
+        return invalid(path + ": a pattern is a relative file name inside the asset folder (no '/' at the start, no '..')");
+    }
+    l.pattern = c;
+    return ok();
+}
+
+Status setAlphaBeta(const Property&, Light&, const json& v, const std::string& path, int) {
+    // Server-computed (the fit of the light's shape and pattern): accepted in a whole rig (round
+    // trips) but not meaningful to set.
+    if (!v.is_array() || v.size() != 2) return invalid(path + ": expected [alpha, beta]");
+    return ok();
+}
+
+bool isArea(const Light& l) { return l.type == LightType::Area; }
 
 // ---- BendyLight chains ---------------------------------------------------------------------------
 
@@ -282,8 +341,8 @@ bool sameConeForShadow(const Light& a, const Light& b) {
     return shadowHalfAngleDeg(a) == shadowHalfAngleDeg(b);
 }
 
-constexpr unsigned LOCATED = APPLIES_SPOT | APPLIES_POINT | APPLIES_BENDY;  // has a position
-constexpr unsigned AIMED = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL; // has a direction
+constexpr unsigned LOCATED = APPLIES_SPOT | APPLIES_POINT | APPLIES_BENDY | APPLIES_AREA;  // has a position
+constexpr unsigned AIMED = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_AREA; // has a direction
 constexpr unsigned CONED = APPLIES_SPOT | APPLIES_BENDY;                    // has a cone
 
 using enum PropType;
@@ -293,12 +352,14 @@ const std::vector<Property> LIGHT_PROPERTIES = {
     {.path = "name", .label = "Name", .type = String, .unit = "", .invalidates = Shadow, .valueDoc = "string",
      .doc = "1-64 of `[A-Za-z0-9_-]`, unique in the rig", .set = setName, .same = sameField<&Light::name>,
      .get = getField<&Light::name>},
-    {.path = "type", .label = "Type", .type = Enum, .unit = "", .invalidates = Shadow, .values = "spot,point,directional,bendy",
+    {.path = "type", .label = "Type", .type = Enum, .unit = "", .invalidates = Shadow, .values = "spot,point,directional,bendy,area",
      .valueDoc = "string",
      .doc = "`\"spot\"`, `\"point\"` (every direction from `position`, candela, cube-map shadows; `direction` and the cone "
             "unused), `\"directional\"` (parallel light along `direction`, `intensity` in lux, no cone; `position` unused) or "
             "`\"bendy\"`; switching a light without a chain to `bendy` gives it a straight 4-unit chain matching its cone (it "
-            "looks unchanged)",
+            "looks unchanged), or `\"area\"` (a one-sided rectangle or disk at `position` emitting towards `direction`, "
+            "`intensity` its radiance in cd/m²; switching to `area` caps `shadowMapSize` at 512, the size of each map of its "
+            "`shadowGrid`)",
      .set = setType, .same = sameField<&Light::type>, .get = getType},
     {.path = "enabled", .label = "Enabled", .type = Boolean, .unit = "", .invalidates = Composite, .valueDoc = "bool",
      .doc = "", .set = setBool<&Light::enabled>, .same = sameField<&Light::enabled>, .get = getField<&Light::enabled>},
@@ -313,9 +374,10 @@ const std::vector<Property> LIGHT_PROPERTIES = {
     {.path = "color", .label = "Colour", .type = Color, .unit = "linear RGB", .min = 0, .max = 1e6, .uiMin = 0, .uiMax = 1,
      .step = 0.01, .keyframable = true, .invalidates = Scale, .valueDoc = "[r, g, b]", .doc = "linear RGB, each in [0, 1e6]",
      .set = setVec3<&Light::color>, .same = sameField<&Light::color>, .get = getField<&Light::color>},
-    {.path = "intensity", .label = "Intensity", .type = Number, .unit = "cd (lux for directional)", .min = 0, .max = 1e12,
+    {.path = "intensity", .label = "Intensity", .type = Number, .unit = "cd (lux for directional, cd/m² for area)", .min = 0, .max = 1e12,
      .uiMin = 0, .uiMax = 1000, .step = 0.1, .keyframable = true, .invalidates = Scale, .valueDoc = "number",
-     .doc = "candela for spot, point and BendyLights, lux for directional lights (glTF `KHR_lights_punctual`), [0, 1e12]",
+     .doc = "candela for spot, point and BendyLights, lux for directional lights (glTF `KHR_lights_punctual`), the emitter's "
+            "radiance in cd/m² (nits) for area lights, [0, 1e12]",
      .set = setNumber<&Light::intensityCd>, .same = sameField<&Light::intensityCd>, .get = getField<&Light::intensityCd>},
     {.path = "coneAngle", .label = "Cone angle", .type = Number, .unit = "degrees", .min = 0.1, .max = 85, .uiMin = 1,
      .uiMax = 85, .step = 0.5, .keyframable = true, .invalidates = Shadow, .appliesTo = CONED, .valueDoc = "number",
@@ -352,6 +414,38 @@ const std::vector<Property> LIGHT_PROPERTIES = {
             "that is not a readable image is refused (`invalid_value`)",
      .set = setCookie, .same = sameField<&Light::cookie>, .present = [](const Light& l) { return !l.cookie.empty(); },
      .get = getField<&Light::cookie>},
+    {.path = "shape", .label = "Shape", .type = Enum, .unit = "", .invalidates = Shadow, .appliesTo = APPLIES_AREA,
+     .values = "rect,disk", .valueDoc = "string",
+     .doc = "area lights: `\"rect\"` (`size` = [width, height]) or `\"disk\"` (`size[0]` = diameter)", .set = setShape,
+     .same = sameField<&Light::areaShape>, .present = isArea, .get = getShape},
+    {.path = "size", .label = "Size", .type = Numbers, .unit = "scene units", .min = 1e-4, .max = MAX_COORD, .uiMin = 0.05,
+     .uiMax = 10, .step = 0.05, .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_AREA, .size = 2,
+     .valueDoc = "[width, height]",
+     .doc = "area lights: the emitter's width (along its right) and height (along its up), scene units, each in [1e-4, 1e7]; "
+            "a disk's diameter is `size[0]`",
+     .set = setAreaSize, .same = sameField<&Light::areaSize>, .present = isArea, .get = getField<&Light::areaSize>},
+    {.path = "roll", .label = "Roll", .type = Number, .unit = "degrees", .min = -360, .max = 360, .uiMin = -180, .uiMax = 180,
+     .step = 1, .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_AREA, .valueDoc = "number",
+     .doc = "area lights: the emitter's turn about its normal, degrees, [-360, 360] (docs/lighting.md, \"Area lights\")",
+     .set = setNumber<&Light::rollDeg>, .same = sameField<&Light::rollDeg>, .present = isArea, .get = getField<&Light::rollDeg>},
+    {.path = "pattern", .label = "Pattern", .type = String, .unit = "", .invalidates = Shade, .appliesTo = APPLIES_AREA,
+     .valueDoc = "string",
+     .doc = "area lights: an RGB image in the asset folder across the emitter (its top row at the emitter's up edge), "
+            "multiplying the colour (linear for float files, sRGB decoded otherwise); `\"\"` = uniform. Relative, no `..`, "
+            "at most 255 characters; an edit naming a file that is not a readable image is refused (`invalid_value`)",
+     .set = setPattern, .same = sameField<&Light::pattern>, .present = [](const Light& l) { return !l.pattern.empty(); },
+     .get = getField<&Light::pattern>},
+    {.path = "shadowGrid", .label = "Shadow grid", .type = Numbers, .unit = "shadow maps", .min = 1,
+     .max = MAX_AREA_SHADOW_GRID, .uiMin = 1, .uiMax = 8, .step = 1, .invalidates = Shadow, .appliesTo = APPLIES_AREA,
+     .size = 2, .valueDoc = "[m, n]",
+     .doc = "area lights: m x n shadow maps (each `shadowMapSize` square) from points spread over the emitter, their "
+            "visibilities averaged: soft shadows; each an integer in [1, 16], default [4, 4]; previews during drags use 2 x 2",
+     .set = setShadowGrid, .same = sameField<&Light::shadowGrid>, .present = isArea, .get = getField<&Light::shadowGrid>},
+    {.path = "alphaBeta", .label = "One-shot fit", .type = Numbers, .unit = "", .appliesTo = APPLIES_AREA, .size = 2,
+     .readOnly = true, .valueDoc = "[alpha, beta]",
+     .doc = "written by the server: the one-shot radius factors fitted for the area light's shape and pattern (Wang et al. "
+            "2008, section 3; docs/lighting.md); [0.30, 0.57] before a fit; clients cannot set it",
+     .set = setAlphaBeta, .present = isArea, .get = getField<&Light::alphaBeta>},
     {.path = "include", .label = "Lights only", .type = IdList, .unit = "object ids", .invalidates = Shade, .valueDoc = "[ids]",
      .doc = "light linking: when not empty, the light lights only these objects (1-based ids of the shot's manifest, "
             "`welcome.session.objects[id-1]`)",
@@ -446,7 +540,7 @@ json rowJson(const Property& p, bool rigLevel) {
     }
     if (!rigLevel) {
         json types = json::array();
-        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional}) {
+        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area}) {
             if (p.appliesTo & (1u << unsigned(t))) types.push_back(lightTypeName(t));
         }
         j["appliesTo"] = types;
@@ -537,7 +631,14 @@ std::string_view toString(Invalidates i) {
 }
 
 std::string lightTypeName(LightType t) {
-    return t == LightType::Bendy ? "bendy" : t == LightType::Directional ? "directional" : t == LightType::Point ? "point" : "spot";
+    switch (t) {
+    case LightType::Bendy: return "bendy";
+    case LightType::Directional: return "directional";
+    case LightType::Point: return "point";
+    case LightType::Area: return "area";
+    case LightType::Spot: break;
+    }
+    return "spot";
 }
 
 std::optional<LightType> lightTypeFromName(std::string_view n) {
@@ -545,6 +646,7 @@ std::optional<LightType> lightTypeFromName(std::string_view n) {
     if (n == "point") return LightType::Point;
     if (n == "directional") return LightType::Directional;
     if (n == "bendy") return LightType::Bendy;
+    if (n == "area") return LightType::Area;
     return std::nullopt;
 }
 
@@ -553,7 +655,7 @@ json schemaJson() {
     for (const Property& p : RIG_PROPERTIES) rig.push_back(rowJson(p, true));
     for (const Property& p : LIGHT_PROPERTIES) light.push_back(rowJson(p, false));
     return json{{"schema", 1},
-                {"lightTypes", {"spot", "point", "bendy", "directional"}},
+                {"lightTypes", {"spot", "point", "bendy", "directional", "area"}},
                 {"rig", rig},
                 {"light", light},
                 {"dragModes", dragModesJson()}};

@@ -6,6 +6,7 @@
 // then runs only where the light can land. Conservative: a kept pixel may still shade to zero,
 // a rejected one would have (its contribution is cleared to zero).
 //   point and directional lights: a surface that faces the light (N . L > 0);
+//   area light: in front of its emitting side;
 //   spot: inside the outer cone (barn doors and cookie only cut further);
 //   BendyLight: inside the round cone around one segment's chord that holds its tube
 //   (segmentFootprintContains), or inside the tube around the extension past the last control
@@ -35,7 +36,7 @@ vec3 normal(ivec2 t) {
 #ifdef SHADE_BENDY
     return vec3(0.0);
 #else
-    return SHADE_KIND == 1 ? vec3(0.0) : normalize(texelFetch(gN, t, 0).xyz);
+    return SHADE_KIND == 1 || SHADE_KIND == 3 ? vec3(0.0) : normalize(texelFetch(gN, t, 0).xyz);
 #endif
 }
 
@@ -56,6 +57,8 @@ bool reachable(vec3 P, vec3 N) {
     float R = (p.w + E.w * max(t, 0.0)) * 1.01 + 1e-3;
     return t >= -1e-3 && dot(d, d) <= R * R;
 #else
+    // Area light: the side of its plane it emits to (one-sided).
+    if (SHADE_KIND == 3) return dot(P - uLight.lightPosition.xyz, uLight.lightAxis.xyz) > 0.0;
     vec3 toLight = SHADE_KIND == 0 ? -uLight.lightAxis.xyz : uLight.lightPosition.xyz - P;
     float len = length(toLight);
     // Spot: the outer cone (cos of the angle to the axis above the outer cosine, with a little

@@ -44,10 +44,11 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
     switch (p.type) {
     case PropType::Boolean: return std::pair{path, json(!jsonOf(p.path).get<bool>())};
     case PropType::Enum: {
-        static const char* types[] = {"spot", "point", "directional", "bendy"};
-        return std::pair{path, json(types[rng() % 4])};
+        if (path == "shape") return std::pair{path, json(rng() % 2 ? "rect" : "disk")};
+        static const char* types[] = {"spot", "point", "directional", "bendy", "area"};
+        return std::pair{path, json(types[rng() % 5])};
     }
-    case PropType::String: // cookie
+    case PropType::String: // cookie, pattern: images
         return std::pair{path, json(o.cookies[rng() % o.cookies.size()])};
     case PropType::Integer:
         if (path == "shadowMapSize") return std::pair{path, json(o.shadowMapSizes[rng() % o.shadowMapSizes.size()])};
@@ -57,6 +58,7 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
         if (path == "coneAngle") return std::pair{path, json(perturb(l.coneAngleDeg, 10.f, 70.f, 4.f))};
         if (path == "penumbra") return std::pair{path, json(std::min(l.coneAngleDeg, perturb(l.penumbraDeg, 0.f, 20.f, 3.f)))};
         if (path == "shadowBias") return std::pair{path, json(perturb(l.shadowBias, 0.5f, 4.f, 0.6f))};
+        if (path == "roll") return std::pair{path, json(perturb(l.rollDeg, -90.f, 90.f, 30.f))};
         if (path == "r[]") {
             const int i = 1 + int(rng() % uint32_t(2 * K));
             return std::pair{"r[" + std::to_string(i) + "]", json(perturb(l.radii[size_t(i)], 0.f, 4.f, 0.2f))};
@@ -78,7 +80,11 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
         return std::pair{path, colour()};
     case PropType::Numbers: {
         json v = json::array();
-        if (p.size > 0) { // barn doors
+        if (path == "size") { // an area light's
+            for (int i = 0; i < 2; ++i) v.push_back(perturb(l.areaSize[size_t(i)], 0.2f, 2.f, 0.3f));
+        } else if (path == "shadowGrid") {
+            for (int i = 0; i < 2; ++i) v.push_back(1 + int(rng() % 4u));
+        } else if (p.size > 0) { // barn doors
             for (int i = 0; i < p.size; ++i) v.push_back(u01(rng) < 0.5f ? 90.f : 10.f + 80.f * u01(rng));
         } else { // radii
             for (float r : l.radii) v.push_back(std::max(0.f, r + 0.15f * u(rng)));

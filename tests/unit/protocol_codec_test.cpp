@@ -52,7 +52,7 @@ TEST(Codec, PointLightsCookiesBarnDoorsAndShadowFilter) {
     ASSERT_TRUE(back.ok()) << back.error().toString();
     EXPECT_EQ(toJson(back.value()), toJson(rig));
     const Rig before = rig;
-    for (const Change& bad : {Change{"key.type", "area"}, Change{"key.barnDoors", {10, 20, 30}}, Change{"key.barnDoors", {10, 20, 30, 91}},
+    for (const Change& bad : {Change{"key.type", "panel"}, Change{"key.barnDoors", {10, 20, 30}}, Change{"key.barnDoors", {10, 20, 30, 91}},
                               Change{"key.shadowFilter", 5}, Change{"key.shadowFilter", 1.5}, Change{"key.cookie", "/etc/passwd"},
                               Change{"key.cookie", "../secret.png"}, Change{"key.cookie", 3}}) {
         auto s = applyChange(rig, bad);

@@ -1,5 +1,7 @@
 #include "CasterAnalysis.h"
 
+#include <dfb/server/AreaPattern.h>
+
 #include "GpuInterface.h"
 
 #include <algorithm>
@@ -200,6 +202,13 @@ GLsizei Casters::indicesFor(const Light& l, const lightmath::Chain<float>& chain
             clear = glm::dot(n, -axis) > 1e-6f;
         } else if (l.type == LightType::Bendy) {
             clear = lightmath::flowLinesMissPlane(chain, n, plane.w, eps);
+        } else if (l.type == LightType::Area) {
+            // Every point of the emitter (its corners: the plane's side is linear) in front.
+            const auto f = areaFrameOf<float>(l);
+            clear = true;
+            for (int c = 0; c < 4; ++c)
+                clear = clear && dist(f.centre + f.right * ((c & 1 ? 0.5f : -0.5f) * f.width) +
+                                      f.up * ((c & 2 ? 0.5f : -0.5f) * f.height)) > eps;
         } else {
             clear = dist(pos) > eps;
         }
@@ -214,9 +223,9 @@ GLsizei Casters::indicesFor(const Light& l, const lightmath::Chain<float>& chain
 // bottom or top; near and far are left alone) are skipped: they cannot cover a texel, and llvmpipe
 // would still transform and clip every one of their triangles (a point light's cube face sees
 // about a sixth of the scene).
-void Casters::draw(GLsizei count, const glm::mat4& worldToClip) const {
+void Casters::draw(GLsizei count, const glm::mat4& worldToClip, GLsizei instances) const {
     auto outside = [&](const ShadowGeometry::Part& part) {
-        if (!std::isfinite(part.min.x)) return false;
+        if (!std::isfinite(part.min.x) || instances > 1) return false;
         // A bit per clip-space side plane (w + x, w - x, w + y, w - y >= 0) that every corner
         // of the box is outside of.
         unsigned allOut = 15u;
@@ -238,7 +247,8 @@ void Casters::draw(GLsizei count, const glm::mat4& worldToClip) const {
             glEnable(GL_CULL_FACE);
             glCullFace(GL_FRONT);
         }
-        glDrawElements(GL_TRIANGLES, runEnd - runStart, GL_UNSIGNED_INT, reinterpret_cast<const void*>(size_t(runStart) * sizeof(uint32_t)));
+        glDrawElementsInstanced(GL_TRIANGLES, runEnd - runStart, GL_UNSIGNED_INT,
+                                reinterpret_cast<const void*>(size_t(runStart) * sizeof(uint32_t)), instances);
         if (runClosed) glDisable(GL_CULL_FACE);
         runStart = runEnd;
     };

@@ -33,8 +33,9 @@ public:
     GLsizei indicesFor(const Light& l, const lightmath::Chain<float>& chain) const;
 
     /// Draws the undeformed casters up to index `count` into the bound depth target, leaving out
-    /// runs whose box lies outside the sides of `worldToClip`'s frustum.
-    void draw(GLsizei count, const glm::mat4& worldToClip) const;
+    /// runs whose box lies outside the sides of `worldToClip`'s frustum. `instances` > 1: that
+    /// many instances of every run (an area light's layers), none left out.
+    void draw(GLsizei count, const glm::mat4& worldToClip, GLsizei instances = 1) const;
 
     const gl::Buffer& positions() const { return mVbo; }
     const gl::Buffer& indices() const { return mIbo; }

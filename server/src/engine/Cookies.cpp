@@ -1,5 +1,6 @@
 #include "Cookies.h"
 
+#include <dfb/server/AreaPattern.h>
 #include <dfb/server/ImageCodec.h>
 
 #include <algorithm>
@@ -34,6 +35,34 @@ Result<GLuint> Cookies::texture(const Light& l) {
     glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     return mTextures.emplace(l.cookie, std::move(t)).first->second.id();
+}
+
+Result<Cookies::Pattern> Cookies::pattern(const Light& l) {
+    const auto key = std::make_pair(l.pattern, l.areaShape == AreaShape::Disk);
+    auto it = mPatterns.find(key);
+    if (it == mPatterns.end()) {
+        auto table = areaPatternTable(l, mDirectory);
+        if (!table) return table.error();
+        const lightmath::PatternTable& t = table.value()->table;
+        // The mean's share is taken out (and added back by the shader): the corners then stay
+        // near 0 instead of growing to the mean, and float keeps small boxes' differences.
+        std::vector<float> corners(size_t(t.w + 1) * size_t(t.h + 1) * 4);
+        for (int j = 0; j <= t.h; ++j)
+            for (int i = 0; i <= t.w; ++i) {
+                const size_t k = size_t(j) * size_t(t.w + 1) + size_t(i);
+                const glm::dvec3 v = t.sat[k] - t.mean * (double(i) / t.w) * (double(j) / t.h);
+                corners[k * 4] = float(v.x);
+                corners[k * 4 + 1] = float(v.y);
+                corners[k * 4 + 2] = float(v.z);
+                corners[k * 4 + 3] = 0.f;
+            }
+        gl::Texture tex = gl::makeTexture2D(GL_RGBA32F, t.w + 1, t.h + 1);
+        glTextureSubImage2D(tex.id(), 0, 0, 0, t.w + 1, t.h + 1, GL_RGBA, GL_FLOAT, corners.data());
+        glTextureParameteri(tex.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTextureParameteri(tex.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        it = mPatterns.emplace(key, std::make_pair(std::move(tex), glm::vec3(t.mean))).first;
+    }
+    return Pattern{it->second.first.id(), it->second.second};
 }
 
 } // namespace dfb::engine

@@ -1,10 +1,12 @@
 #pragma once
-// Spot lights' cookie images: read from the asset folder on first use, kept per file name as
-// mipmapped textures.
+// Images from the asset folder, read on first use and kept per file name: spot lights' cookies
+// as mipmapped textures, area lights' patterns as summed-area tables (dfb/server/AreaPattern.h).
 
 #include <dfb/core/Result.h>
 #include <dfb/gl/Objects.h>
 #include <dfb/protocol/Rig.h>
+
+#include <glm/glm.hpp>
 
 #include <map>
 #include <string>
@@ -20,9 +22,20 @@ public:
     /// and the cookie.
     Result<GLuint> texture(const Light& l);
 
+    /// An area light's pattern table on the GPU: (w + 1) x (h + 1) RGBA32F corners holding
+    /// S(u, v) - mean u v (AreaLight.h PatternTable; common_area.glsl satCorner), and the mean.
+    struct Pattern {
+        GLuint texture = 0;
+        glm::vec3 mean{1.f};
+    };
+    /// The table of l.pattern for l's shape (uniform when empty), GL thread. Errors name the light
+    /// and the pattern.
+    Result<Pattern> pattern(const Light& l);
+
 private:
     std::string mDirectory = ".";
     std::map<std::string, gl::Texture> mTextures; // by file name
+    std::map<std::pair<std::string, bool>, std::pair<gl::Texture, glm::vec3>> mPatterns; // by (file, disk)
 };
 
 } // namespace dfb::engine

@@ -36,6 +36,28 @@ Result<ImageF> GlEngine::renderLightLinear(const Rig& rig, const std::string& li
     return readFloat(c.contribution.id(), "light alone", c.scale);
 }
 
+Result<ImageF> GlEngine::renderAreaReference(const Rig& rig, const std::string& lightName, int cells) {
+    const Light* l = rig.find(lightName);
+    if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");
+    if (l->type != LightType::Area) {
+        return makeError(ErrorCode::InvalidValue, "light '" + lightName + "' is not an area light: only area lights have a reference");
+    }
+    if (cells < 1 || cells > MAX_AREA_REFERENCE_CELLS) {
+        return makeError(ErrorCode::InvalidValue, "reference cells " + std::to_string(cells) + " out of range 1.." +
+                                                      std::to_string(MAX_AREA_REFERENCE_CELLS));
+    }
+    FullQuality full(mPreview);
+    FrameStats st;
+    if (auto s = renderAccumulation(rig, st); !s) return s.error(); // its shadow maps
+    if (!l->enabled) return makeError(ErrorCode::InvalidValue, "light '" + lightName + "' is disabled");
+    LightCache& c = mLights[lightName];
+    if (auto s = mShading.shade(c, 0, false, cells); !s) return s.error();
+    if (auto s = waitGpu("area reference"); !s) return s.error();
+    c.hasContribution = false; // the next frame re-shades one-shot (and rebuilds the sums that hold it)
+    ++c.version;
+    return readFloat(c.contribution.id(), "area light reference", c.scale);
+}
+
 Result<ImageF> GlEngine::renderShadowMask(const Rig& rig, const std::string& lightName) {
     const Light* l = rig.find(lightName);
     if (!l) return makeError(ErrorCode::MissingData, "no light named '" + lightName + "'");

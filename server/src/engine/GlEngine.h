@@ -36,6 +36,7 @@ public:
     Result<ImageF> renderLinear(const Rig& rig) override;
     Result<ImageF> renderShadowMask(const Rig& rig, const std::string& lightName) override;
     Result<ImageF> renderLightLinear(const Rig& rig, const std::string& lightName) override;
+    Result<ImageF> renderAreaReference(const Rig& rig, const std::string& lightName, int cells) override;
     Result<std::vector<NamedImageF>> renderLayers(const Rig& rig) override;
     std::string deviceDescription() const override { return mContext->description(); }
     int width() const override { return mGBuffer.width; }

@@ -40,7 +40,9 @@
     X(TEX_COOKIE, 13, "RGBA16F: a spot light's cookie image")                                             \
     X(TEX_INPUT_HOT, 14, "composite_tonemap.frag's second input (the edited light)")                     \
     X(TEX_DEFORMED, 15, "buffer texture RGBA32F: bendy_deform.comp's output, 2 texels per caster vertex") \
-    X(TEX_CASTER_INDICES, 16, "buffer texture R32UI: the caster triangles' vertex indices")
+    X(TEX_CASTER_INDICES, 16, "buffer texture R32UI: the caster triangles' vertex indices")              \
+    X(TEX_AREA_PATTERN, 17, "RGBA32F: an area light's pattern as a summed-area table, mean removed")      \
+    X(TEX_SHADOW_ARRAY, 18, "DEPTH32F 2D array, raw depths: an area light's grid of shadow maps")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).
 #define DFB_GPU_STORAGE_BINDINGS(X)                                                                    \
@@ -49,7 +51,8 @@
     X(SSBO_FLAT_INDICES, 3, "bendy_classify.comp's triangles for the plain draws")                    \
     X(SSBO_TESS_INDICES, 4, "bendy_classify.comp's triangles for the tessellated draws")              \
     X(SSBO_DRAW_COMMANDS, 5, "BendyDrawCommands: the deformed map's four indirect draws")             \
-    X(SSBO_LINK_MASK, 6, "per light: bit (id % 32) of word (id / 32) set = the object is lit")
+    X(SSBO_LINK_MASK, 6, "per light: bit (id % 32) of word (id / 32) set = the object is lit")    \
+    X(SSBO_AREA_LAYERS, 7, "an area light's shadow layers: vec4(clip-space x, y offset of the layer's eye, 0, 0)")
 
 // Uniform blocks (glBindBufferBase(GL_UNIFORM_BUFFER); layout(std140, binding)).
 #define DFB_GPU_UNIFORM_BLOCKS(X)                                                  \
@@ -86,6 +89,7 @@
     X(BENDY_MAX_POINTS, dfb::lightmath::MAX_CONTROL_POINTS, "a chain's control points (BendyLight.h)") \
     X(COMPUTE_GROUP_SIZE, 64, "local_size_x of the compute passes (the engine dispatches by it)")  \
     X(FOOTPRINT_MAX_TAPS, 16, "edge taps per sample over its pixel footprint (ViewBlock.footprintTaps)") \
+    X(AREA_MAX_LAYERS, 256, "an area light's shadow maps: MAX_AREA_SHADOW_GRID squared (Rig.h; ShadowMaps.cpp asserts it)") \
     X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands") \
     X(BENDY_TESS_WORK_WORD, offsetof(dfb::engine::BendyDrawCommands, tessWork) / 4, "BendyDrawCommands.tessWork's uint")
 

@@ -34,6 +34,9 @@ struct LightCache {
     int bendySegments() const { return int(bendy.axisV.w + 0.5f); }
     GLsizei casterIndexCount = 0; // Casters::indicesFor when its shadow map was last rendered
     gl::Buffer linkMask; // light linking: one bit per object id
+    gl::Buffer areaLayers;  // an area light's shadow layers (SSBO_AREA_LAYERS; ShadowMaps::renderArea)
+    int shadowLayers = 0;   // their count (its grid, or 2 x 2 at most in a preview)
+    float areaHalfAngle = 0.f; // its shadow frustum's half-angle, radians (areaShadowHalfAngle)
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with
     int appliedSubdivision = 0; // the limit the tessellation budget left of it (BendyShadow::draw)
     glm::vec3 scale{1.f};          // colour x intensity: the contribution is shaded at unit radiance

@@ -3,6 +3,7 @@
 #include <dfb/lightmath/Falloff.h>
 #include <dfb/protocol/Schema.h>
 
+#include <dfb/server/AreaPattern.h>
 #include <dfb/server/BendyChain.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -37,6 +38,22 @@ glm::vec2 perspectiveDepthRange(const glm::vec3& position, const Box& scene, flo
     return {znear, zfar};
 }
 
+float areaShadowHalfAngle(const Light& l, const Box& scene) {
+    const auto f = areaFrameOf<float>(l);
+    float widest = 0.f;
+    for (int c = 0; c < 4; ++c) {
+        const glm::vec3 eye = f.centre + f.right * ((c & 1 ? 0.5f : -0.5f) * f.width) + f.up * ((c & 2 ? 0.5f : -0.5f) * f.height);
+        for (int i = 0; i < 8; ++i) {
+            const glm::vec3 d = boxCorner(scene.min, scene.max, i) - eye;
+            const float z = glm::dot(d, f.normal);
+            const float lateral = glm::length(d - f.normal * z);
+            // Beside or behind the emitter's plane: as wide as the map may be.
+            widest = std::max(widest, z > 1e-6f ? std::atan2(lateral, z) : glm::radians(90.f));
+        }
+    }
+    return std::min(widest + glm::radians(1.f), glm::radians(80.f));
+}
+
 glm::mat4 lightViewProj(const Light& l, const Box& scene, const Box& receivers) {
     const glm::vec3 axis = glm::normalize(toGlm(l.direction));
     const glm::vec3 up = frustumUp(axis);
@@ -63,6 +80,12 @@ glm::mat4 lightViewProj(const Light& l, const Box& scene, const Box& receivers) 
         // the straight extension reaches (at most the scene's extent past the chain's end).
         const auto ch = chainFromLight<float>(l);
         reach = ch.arcStart[ch.segments] + glm::length(scene.max - scene.min);
+    }
+    if (l.type == LightType::Area) {
+        // Every layer's eye lies on the emitter: the depth range must hold the scene from each.
+        const float diagonal = std::hypot(l.areaSize[0], l.areaSize[1]);
+        const glm::vec2 depth = perspectiveDepthRange(pos, scene, diagonal);
+        return glm::perspective(2.f * areaShadowHalfAngle(l, scene), 1.f, depth.x * 0.5f, depth.y + diagonal) * view;
     }
     const glm::vec2 depth = perspectiveDepthRange(pos, scene, reach);
     // The frustum's half-angle must contain the cone's; a square map circumscribes the circle.

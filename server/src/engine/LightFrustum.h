@@ -41,9 +41,16 @@ glm::vec3 frustumUp(const glm::vec3& axis);
 /// box and everything within `reach` of the position.
 glm::vec2 perspectiveDepthRange(const glm::vec3& position, const Box& scene, float reach = 0.f);
 
+/// Half-angle (radians) of an area light's shadow frustum, along its normal from its centre: the
+/// widest angle at which a corner of the scene box in front of the emitter is seen from any of the
+/// emitter's corners, plus a degree, at most 80 degrees (texels stretch towards 90; what lies
+/// beyond grazes the emitter's plane, where its cosine leaves little light).
+float areaShadowHalfAngle(const Light& l, const Box& scene);
+
 /// World to clip space of a spot, directional or BendyLight's 2D shadow map: perspective along the
 /// light's axis, or for a directional light an orthographic box around what the camera sees
-/// (`receivers`) stretched towards the light over the `scene`.
+/// (`receivers`) stretched towards the light over the `scene`; an area light's is the centre
+/// view of its grid (areaShadowHalfAngle; ShadowMaps::renderArea moves the eye per layer).
 glm::mat4 lightViewProj(const Light& l, const Box& scene, const Box& receivers);
 
 /// World to view space of cube face `face` (0..5, GL's +X, -X, +Y, -Y, +Z, -Z order) of a point

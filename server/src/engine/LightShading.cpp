@@ -2,6 +2,8 @@
 
 #include "GpuInterface.h"
 
+#include <dfb/server/AreaPattern.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -10,13 +12,14 @@ namespace dfb::engine {
 namespace {
 
 // The light as the relight shaders see it (common_uniforms.glsl's LightBlock).
-LightBlock lightBlock(const LightCache& c, bool cookie) {
+LightBlock lightBlock(const LightCache& c, bool cookie, const glm::vec3& patternMean) {
     const Light& l = c.params;
     LightBlock block{};
     block.worldToLightClip = c.worldToLightClip;
     // w = 0 marks a directional light: parallel rays, no distance or cone falloff.
     block.lightPosition = glm::vec4(toGlm(l.position), l.type == LightType::Directional ? 0.f
                                                        : l.type == LightType::Point     ? 2.f
+                                                       : l.type == LightType::Area      ? 3.f
                                                                                         : 1.f);
     const glm::vec3 axis = glm::normalize(toGlm(l.direction));
     block.lightAxis = glm::vec4(axis, 0.f);
@@ -25,6 +28,7 @@ LightBlock lightBlock(const LightCache& c, bool cookie) {
     // The world size of a shadow-map texel per unit distance (perspective maps), or its one size.
     const int mapSize = c.hasShadow ? c.shadowSize : l.shadowMapSize;
     float texel = texelPerDistance(l, mapSize);
+    if (l.type == LightType::Area) texel = 2.f * std::tan(c.areaHalfAngle) / float(std::max(mapSize, 1));
     if (l.type == LightType::Directional) {
         // Orthographic texels have one world size: the frustum's width over the map's.
         const glm::mat4 m = glm::inverse(c.worldToLightClip);
@@ -57,6 +61,15 @@ LightBlock lightBlock(const LightCache& c, bool cookie) {
     auto door = [&](int i) { return l.barnDoorsDeg[size_t(i)] >= 90.f ? 10.f : glm::radians(l.barnDoorsDeg[size_t(i)]); };
     block.lightDoors = l.type == LightType::Spot ? glm::vec4(door(0), door(1), door(2), door(3)) : glm::vec4(10.f);
     block.lightCube = glm::vec4(c.cubeNearFar, 0.f, 0.f);
+    if (l.type == LightType::Area) {
+        // common_area.glsl's layout of the block.
+        const auto f = areaFrameOf<float>(l);
+        block.lightAxis = glm::vec4(f.normal, 0.f);
+        block.lightRight = glm::vec4(f.right, f.width);
+        block.lightUp = glm::vec4(f.up, f.height);
+        block.lightDoors = glm::vec4(l.alphaBeta[0], l.alphaBeta[1], f.disk ? 1.f : 0.f, float(std::max(c.shadowLayers, 1)));
+        block.lightCube = glm::vec4(patternMean, 0.f);
+    }
     return block;
 }
 
@@ -87,7 +100,7 @@ std::string LightShading::shadeDefines(const LightCache& c, int output, bool coo
     std::string d;
     auto def = [&d](const char* name, const std::string& value) { d += std::string("#define ") + name + " " + value + "\n"; };
     auto flag = [&def](const char* name, bool on) { def(name, on ? "true" : "false"); };
-    def("SHADE_KIND", l.type == LightType::Directional ? "0" : l.type == LightType::Point ? "2" : "1");
+    def("SHADE_KIND", l.type == LightType::Directional ? "0" : l.type == LightType::Point ? "2" : l.type == LightType::Area ? "3" : "1");
     flag("SHADE_SHADOWED", l.shadow);
     def("SHADE_PCF_RADIUS", std::to_string(l.shadowFilter));
     flag("SHADE_COOKIE", cookie);
@@ -180,9 +193,9 @@ void LightShading::bindLinkMask(LightCache& c, bool linked) {
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_LINK_MASK, mNoLink.id());
 }
 
-Status LightShading::shade(LightCache& c, int output, bool preview) {
+Status LightShading::shade(LightCache& c, int output, bool preview, int referenceCells) {
     const Light& l = c.params;
-    const bool bendy = l.type == LightType::Bendy;
+    const bool bendy = l.type == LightType::Bendy, area = l.type == LightType::Area;
     GLuint cookie = 0;
     if (l.type == LightType::Spot && !l.cookie.empty()) {
         auto t = mCookies.texture(l);
@@ -190,7 +203,19 @@ Status LightShading::shade(LightCache& c, int output, bool preview) {
         cookie = t.value();
     }
     glBindTextureUnit(TEX_COOKIE, cookie);
-    mLight.upload(lightBlock(c, cookie != 0));
+    Cookies::Pattern pattern;
+    if (area) {
+        auto p = mCookies.pattern(l);
+        if (!p) return p.error();
+        pattern = p.value();
+        glBindTextureUnit(TEX_AREA_PATTERN, pattern.texture);
+        if (!c.areaLayers) {
+            const glm::vec4 none(0.f);
+            c.areaLayers = gl::makeBuffer(&none, sizeof none);
+        }
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_AREA_LAYERS, c.areaLayers.id());
+    }
+    mLight.upload(lightBlock(c, cookie != 0, pattern.mean));
 
     // Preview frames shade every second pixel into a half-size image (progressive refinement);
     // shadow masks and full frames shade every pixel.
@@ -211,8 +236,10 @@ Status LightShading::shade(LightCache& c, int output, bool preview) {
     const std::string defines =
         shadeDefines(c, output, cookie != 0, linked) +
         (mShaders.generic() ? "" : "#define SHADE_FOOTPRINT_TAPS " + std::to_string(taps) + "\n") +
-        (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "");
-    auto shader = mShaders.variant({"common_fullscreen.vert", bendy ? "relight_bendy.frag" : "relight_spot.frag"}, defines);
+        (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "") +
+        (area && referenceCells > 0 ? "#define AREA_REFERENCE " + std::to_string(referenceCells) + "\n" : "");
+    auto shader = mShaders.variant(
+        {"common_fullscreen.vert", bendy ? "relight_bendy.frag" : area ? "relight_area.frag" : "relight_spot.frag"}, defines);
     if (!shader) return shader.error();
     const bool footprint = !mShaders.generic();
     if (footprint) {
@@ -223,8 +250,9 @@ Status LightShading::shade(LightCache& c, int output, bool preview) {
     bindLinkMask(c, linked);
     mGBuffer.bindForShading();
     // An unshadowed light still needs a complete texture on the shadow unit: reuse its own or any.
-    glBindTextureUnit(TEX_SHADOW_MAP, c.shadowMap && !c.shadowIsCube ? c.shadowMap.id() : 0);
+    glBindTextureUnit(TEX_SHADOW_MAP, c.shadowMap && !c.shadowIsCube && !area ? c.shadowMap.id() : 0);
     glBindTextureUnit(TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube ? c.shadowMap.id() : 0);
+    glBindTextureUnit(TEX_SHADOW_ARRAY, c.shadowMap && area ? c.shadowMap.id() : 0);
     glBindVertexArray(mEmptyVao.id());
     if (footprint && bendy) {
         // Pixels whose samples lie in at most one segment's round cone (depth 0.25, relight_mask.frag)
@@ -253,7 +281,7 @@ Status LightShading::shade(LightCache& c, int output, bool preview) {
         glDrawArrays(GL_TRIANGLES, 0, 3);
     }
     c.hasContribution = true;
-    if (output == 0) {
+    if (output == 0 && referenceCells == 0) {
         c.previewShading = step != 1;
         c.scale = radiance(l);
         ++c.version;

@@ -28,7 +28,10 @@ public:
     /// in c. `output` 0: the light's radiance, recorded as the cached contribution (its radiance,
     /// scale 1, a new version); 1: its shadow mask (the caller marks the contribution stale).
     /// `preview`: radiance at half resolution (every second pixel; c.previewShading).
-    Status shade(LightCache& c, int output, bool preview);
+    /// `referenceCells` > 0 (area lights, output 0): the stratified reference with that many cells
+    /// per side instead of one-shot (relight_area.frag AREA_REFERENCE), not recorded as the cached
+    /// contribution (the caller marks it stale).
+    Status shade(LightCache& c, int output, bool preview, int referenceCells = 0);
 
 private:
     std::string shadeDefines(const LightCache& c, int output, bool cookie, bool linked) const;

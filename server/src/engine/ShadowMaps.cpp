@@ -4,7 +4,10 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <dfb/server/AreaPattern.h>
+
 #include <algorithm>
+#include <vector>
 
 namespace dfb::engine {
 namespace {
@@ -50,13 +53,43 @@ void rawDepth(GLuint texture) {
 } // namespace
 
 int shadowSizeFor(const Light& l, bool preview) {
+    if (l.type == LightType::Area) return l.shadowMapSize;
     return preview ? std::min(l.shadowMapSize, std::max(256, l.shadowMapSize / 4)) : l.shadowMapSize;
+}
+
+static_assert(AREA_MAX_LAYERS == MAX_AREA_SHADOW_GRID * MAX_AREA_SHADOW_GRID);
+
+glm::ivec2 areaGridFor(const Light& l, bool preview) {
+    const glm::ivec2 g(std::clamp(l.shadowGrid[0], 1, MAX_AREA_SHADOW_GRID), std::clamp(l.shadowGrid[1], 1, MAX_AREA_SHADOW_GRID));
+    return preview ? glm::min(g, glm::ivec2(2)) : g;
+}
+
+glm::vec2 areaGridPoint(const Light& l, int i, int j, glm::ivec2 grid) {
+    const glm::vec2 s((float(i) + 0.5f) / float(grid.x) * 2.f - 1.f, (float(j) + 0.5f) / float(grid.y) * 2.f - 1.f);
+    if (l.areaShape != AreaShape::Disk) return 0.5f * s * glm::vec2(l.areaSize[0], l.areaSize[1]);
+    // Concentric map of [-1, 1]^2 onto the unit disk: squares' rings to the disk's rings.
+    if (s.x == 0.f && s.y == 0.f) return glm::vec2(0.f);
+    constexpr float quarterPi = 0.785398163f;
+    float r, phi;
+    if (std::abs(s.x) > std::abs(s.y)) {
+        r = s.x;
+        phi = quarterPi * (s.y / s.x);
+    } else {
+        r = s.y;
+        phi = 2.f * quarterPi - quarterPi * (s.x / s.y);
+    }
+    return 0.5f * l.areaSize[0] * r * glm::vec2(std::cos(phi), std::sin(phi));
 }
 
 Status ShadowMaps::init() {
     auto depth = mShaders.variant({"shadow_depth.vert", "shadow_depth.frag"});
     if (!depth) return depth.error();
     mDepthProgram = depth.value();
+    if (epoxy_has_gl_extension("GL_ARB_shader_viewport_layer_array")) {
+        auto area = mShaders.variant({"shadow_area.vert", "shadow_depth.frag"});
+        if (!area) return area.error();
+        mAreaProgram = area.value();
+    }
     return mBendy.init();
 }
 
@@ -64,6 +97,12 @@ Status ShadowMaps::render(LightCache& c, bool preview, int subdivisionLimit) {
     const Light& l = c.params;
     c.previewShadow = preview && shadowSizeFor(l, true) != l.shadowMapSize;
     const int size = shadowSizeFor(l, preview);
+    if (l.type == LightType::Area) {
+        c.previewShadow = preview && areaGridFor(l, true) != areaGridFor(l, false);
+        if (auto s = renderArea(c, size, preview); !s) return s;
+        c.hasShadow = true;
+        return okStatus();
+    }
     if (auto s = l.type == LightType::Point ? renderCube(c, size) : renderPlanar(c, size, subdivisionLimit); !s) return s;
     c.hasShadow = true;
     return okStatus();
@@ -134,6 +173,76 @@ Status ShadowMaps::renderCube(LightCache& c, int size) {
         block.worldToLightClip = proj * cubeFaceView(pos, face);
         mLight.upload(block);
         mCasters.draw(c.casterIndexCount, block.worldToLightClip);
+    }
+    endDepthPass();
+    return okStatus();
+}
+
+// An area light's m x n maps (docs/lighting.md, "Area lights"): one depth array, a layer per grid
+// point, all from the centre view's projection with the eye moved in the emitter's plane; in clip
+// space that only subtracts (P00 dx, P11 dy) from x and y (a symmetric perspective), so the layers'
+// offsets are all the shaders need (SSBO_AREA_LAYERS). One instanced pass writes every layer
+// (gl_Layer from the vertex shader, ARB_shader_viewport_layer_array), or one pass per layer where
+// the driver lacks it.
+Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
+    const Light& l = c.params;
+    const glm::ivec2 grid = areaGridFor(l, preview);
+    const int layers = grid.x * grid.y;
+    if (!c.shadowMap || c.shadowSize != size || c.shadowLayers != layers) {
+        c.shadowIsCube = false;
+        c.shadowSize = size;
+        c.shadowLayers = layers;
+        GLuint id = 0;
+        glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &id);
+        c.shadowMap = gl::Texture(id);
+        glTextureStorage3D(id, 1, GL_DEPTH_COMPONENT32F, size, size, layers);
+        rawDepth(id);
+        glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        GLuint fb = 0;
+        glCreateFramebuffers(1, &fb);
+        c.shadowFb = gl::Framebuffer(fb);
+        glNamedFramebufferDrawBuffer(fb, GL_NONE);
+        glNamedFramebufferTexture(fb, GL_DEPTH_ATTACHMENT, id, 0); // layered: gl_Layer picks
+        if (auto s = gl::checkFramebuffer(fb, ("area shadow maps of light '" + l.name + "'").c_str()); !s) return s;
+    }
+    c.areaHalfAngle = areaShadowHalfAngle(l, mCasters.scene());
+    c.worldToLightClip = lightViewProj(l, mCasters.scene(), mCasters.receivers());
+    // The layers' eyes in the centre view's x (spotFrame right) and y (its up), then clip space.
+    const auto f = areaFrameOf<float>(l);
+    const lightmath::SpotFrame<float> view = lightmath::spotFrame(f.normal);
+    const float p00 = 1.f / std::tan(c.areaHalfAngle); // glm::perspective's x and y scale (aspect 1)
+    std::vector<glm::vec4> offsets(static_cast<size_t>(layers));
+    for (int j = 0; j < grid.y; ++j)
+        for (int i = 0; i < grid.x; ++i) {
+            const glm::vec2 g = areaGridPoint(l, i, j, grid);
+            const glm::vec3 d = f.right * g.x + f.up * g.y;
+            offsets[size_t(j * grid.x + i)] = glm::vec4(p00 * glm::dot(d, view.right), p00 * glm::dot(d, view.up), 0.f, 0.f);
+        }
+    c.areaLayers = gl::makeBuffer(offsets.data(), offsets.size() * sizeof(glm::vec4));
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_AREA_LAYERS, c.areaLayers.id());
+    LightBlock block{};
+    block.worldToLightClip = c.worldToLightClip;
+    mLight.upload(block);
+    beginDepthPass(c.shadowFb.id(), size);
+    c.casterIndexCount = mCasters.indicesFor(l, c.chain);
+    if (mAreaProgram) {
+        clearDepth(c.shadowFb.id());
+        glUseProgram(mAreaProgram);
+        mCasters.draw(c.casterIndexCount, c.worldToLightClip, layers);
+    } else {
+        glUseProgram(mDepthProgram);
+        for (int k = 0; k < layers; ++k) {
+            glNamedFramebufferTextureLayer(c.shadowFb.id(), GL_DEPTH_ATTACHMENT, c.shadowMap.id(), 0, k);
+            clearDepth(c.shadowFb.id());
+            LightBlock layer = block;
+            // Clip-space x and y minus the layer's (constant) offset: the translated eye.
+            layer.worldToLightClip[3][0] -= offsets[size_t(k)].x;
+            layer.worldToLightClip[3][1] -= offsets[size_t(k)].y;
+            mLight.upload(layer);
+            mCasters.draw(c.casterIndexCount, layer.worldToLightClip);
+        }
+        glNamedFramebufferTexture(c.shadowFb.id(), GL_DEPTH_ATTACHMENT, c.shadowMap.id(), 0);
     }
     endDepthPass();
     return okStatus();

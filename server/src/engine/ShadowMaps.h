@@ -13,8 +13,17 @@
 namespace dfb::engine {
 
 /// The side of the shadow map a light gets now: its own, or a quarter of it (at least 256) while a
-/// control is being dragged (progressive refinement, DESIGN section 6).
+/// control is being dragged (progressive refinement, DESIGN section 6). An area light's maps
+/// (each of its grid's) keep their size: the preview takes fewer of them instead.
 int shadowSizeFor(const Light& l, bool preview);
+
+/// The m x n shadow layers of an area light now: its grid, or at most 2 x 2 in a preview.
+glm::ivec2 areaGridFor(const Light& l, bool preview);
+
+/// Where layer (i, j) of an m x n grid looks from, in the emitter's (right, up) coordinates,
+/// world units: the centres of an m x n grid of cells, mapped onto a disk by Shirley and Chiu's
+/// concentric map ("A Low Distortion Map Between Disk and Square", 1997) for disk emitters.
+glm::vec2 areaGridPoint(const Light& l, int i, int j, glm::ivec2 grid);
 
 class ShadowMaps {
 public:
@@ -32,12 +41,14 @@ public:
 private:
     Status renderPlanar(LightCache& c, int size, int subdivisionLimit);
     Status renderCube(LightCache& c, int size);
+    Status renderArea(LightCache& c, int size, bool preview);
 
     ShaderVariants& mShaders;
     const Casters& mCasters;
     LightUniforms& mLight;
     BendyShadow mBendy;
     GLuint mDepthProgram = 0; // owned by mShaders
+    GLuint mAreaProgram = 0;  // shadow_area.vert: every layer in one instanced pass
 };
 
 } // namespace dfb::engine

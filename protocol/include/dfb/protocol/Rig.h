@@ -18,7 +18,16 @@ using Vec3 = std::array<float, 3>;
 /// chain of quadratic Bezier segments; docs/lighting.md).
 /// Directional: parallel light along `direction` (the sun), intensity in lux, no cone.
 /// Point: light in every direction from `position` (candela), omnidirectional (cube) shadows.
-enum class LightType { Spot, Bendy, Directional, Point };
+/// Area: a one-sided planar rectangle or disk centred at `position` emitting towards `direction`,
+/// intensity = the emitter's radiance (cd/m^2, nits), optionally patterned (docs/lighting.md,
+/// "Area lights"; one-shot shading, Wang et al. 2008).
+enum class LightType { Spot, Bendy, Directional, Point, Area };
+
+/// An area light's outline: a rectangle `size[0]` x `size[1]`, or a disk of diameter `size[0]`.
+enum class AreaShape { Rect, Disk };
+
+/// Most rows or columns of an area light's grid of shadow maps.
+constexpr int MAX_AREA_SHADOW_GRID = 16;
 
 /// Most Bezier segments a BendyLight chain may have (lightmath::MAX_SEGMENTS).
 constexpr int MAX_BENDY_SEGMENTS = 8;
@@ -74,6 +83,20 @@ struct Light {
     std::vector<float> radii;         ///< 2K + 1 tube radii at p[0..2K], scene units, >= 0 (r[0] may be 0)
     std::vector<Vec3> colors;         ///< 2K + 1 linear RGB multipliers at p[0..2K], each >= 0
     bool exactDirection = false;      ///< exact flow-line tangent instead of paper eq. 9
+
+    // Area light (type Area). Its frame: the normal n = direction (the emitting side), right =
+    // normalize(cross(n, up)) and up' = cross(right, n) with up = +Y (+X when n is vertical),
+    // both turned by `rollDeg` about n; width along right, height along up'.
+    AreaShape areaShape = AreaShape::Rect;
+    std::array<float, 2> areaSize{1.f, 1.f}; ///< width, height in scene units (a disk: diameter, unused), > 0
+    float rollDeg = 0.f;              ///< turn of the emitter about its normal, degrees, [-360, 360]
+    /// An RGB image across the emitter (its top row at the emitter's up edge), multiplying the
+    /// colour; a file in the asset folder like `cookie`; empty = uniform.
+    std::string pattern;
+    std::array<int, 2> shadowGrid{4, 4}; ///< m x n shadow maps over the emitter, each in [1, MAX_AREA_SHADOW_GRID]
+    /// Set by the server: the one-shot radius factors (alpha, beta) fitted for the shape and
+    /// pattern (Wang et al. 2008, section 3); (0.30, 0.57) before a fit.
+    std::array<float, 2> alphaBeta{0.30f, 0.57f};
     /// Keyframes by property path relative to the light ("intensity", "position", "cp[2]", "r[1]",
     /// ...): every numeric property can be animated. Keys are kept sorted by time.
     std::map<std::string, std::vector<Key>> keys;

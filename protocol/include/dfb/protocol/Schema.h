@@ -42,13 +42,18 @@ enum class PropType {
 /// cached image (Scale), the light's shading (Shade), or its shadow map and shading (Shadow).
 enum class Invalidates { None, Composite, Scale, Shade, Shadow };
 
+/// What switching a light to an area light caps its shadowMapSize at: the size of each map of its
+/// grid (Light::shadowGrid).
+constexpr int AREA_DEFAULT_MAP_SIZE = 512;
+
 /// Light types as a bit mask (Property::appliesTo).
 enum LightTypeBits : unsigned {
     APPLIES_SPOT = 1u << unsigned(LightType::Spot),
     APPLIES_BENDY = 1u << unsigned(LightType::Bendy),
     APPLIES_DIRECTIONAL = 1u << unsigned(LightType::Directional),
     APPLIES_POINT = 1u << unsigned(LightType::Point),
-    APPLIES_ALL = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_POINT,
+    APPLIES_AREA = 1u << unsigned(LightType::Area),
+    APPLIES_ALL = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_POINT | APPLIES_AREA,
 };
 
 struct Property;

@@ -103,6 +103,10 @@ struct FrameStats {
     int lightsShaded = 0;
 };
 
+/// Most cells per side of an area light's reference (Engine::renderAreaReference): 64 x 64 = 4096
+/// BRDF evaluations per sample.
+constexpr int MAX_AREA_REFERENCE_CELLS = 64;
+
 class Engine {
 public:
     /// Uploads the G-buffer and the shadow casters once. Fails with GpuError when no GL 4.5 core
@@ -122,6 +126,14 @@ public:
     /// One light's contribution alone (linear radiance, before exposure), from the same cache as
     /// the beauty image. Fails with MissingData for an unknown light.
     virtual Result<ImageF> renderLightLinear(const Rig& rig, const std::string& lightName) = 0;
+
+    /// An area light's reference (docs/lighting.md, "Area lights"): like renderLightLinear, but
+    /// shaded by dense stratified sampling of the emitter (cells x cells, each with the pattern's
+    /// exact integral over it, at its centre, with the full BRDF) instead of one-shot, with the
+    /// same shadow visibility: the difference to renderLightLinear is one-shot's error. Fails with
+    /// MissingData for an unknown light, InvalidValue for one that is not an area light or cells
+    /// outside 1..MAX_AREA_REFERENCE_CELLS.
+    virtual Result<ImageF> renderAreaReference(const Rig& rig, const std::string& lightName, int cells = 32) = 0;
 
     /// Light groups for compositing: the linear beauty (name "", alpha 1) followed by the linear
     /// contribution of every enabled light (named after it), so that beauty = emission + the sum
