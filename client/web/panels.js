@@ -434,6 +434,8 @@ function renderOutputs() {
   const sel = $("output");
   const opts = [["beauty", "beauty"]];
   for (const l of S.rig.lights) opts.push([`light:${l.name}`, `light: ${l.name}`]);
+  // An area light's stratified reference beside its one-shot image: the approximation's error.
+  for (const l of S.rig.lights) if (l.type === "area") opts.push([`reference:${l.name}`, `reference: ${l.name}`]);
   for (const l of S.rig.lights) opts.push([`shadow:${l.name}`, `shadow: ${l.name}`]);
   for (const n of LAYERS) opts.push([`layer:${n}`, `layer: ${n}`]);
   const sig = opts.map((o) => o[0]).join("|");

@@ -274,6 +274,85 @@ Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir,
             }
         }
 
+        if (node.extras.IsObject() && node.extras.Has("dfb_area_light")) {
+            // Area lights under the node's extras (KHR_lights_punctual has none): a bad one is a
+            // clear error naming the node and the field, not a silent default.
+            const tinygltf::Value& a = node.extras.Get("dfb_area_light");
+            SceneLight l;
+            l.name = !node.name.empty() ? node.name : "area" + std::to_string(nodeIndex);
+            l.type = "area";
+            l.position = glm::vec3(world[3]);
+            l.direction = glm::normalize(-glm::vec3(world[2]));
+            l.right = glm::normalize(glm::vec3(world[0]));
+            auto number = [&](const tinygltf::Value& v, const char* what, double lo, double hi, double& out) {
+                if (!v.IsNumber() || !(v.GetNumberAsDouble() >= lo && v.GetNumberAsDouble() <= hi)) {
+                    failure = "node '" + nodeName + "': extras.dfb_area_light." + what + " must be a number in [" +
+                              std::to_string(lo) + ", " + std::to_string(hi) + "]";
+                    return false;
+                }
+                out = v.GetNumberAsDouble();
+                return true;
+            };
+            double v = 0.0;
+            if (!a.IsObject()) {
+                failure = "node '" + nodeName + "': extras.dfb_area_light must be an object";
+                return;
+            }
+            if (a.Has("shape")) {
+                const std::string shape = a.Get("shape").IsString() ? a.Get("shape").Get<std::string>() : "";
+                if (shape != "rect" && shape != "disk") {
+                    failure = "node '" + nodeName + "': extras.dfb_area_light.shape must be \"rect\" or \"disk\"";
+                    return;
+                }
+                l.disk = shape == "disk";
+            }
+            if (a.Has("size")) {
+                const tinygltf::Value& sz = a.Get("size");
+                if (!sz.IsArray() || sz.ArrayLen() != 2) {
+                    failure = "node '" + nodeName + "': extras.dfb_area_light.size must be [width, height]";
+                    return;
+                }
+                for (int i = 0; i < 2; ++i) {
+                    if (!number(sz.Get(i), i ? "size[1]" : "size[0]", 1e-4, 1e7, v)) return;
+                    l.size[i] = float(v);
+                }
+            }
+            if (a.Has("intensity")) {
+                if (!number(a.Get("intensity"), "intensity", 0.0, 1e12, v)) return;
+                l.intensity = float(v);
+            }
+            if (a.Has("color")) {
+                const tinygltf::Value& c = a.Get("color");
+                if (!c.IsArray() || c.ArrayLen() != 3) {
+                    failure = "node '" + nodeName + "': extras.dfb_area_light.color must be [r, g, b]";
+                    return;
+                }
+                for (int i = 0; i < 3; ++i) {
+                    if (!number(c.Get(i), "color", 0.0, 1e6, v)) return;
+                    l.color[i] = float(v);
+                }
+            }
+            if (a.Has("pattern")) {
+                if (!a.Get("pattern").IsString()) {
+                    failure = "node '" + nodeName + "': extras.dfb_area_light.pattern must be a file name";
+                    return;
+                }
+                l.pattern = a.Get("pattern").Get<std::string>();
+            }
+            if (a.Has("shadowGrid")) {
+                const tinygltf::Value& g = a.Get("shadowGrid");
+                if (!g.IsArray() || g.ArrayLen() != 2) {
+                    failure = "node '" + nodeName + "': extras.dfb_area_light.shadowGrid must be [m, n]";
+                    return;
+                }
+                for (int i = 0; i < 2; ++i) {
+                    if (!number(g.Get(i), "shadowGrid", 1, 16, v)) return;
+                    l.shadowGrid[i] = int(v);
+                }
+            }
+            scene.lights.push_back(l);
+        }
+
         if (node.mesh >= 0) {
             if (size_t(node.mesh) >= model.meshes.size()) {
                 failure = "node '" + nodeName + "' references a missing mesh";

@@ -106,9 +106,9 @@ Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
             const size_t colon = o.find(':');
             const std::string kind = o.substr(0, colon);
             if (o == "beauty") {
-            } else if (colon == std::string::npos || (kind != "light" && kind != "shadow" && kind != "layer") ||
+            } else if (colon == std::string::npos || (kind != "light" && kind != "shadow" && kind != "layer" && kind != "reference") ||
                        !validLightName(std::string_view(o).substr(colon + 1))) {
-                return invalid("view.output: '" + o + "' is not beauty, light:NAME, shadow:NAME or layer:NAME");
+                return invalid("view.output: '" + o + "' is not beauty, light:NAME, reference:NAME, shadow:NAME or layer:NAME");
             }
             v.output = o;
         } else if (k == "encoding") {

@@ -200,6 +200,12 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
     rig.lights.push_back(bendy);
     rig.lights.push_back(bulbLight(rig.lights[1], 256));
     rig.lights.push_back(sunLight(rig.lights[1], 256));
+    Light panel = rig.lights[1];
+    panel.name = "panel";
+    panel.type = LightType::Area;
+    panel.areaSize = {0.3f, 0.2f};
+    panel.shadowGrid = {2, 2};
+    rig.lights.push_back(panel);
     for (Light& l : rig.lights) l.shadowMapSize = std::min(l.shadowMapSize, 512);
 
     test::SchemaEditOptions opt;
@@ -211,7 +217,7 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
     const auto& rows = protocol::lightProperties();
     int checks = 0, edits = 0;
     double worst = 0;
-    for (int round = 0; edits < 240; ++round) {
+    for (int round = 0; edits < 420; ++round) {
         const protocol::Property& row = rows[size_t(round) % rows.size()];
         std::vector<Light*> candidates;
         for (Light& l : rig.lights)
@@ -251,9 +257,9 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
             EXPECT_GT(edited[row.path], 0) << "schema row '" << row.path << "' was never edited";
         }
     }
-    for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional})
+    for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area})
         EXPECT_GT(byType[t], 10) << "light type " << protocol::lightTypeName(t);
-    EXPECT_EQ(checks, 8);
+    EXPECT_EQ(checks, 14);
     std::filesystem::remove_all(assets);
 }
 

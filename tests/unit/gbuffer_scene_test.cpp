@@ -1,7 +1,10 @@
 // glTF loading: real asset scenes load with the right triangle counts; bad files say what is wrong.
 
 #include <dfb/gbuffer/Scene.h>
+#include <dfb/server/AreaPattern.h>
 #include <dfb/server/InitialRig.h>
+
+#include <glm/gtc/quaternion.hpp>
 
 #include "support/Assets.h"
 #include "support/GltfBuilder.h"
@@ -132,5 +135,64 @@ TEST(Scene, KhrLightsPunctualArePlacedByTheirNodes) {
     const Rig fallback = initialRig(plain.value(), &imported);
     EXPECT_FALSE(imported);
     EXPECT_EQ(fallback.lights.size(), 2u);
+    std::filesystem::remove(path);
+}
+
+// Area lights travel in glTF as a node's extras.dfb_area_light (docs/gbuffer-format.md): placed
+// and turned by the node, its -Z the emitting side and +X the emitter's width; bad fields are
+// errors naming the node and the field.
+TEST(Scene, AreaLightsAreReadFromNodeExtras) {
+    auto write = [](const tinygltf::Value& area, const std::string& path) {
+        test::GltfBuilder b;
+        tinygltf::Material m;
+        b.addQuad("floor", -1, -1, 1, 1, 0, b.addMaterial(m));
+        tinygltf::Node n;
+        n.name = "softbox";
+        n.translation = {0.0, 3.0, 0.0};
+        // -90 degrees about X (the node's -Z points down), then 30 degrees about the world's Y.
+        const glm::quat q = glm::angleAxis(glm::radians(30.f), glm::vec3(0, 1, 0)) * glm::angleAxis(glm::radians(-90.f), glm::vec3(1, 0, 0));
+        n.rotation = {q.x, q.y, q.z, q.w};
+        n.extras = tinygltf::Value(tinygltf::Value::Object{{"dfb_area_light", area}});
+        b.model.nodes.push_back(n);
+        b.model.scenes[0].nodes.push_back(int(b.model.nodes.size()) - 1);
+        return b.write(path);
+    };
+    using V = tinygltf::Value;
+    const std::string path = (std::filesystem::temp_directory_path() / "dfb_area.glb").string();
+    ASSERT_TRUE(write(V(V::Object{{"shape", V(std::string("rect"))}, {"size", V(V::Array{V(2.0), V(0.5)})}, {"intensity", V(40.0)},
+                                  {"color", V(V::Array{V(1.0), V(0.9), V(0.8)})}, {"pattern", V(std::string("stripes.png"))},
+                                  {"shadowGrid", V(V::Array{V(3), V(2)})}}),
+                      path));
+    auto s = loadScene(path);
+    ASSERT_TRUE(s.ok()) << s.error().toString();
+    ASSERT_EQ(s->lights.size(), 1u);
+    const Rig rig = initialRig(s.value());
+    ASSERT_EQ(rig.lights.size(), 1u);
+    const Light& l = rig.lights[0];
+    EXPECT_EQ(l.type, LightType::Area);
+    EXPECT_EQ(l.name, "softbox");
+    EXPECT_NEAR(l.position[1], 3.f, 1e-5f);
+    EXPECT_NEAR(l.direction[1], -1.f, 1e-5f);
+    EXPECT_FLOAT_EQ(l.areaSize[0], 2.f);
+    EXPECT_FLOAT_EQ(l.areaSize[1], 0.5f);
+    EXPECT_FLOAT_EQ(l.intensityCd, 40.f);
+    EXPECT_EQ(l.pattern, "stripes.png");
+    EXPECT_EQ(l.shadowGrid[0], 3);
+    // The emitter's width axis is the node's +X: (cos 30, 0, -sin 30) after the turn about Y.
+    const auto f = areaFrameOf<float>(l);
+    EXPECT_NEAR(f.right.x, std::cos(glm::radians(30.f)), 1e-5f);
+    EXPECT_NEAR(f.right.z, -std::sin(glm::radians(30.f)), 1e-5f);
+    // Bad fields: errors naming the node and the field.
+    for (const auto& [bad, words] : std::vector<std::pair<V, std::string>>{
+             {V(V::Object{{"size", V(V::Array{V(0.0), V(1.0)})}}), "extras.dfb_area_light.size[0]"},
+             {V(V::Object{{"shape", V(std::string("hexagon"))}}), "extras.dfb_area_light.shape"},
+             {V(V::Object{{"shadowGrid", V(V::Array{V(40), V(1)})}}), "extras.dfb_area_light.shadowGrid"},
+             {V(3.0), "must be an object"}}) {
+        ASSERT_TRUE(write(bad, path));
+        auto r = loadScene(path);
+        ASSERT_FALSE(r.ok());
+        EXPECT_NE(r.error().message.find("node 'softbox'"), std::string::npos) << r.error().message;
+        EXPECT_NE(r.error().message.find(words), std::string::npos) << r.error().message;
+    }
     std::filesystem::remove(path);
 }

@@ -33,9 +33,9 @@ Result<Parsed> parse(const OutputRequest& r) {
     if (r.output == "beauty" || r.output.empty()) return Parsed{"beauty", ""};
     const size_t colon = r.output.find(':');
     Parsed p{r.output.substr(0, colon), colon == std::string::npos ? "" : r.output.substr(colon + 1)};
-    if ((p.kind != "light" && p.kind != "shadow" && p.kind != "layer") || p.name.empty()) {
+    if ((p.kind != "light" && p.kind != "reference" && p.kind != "shadow" && p.kind != "layer") || p.name.empty()) {
         return makeError(ErrorCode::InvalidValue,
-                         "unknown output '" + r.output + "' (beauty, light:NAME, shadow:NAME or layer:NAME)");
+                         "unknown output '" + r.output + "' (beauty, light:NAME, reference:NAME, shadow:NAME or layer:NAME)");
     }
     if (p.kind == "layer" && r.format == "exr") {
         return makeError(ErrorCode::InvalidValue, "layer outputs are 8-bit views (png, jpeg); the shot's EXR file holds the float layers");
@@ -91,7 +91,9 @@ Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const 
             for (int c = 0; c < 3; ++c) img.rgba[p * 4 + size_t(c)] = rgb.value()[p * 3 + size_t(c)];
         return encode8(img, request);
     }
-    auto linear = kind == "light" ? engine.renderLightLinear(rig, name) : engine.renderShadowMask(rig, name);
+    auto linear = kind == "light"       ? engine.renderLightLinear(rig, name)
+                  : kind == "reference" ? engine.renderAreaReference(rig, name, AREA_REFERENCE_OUTPUT_CELLS)
+                                        : engine.renderShadowMask(rig, name);
     if (!linear) return linear.error();
     ImageF& f = linear.value();
     if (kind == "shadow") {
@@ -113,7 +115,7 @@ Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const 
     for (size_t i = 0; i < f.rgba.size(); i += 4) {
         for (int c = 0; c < 3; ++c) {
             const float x = f.rgba[i + size_t(c)];
-            const float v = kind != "light" ? std::clamp(x, 0.f, 1.f)
+            const float v = kind == "shadow" ? std::clamp(x, 0.f, 1.f)
                             : rig.viewTransform == ViewTransform::Filmic ? srgbEncode(filmic(x))
                                                                          : srgbEncode(x);
             img.rgba[i + size_t(c)] = uint8_t(std::lround(v * 255.f));

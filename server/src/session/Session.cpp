@@ -1,6 +1,7 @@
 #include "session/Session.h"
 
 #include <dfb/core/Check.h>
+#include <dfb/server/AreaPattern.h>
 #include <dfb/server/BendyChain.h>
 #include <dfb/server/ImageCodec.h>
 
@@ -286,7 +287,25 @@ void Session::snapshotIfDue() {
     }
 }
 
+void Session::updateFits(Rig& rig) const {
+    for (Light& l : rig.lights) {
+        if (l.type != LightType::Area) continue;
+        auto ab = fitAreaAlphaBeta(l, mAssetDir);
+        l.alphaBeta = ab ? ab.value() : Light{}.alphaBeta;
+    }
+}
+
 Status Session::checkCookies(const Rig& next) const {
+    for (const Light& l : next.lights) {
+        const Light* old = mRig.find(l.name);
+        if (l.type == LightType::Area && !l.pattern.empty() && !(old && old->pattern == l.pattern && old->type == LightType::Area)) {
+            const std::string file = (std::filesystem::path(mAssetDir) / l.pattern).string();
+            if (auto img = checkImageFile(file); !img) {
+                return makeError(ErrorCode::InvalidValue, l.name + ".pattern: '" + l.pattern +
+                                                              "' is not a readable image in the asset folder (" + img.error().message + ")");
+            }
+        }
+    }
     for (const Light& l : next.lights) {
         const Light* before = mRig.find(l.name);
         if (l.cookie.empty() || (before && before->cookie == l.cookie)) continue;
@@ -318,6 +337,7 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
         if (auto st = protocol::applyChanges(next, out.info.changes); !st) return st.error();
         next.version = mRig.version + 1; // applyChanges keeps the version; make sure
         updateWarnings(next);
+        updateFits(next);
         history = PushUndo;
     } else if (kind == "time") {
         if (!op.contains("t") || !op["t"].is_number()) return makeError(ErrorCode::Protocol, "time without t");
@@ -337,6 +357,7 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
         next = r.value();
         next.version = mRig.version + 1;
         updateWarnings(next);
+        updateFits(next);
         history = PushUndo;
     } else {
         return makeError(ErrorCode::Protocol, "unknown journal operation '" + kind + "'");
@@ -474,7 +495,7 @@ Result<ChangeOutcome> Session::replace(const Rig& rig, const Author& by, std::op
     if (auto st = protocol::checkRigLimits(rig, mLimits); !st) return st.error();
     json r = protocol::toJson(rig);
     r.erase("version");
-    for (json& l : r["lights"]) l.erase("warning"); // the server's, recomputed
+    for (json& l : r["lights"]) l.erase("warning"), l.erase("alphaBeta"); // the server's, recomputed
     return apply(json{{"op", "replace"}, {"by", by.clientId}, {"byName", by.name}, {"rig", r}}, true);
 }
 

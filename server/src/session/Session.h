@@ -88,10 +88,12 @@ public:
     /// Replaces the lights, exposure and time (the version is the server's).
     Result<ChangeOutcome> replace(const Rig& rig, const Author& by, std::optional<uint64_t> ifVersion = std::nullopt);
 
-    /// Where cookie images are looked up (the engine's asset folder); default ".".
+    /// Where cookie images and area lights' patterns are looked up (the engine's asset folder);
+    /// default ".". Refits the area lights' alphaBeta with the patterns found there.
     void setAssetDirectory(std::string dir) {
         std::lock_guard lock(mMutex);
         mAssetDir = std::move(dir);
+        updateFits(mRig);
     }
     std::string assetDirectory() const {
         std::lock_guard lock(mMutex);
@@ -140,6 +142,10 @@ private:
     // A cookie new in `next` must be an image the engine can read, or the change is refused now
     // rather than every frame failing later.
     Status checkCookies(const Rig& next) const;
+    /// Writes every area light's Light::alphaBeta: the fit of its shape and pattern
+    /// (fitAreaAlphaBeta; cached, so only a new pattern, shape or aspect costs a fit). A pattern
+    /// that cannot be read keeps the defaults (the render reports it).
+    void updateFits(Rig& rig) const;
     // The whole state a restart needs (what replaying the journal so far would rebuild), and back.
     nlohmann::json stateJson() const;
     Status restoreState(const nlohmann::json& state);

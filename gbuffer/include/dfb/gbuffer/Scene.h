@@ -95,13 +95,21 @@ struct SceneCamera {
 /// A light of the file's KHR_lights_punctual extension, placed by its node.
 struct SceneLight {
     std::string name;
-    std::string type;               ///< "spot", "directional" or "point"
+    std::string type;               ///< "spot", "directional", "point" or "area"
     glm::vec3 position{0.f};        ///< world space
     glm::vec3 direction{0, 0, -1};  ///< world space, unit: the node's -Z
     glm::vec3 color{1.f};
     float intensity = 1.f;          ///< candela (point, spot) or lux (directional)
     float innerConeRadians = 0.f;
     float outerConeRadians = 0.785398f;
+    // Area lights (docs/gbuffer-format.md, "Area lights in glTF": a node's extras.dfb_area_light,
+    // KHR_lights_punctual having none): the node's -Z is `direction` (the emitting side), its +X
+    // the emitter's width axis; intensity is the emitter's radiance in cd/m^2.
+    bool disk = false;
+    glm::vec2 size{1.f};             ///< width, height (a disk: diameter, unused), scene units
+    glm::vec3 right{1, 0, 0};        ///< world space, unit: the node's +X
+    std::string pattern;             ///< an image file relative to the asset folder, or empty
+    glm::ivec2 shadowGrid{4, 4};
 };
 
 struct Bounds {

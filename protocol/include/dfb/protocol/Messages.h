@@ -44,8 +44,9 @@ const char* toString(Role role);
 /// (not part of the rig, not journaled); the HTTP frame endpoint takes the same settings as query
 /// parameters.
 struct ViewSettings {
-    /// "beauty", "light:NAME" (one light alone), "shadow:NAME" (its visibility mask as grey) or
-    /// "layer:NAME" (a G-buffer layer, where the engine provides it).
+    /// "beauty", "light:NAME" (one light alone), "reference:NAME" (an area light alone by the
+    /// stratified reference, Engine::renderAreaReference), "shadow:NAME" (its visibility mask as
+    /// grey) or "layer:NAME" (a G-buffer layer, where the engine provides it).
     std::string output = "beauty";
     Encoding encoding = Encoding::Jpeg;
     int quality = 85;               ///< JPEG quality, 1..100 (ignored by PNG and EXR)

@@ -14,8 +14,14 @@
 
 namespace dfb {
 
+/// Cells per side of the `reference:NAME` output (Engine::renderAreaReference): 32 x 32 = 1024
+/// BRDF evaluations per sample, a few seconds at 960 x 540 on llvmpipe.
+constexpr int AREA_REFERENCE_OUTPUT_CELLS = 32;
+
 struct OutputRequest {
-    /// "beauty", "light:NAME", "shadow:NAME" or "layer:NAME" (a viewable G-buffer layer).
+    /// "beauty", "light:NAME", "reference:NAME" (an area light by the stratified reference: the
+    /// difference to light:NAME is one-shot's error), "shadow:NAME" or "layer:NAME" (a viewable
+    /// G-buffer layer).
     std::string output = "beauty";
     /// "jpeg" (or "jpg"), "png" or "exr".
     std::string format = "png";

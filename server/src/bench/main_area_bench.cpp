@@ -1,0 +1,231 @@
+// dfb-area-bench: area lights (issue 18 points 4 and 8). For a uniform disk, a uniform rectangle, a
+// checkerboard and two textured patterns (a four-pane window and fluorescent tubes, drawn by this
+// program into a temporary asset folder), each near (0.5 light sizes from the scene's centre) and
+// far (5 sizes), the error of one-shot against the stratified reference (Engine::renderAreaReference,
+// 32 x 32 cells): mean and 95th percentile of the per-pixel relative error over the pixels the
+// reference lights (above 1 % of its 99th percentile), and the aggregate mean |one-shot - reference|
+// / mean reference; the time of a one-shot edit and of the reference; the pattern tables' build
+// time and memory and the alpha/beta fits' time. Then edit -> frame for an area light in the
+// default rig: move with 1x1, 2x2, 4x4 and 8x8 shadow grids (full quality, and preview frames as
+// during a drag), pattern change. A benchmark prints numbers; nothing here passes or fails.
+//
+//   dfb-area-bench SHOT.exr [--scene SCENE] [--edits N] [--cells G]
+
+#include <dfb/core/Stats.h>
+#include <dfb/protocol/Schema.h>
+#include <dfb/server/AreaPattern.h>
+#include <dfb/server/Engine.h>
+#include <dfb/server/ImageCodec.h>
+
+#include "BenchShot.h"
+
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iostream>
+
+using namespace dfb;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+double mean(const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x;
+    return v.empty() ? 0.0 : s / double(v.size());
+}
+
+// A 256 x 256 pattern image written as PNG into `dir`.
+bool writePattern(const std::filesystem::path& dir, const char* name, const std::function<float(float, float)>& value) {
+    Image8 img;
+    img.width = img.height = 256;
+    img.rgba.resize(256 * 256 * 4, 255);
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 256; ++x) {
+            const float v = std::clamp(value((x + 0.5f) / 256.f, (y + 0.5f) / 256.f), 0.f, 1.f);
+            const uint8_t b = uint8_t(std::lround(255.f * v));
+            for (int c = 0; c < 3; ++c) img.rgba[size_t(y * 256 + x) * 4 + size_t(c)] = b;
+        }
+    auto png = encodePng(img);
+    if (!png) return false;
+    std::ofstream f(dir / name, std::ios::binary);
+    f.write(reinterpret_cast<const char*>(png->data()), std::streamsize(png->size()));
+    return bool(f);
+}
+
+struct Case {
+    const char* name;
+    AreaShape shape;
+    const char* pattern;
+};
+
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"dfb-area-bench: one-shot area lights against the stratified reference, and edit -> frame times"};
+    std::string shotPath, scenePath;
+    int edits = 10, cells = 32;
+    app.add_option("shot", shotPath, "deep framebuffer EXR")->required();
+    app.add_option("--scene", scenePath, "shadow casters (default: the shot's source scene)");
+    app.add_option("--edits", edits, "timed edits per row")->check(CLI::Range(1, 1000));
+    app.add_option("--cells", cells, "the reference's cells per side")->check(CLI::Range(1, MAX_AREA_REFERENCE_CELLS));
+    CLI11_PARSE(app, argc, argv);
+    keepFreedMemoryForFrames();
+
+    bench::BenchShot opened;
+    if (int rc = bench::openBenchShot("dfb-area-bench", shotPath, scenePath, opened)) return rc;
+    Engine& engine = *opened.engine;
+    const std::filesystem::path assets = std::filesystem::temp_directory_path() / "dfb-area-bench";
+    std::filesystem::create_directories(assets);
+    const bool written =
+        writePattern(assets, "checker.png", [](float u, float v) { return (int(u * 8) + int(v * 8)) % 2 ? 0.f : 1.f; }) &&
+        writePattern(assets, "window.png",
+                     [](float u, float v) {
+                         const bool mullion = std::abs(u - 0.5f) < 0.04f || std::abs(v - 0.5f) < 0.04f || u < 0.04f || u > 0.96f ||
+                                              v < 0.04f || v > 0.96f;
+                         return mullion ? 0.05f : 0.6f + 0.4f * v; // brighter towards the top (the sky)
+                     }) &&
+        writePattern(assets, "tubes.png", [](float u, float) {
+            const float d = std::abs(std::fmod(u * 4.f, 1.f) - 0.5f); // four tubes across the width
+            return std::exp(-d * d / 0.01f);
+        });
+    if (!written) {
+        std::cerr << "dfb-area-bench: cannot write the patterns into " << assets << "\n";
+        return 2;
+    }
+    engine.setAssetDirectory(assets.string());
+
+    const Bounds& b = opened.scene.bounds;
+    const Rig base = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+    const Light& key = base.lights[0];
+    const glm::vec3 centre = b.center();
+    const glm::vec3 dir = glm::normalize(glm::vec3(key.direction[0], key.direction[1], key.direction[2]));
+    const float size = 0.25f * glm::length(b.max - b.min);
+    auto areaLight = [&](const Case& c, float distance) {
+        Light l;
+        l.name = "panel";
+        l.type = LightType::Area;
+        l.areaShape = c.shape;
+        l.areaSize = {size, c.shape == AreaShape::Disk ? size : 0.6f * size};
+        l.pattern = c.pattern;
+        const glm::vec3 p = centre - dir * distance;
+        l.position = {p.x, p.y, p.z};
+        l.direction = key.direction;
+        l.intensityCd = 1.f;
+        l.shadowMapSize = protocol::AREA_DEFAULT_MAP_SIZE;
+        double fitMs = 0.0;
+        auto ab = fitAreaAlphaBeta(l, assets.string(), &fitMs);
+        if (ab) l.alphaBeta = ab.value();
+        return std::make_pair(l, fitMs);
+    };
+
+    std::printf("device:   %s\n", engine.deviceDescription().c_str());
+    std::printf("shot:     %s, %dx%d; light size %.3f (a quarter of the scene's diagonal), aimed as the default key\n",
+                shotPath.c_str(), opened.shot.width, opened.shot.height, size);
+    std::printf("error:    one-shot vs the reference (%d x %d cells), the light alone, shadows on (the same in both)\n\n", cells, cells);
+    std::printf("%-18s %-5s %6s %6s | %9s %9s %9s | %10s %10s | %8s %8s %8s\n", "pattern", "dist", "alpha", "beta", "mean rel",
+                "p95 rel", "aggregate", "one-shot", "reference", "table", "KiB", "fit");
+    const Case cases[] = {{"uniform disk", AreaShape::Disk, ""},
+                          {"uniform rectangle", AreaShape::Rect, ""},
+                          {"checkerboard", AreaShape::Rect, "checker.png"},
+                          {"window (4 panes)", AreaShape::Rect, "window.png"},
+                          {"tubes (4)", AreaShape::Rect, "tubes.png"}};
+    for (const Case& c : cases) {
+        for (float d : {0.5f, 5.f}) {
+            auto [light, fitMs] = areaLight(c, d * size);
+            Rig rig;
+            rig.lights = {light};
+            auto table = areaPatternTable(light, assets.string());
+            if (!table) {
+                std::cerr << "dfb-area-bench: " << table.error().toString() << "\n";
+                return 3;
+            }
+            if (!engine.render(rig)) return 3; // shadow maps and caches, outside the timing
+            std::vector<double> oneMs;
+            ImageF one;
+            for (int i = 0; i < edits; ++i) {
+                rig.lights[0].position[0] += (i % 2 ? -1.f : 1.f) * 1e-3f * size; // a move: maps and shading
+                const auto t0 = Clock::now();
+                auto img = engine.renderLightLinear(rig, "panel");
+                if (!img) return 3;
+                oneMs.push_back(msSince(t0));
+                if (i + 1 == edits) one = std::move(img.value());
+            }
+            const auto t1 = Clock::now();
+            auto ref = engine.renderAreaReference(rig, "panel", cells);
+            const double refMs = msSince(t1);
+            if (!ref) {
+                std::cerr << "dfb-area-bench: " << ref.error().toString() << "\n";
+                return 3;
+            }
+            std::vector<double> lum;
+            for (size_t i = 0; i < ref->rgba.size(); i += 4) lum.push_back(ref->rgba[i] + ref->rgba[i + 1] + ref->rgba[i + 2]);
+            const double floor = 0.01 * percentile(lum, 99);
+            std::vector<double> rel;
+            double sumAbs = 0.0, sumRef = 0.0;
+            for (size_t i = 0; i < ref->rgba.size(); i += 4) {
+                const double r = ref->rgba[i] + ref->rgba[i + 1] + ref->rgba[i + 2], o = one.rgba[i] + one.rgba[i + 1] + one.rgba[i + 2];
+                sumAbs += std::abs(o - r);
+                sumRef += r;
+                if (r > floor && floor > 0) rel.push_back(std::abs(o - r) / r);
+            }
+            const lightmath::PatternTable& t = table.value()->table;
+            std::printf("%-18s %4.1fx %6.3f %6.3f | %8.1f%% %8.1f%% %8.1f%% | %8.1fms %8.0fms | %6.2fms %8.0f %6.0fms\n", c.name, d,
+                        light.alphaBeta[0], light.alphaBeta[1], 100 * mean(rel),
+                        100 * percentile(rel, 95), 100 * sumAbs / std::max(sumRef, 1e-30), percentile(oneMs, 50), refMs,
+                        table.value()->buildMs, double(t.w + 1) * double(t.h + 1) * 16.0 / 1024.0, fitMs);
+        }
+    }
+
+    // Edit -> frame in the default rig (its key and fill cached) plus the area light.
+    std::printf("\nedit -> frame, the default rig plus the area light (1x from the centre), %d edits each, median / p90 / max:\n", edits);
+    auto timeEdits = [&](const char* what, Rig rig, bool preview, const std::function<void(Light&, int)>& edit) {
+        engine.setPreview(false);
+        if (!engine.render(rig)) return false;
+        engine.setPreview(preview);
+        std::vector<double> ms;
+        for (int i = 0; i < edits; ++i) {
+            edit(rig.lights.back(), i);
+            ++rig.version;
+            const auto t0 = Clock::now();
+            auto img = engine.render(rig);
+            if (!img) return false;
+            ms.push_back(msSince(t0));
+        }
+        engine.setPreview(false);
+        std::printf("  %-34s %8.1f ms %8.1f ms %8.1f ms\n", what, percentile(ms, 50), percentile(ms, 90), percentile(ms, 100));
+        return true;
+    };
+    auto move = [&](Light& l, int i) { l.position[0] += (i % 2 ? -1.f : 1.f) * 0.01f * size; };
+    for (bool preview : {false, true}) {
+        for (int g : {1, 2, 4, 8}) {
+            Rig rig = base;
+            auto [light, fitMs] = areaLight(cases[1], size);
+            (void)fitMs;
+            light.shadowGrid = {g, g};
+            rig.lights.push_back(light);
+            char what[64];
+            std::snprintf(what, sizeof what, "move, %dx%d shadows%s", g, g, preview ? " (preview)" : "");
+            if (!timeEdits(what, rig, preview, move)) return 3;
+        }
+    }
+    {
+        Rig rig = base;
+        auto [light, fitMs] = areaLight(cases[3], size);
+        (void)fitMs;
+        rig.lights.push_back(light);
+        if (!timeEdits("pattern change (window <-> tubes)", rig, false,
+                       [&](Light& l, int i) { l.pattern = i % 2 ? "window.png" : "tubes.png"; }))
+            return 3;
+        if (!timeEdits("intensity (a rescale)", rig, false, [&](Light& l, int i) { l.intensityCd = 1.f + 0.1f * float(i); })) return 3;
+    }
+    return 0;
+}
