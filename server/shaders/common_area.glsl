@@ -8,7 +8,8 @@
 //   lightCube.xyz = the pattern's mean (the table holds S - mean u v).
 
 // Per shadow layer k: xy = what the layer's eye, offset in the emitter's plane, subtracts from the
-// centre view's clip-space x and y (ShadowMaps::renderArea).
+// centre view's clip-space x and y; zw = the eye's place on the emitter along right and up, world
+// units (ShadowMaps::renderArea).
 layout(std430, binding = SSBO_AREA_LAYERS) readonly buffer AreaLayers { vec4 areaLayer[]; };
 
 // AreaLight.h representativePoint: the point of the emitter's plane maximising cos(pt, n)

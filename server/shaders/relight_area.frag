@@ -27,6 +27,10 @@ layout(binding = TEX_AREA_PATTERN) uniform sampler2D patternTable;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
 layout(location = OUT_COLOR) out vec4 oColor;
+// The engine's variants define the layer count (LightShading::shadeDefines): a constant loop.
+#ifndef AREA_LAYERS
+#define AREA_LAYERS int(uLight.lightDoors.w + 0.5)
+#endif
 layout(early_fragment_tests) in;
 layout(location = LOC_RELIGHT_OUTPUT) uniform int uOutput;
 layout(location = LOC_RELIGHT_LINKED) uniform int uLinked;
@@ -54,13 +58,17 @@ float filteredShadowLayer(ShadowLookup l, float layer) {
     return sum / float((2 * r + 1) * (2 * r + 1));
 }
 
-// The mean visibility over the grid's layers. Every layer shares the centre view's projection,
-// its eye moved in the emitter's plane: in clip space only x and y move, by areaLayer[k].xy, so
-// the centre's receiver-plane lookup moves by that over w in the map (the plane's depth slope is
-// the centre's, exact for the depth, within the layer offset's parallax for the slope).
+// The visibility of the emitter from P: each layer's filtered comparison, weighted by how much its
+// eye would light P unshadowed, w_k = max(Ng.l_k, 0) (-l_k.n) / d_k^2 (a Lambert receiver's
+// share of the emitter around the eye), so that the parts of the emitter below P's horizon, which
+// one-shot's lobes already leave out, neither shadow nor light it. Every layer shares the centre
+// view's projection, its eye moved in the emitter's plane: in clip space only x and y move, by
+// areaLayer[k].xy, so the centre's receiver-plane lookup moves by that over w in the map (the
+// plane's depth slope is the centre's, exact for the depth, within the layer offset's parallax for
+// the slope).
 float areaVisibility(vec3 P, vec3 Ng) {
-    vec3 c = uLight.lightPosition.xyz;
-    if (dot(P - c, uLight.lightAxis.xyz) <= 0.0) return 0.0;
+    vec3 c = uLight.lightPosition.xyz, n = uLight.lightAxis.xyz;
+    if (dot(P - c, n) <= 0.0) return 0.0;
     float dist = max(length(P - c), 1e-6);
     vec3 L = (c - P) / dist;
     vec3 biased = P + Ng * shadowNormalOffset(dist);
@@ -70,15 +78,20 @@ float areaVisibility(vec3 P, vec3 Ng) {
     mat4 M = uLight.worldToLightClip;
     float w = dot(vec4(M[0][3], M[1][3], M[2][3], M[3][3]), vec4(biased, 1.0));
     float size = 1.0 / uLight.lightShadow.x;
-    int layers = int(uLight.lightDoors.w + 0.5);
-    float sum = 0.0;
+    float sum = 0.0, weights = 0.0;
     ShadowLookup k = l;
-    for (int i = 0; i < layers; ++i) {
-        k.st = l.st - areaLayer[i].xy * (0.5 * size / w);
-        if (any(lessThan(k.st, vec2(0.0))) || any(greaterThan(k.st, vec2(size)))) sum += 1.0;
-        else sum += filteredShadowLayer(k, float(i));
+    for (int i = 0; i < AREA_LAYERS; ++i) {
+        vec4 layer = areaLayer[i];
+        vec3 e = c + uLight.lightRight.xyz * layer.z + uLight.lightUp.xyz * layer.w - P;
+        float e2 = max(dot(e, e), 1e-12);
+        float wk = max(dot(Ng, e), 0.0) * max(-dot(e, n), 0.0) / (e2 * e2);
+        if (wk <= 0.0) continue;
+        k.st = l.st - layer.xy * (0.5 * size / w);
+        float v = any(lessThan(k.st, vec2(0.0))) || any(greaterThan(k.st, vec2(size))) ? 1.0 : filteredShadowLayer(k, float(i));
+        sum += wk * v;
+        weights += wk;
     }
-    return sum / float(layers);
+    return weights > 0.0 ? sum / weights : 0.0;
 }
 
 // The layered BRDF's two parts times N.L (common_brdf.glsl evaluateLayeredBrdfCos, whose sum they

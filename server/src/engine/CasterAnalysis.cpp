@@ -1,5 +1,9 @@
 #include "CasterAnalysis.h"
 
+#include <meshoptimizer.h>
+
+#include <chrono>
+
 #include <dfb/server/AreaPattern.h>
 
 #include "GpuInterface.h"
@@ -184,6 +188,59 @@ void Casters::upload(const ShadowGeometry& casters, const DeepBuffer& g) {
         else if (lo < -eps) mPlanesSkippable = false;
     }
     mVao = positionVao(mVbo, mIbo);
+    buildSoftCasters(casters);
+}
+
+// Area lights' casters (docs/lighting.md, "Area lights", Shadows): each of the three ranges
+// (closed meshes, open meshes, open planar meshes) welded by position
+// (meshopt_generateShadowIndexBuffer: normals and seams do not matter to a depth pass) and
+// simplified (meshopt_simplify, quadric error, Garland and Heckbert 1997) within
+// SOFT_CASTER_ERROR of the scene's diagonal. A grid of m x n maps draws every caster m x n times,
+// and llvmpipe's cost per map is the triangles' (about 11 ms per 100k triangles), not the texels';
+// the grid's shadows are soft, so detail below the error does not show.
+void Casters::buildSoftCasters(const ShadowGeometry& casters) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const float diagonal = glm::length(mScene.max - mScene.min);
+    std::vector<uint32_t> out;
+    auto simplify = [&](size_t from, size_t to) {
+        if (to <= from || casters.positions.empty()) return;
+        const size_t n = to - from;
+        std::vector<uint32_t> welded(n), simplified(n);
+        meshopt_generateShadowIndexBuffer(welded.data(), casters.indices.data() + from, n, casters.positions.data(), casters.positions.size(),
+                                          sizeof(glm::vec3), sizeof(glm::vec3));
+        const float scale = meshopt_simplifyScale(&casters.positions[0].x, casters.positions.size(), sizeof(glm::vec3));
+        const float error = scale > 0.f ? SOFT_CASTER_ERROR * diagonal / scale : 0.f;
+        const size_t kept = meshopt_simplify(simplified.data(), welded.data(), n, &casters.positions[0].x, casters.positions.size(),
+                                             sizeof(glm::vec3), 0, error);
+        out.insert(out.end(), simplified.begin(), simplified.begin() + ptrdiff_t(kept / 3 * 3));
+    };
+    simplify(0, size_t(mClosedIndexCount));
+    mSoftClosedCount = GLsizei(out.size());
+    simplify(size_t(mClosedIndexCount), size_t(mPlanarStart));
+    mSoftPlanarStart = GLsizei(out.size());
+    simplify(size_t(mPlanarStart), size_t(mIndexCount));
+    mSoftCount = GLsizei(out.size());
+    const uint32_t dummyIndex = 0;
+    mSoftIbo = out.empty() ? gl::makeBuffer(&dummyIndex, sizeof dummyIndex) : gl::makeBuffer(out.data(), out.size() * sizeof(uint32_t));
+    mSoftVao = positionVao(mVbo, mSoftIbo);
+    mSoftBuildMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+GLsizei Casters::softIndicesFor(GLsizei fullCount) const { return fullCount >= mIndexCount ? mSoftCount : mSoftPlanarStart; }
+
+void Casters::drawSoft(GLsizei count, GLsizei instances) const {
+    glBindVertexArray(mSoftVao.id());
+    const GLsizei closed = std::min(count, mSoftClosedCount);
+    if (closed > 0) {
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_FRONT);
+        glDrawElementsInstanced(GL_TRIANGLES, closed, GL_UNSIGNED_INT, nullptr, instances);
+        glDisable(GL_CULL_FACE);
+    }
+    if (count > closed) {
+        glDrawElementsInstanced(GL_TRIANGLES, count - closed, GL_UNSIGNED_INT,
+                                reinterpret_cast<const void*>(size_t(closed) * sizeof(uint32_t)), instances);
+    }
 }
 
 // A plane cannot occlude anything when the light is on the receivers' side of it: a spot's, point

@@ -37,6 +37,15 @@ public:
     /// many instances of every run (an area light's layers), none left out.
     void draw(GLsizei count, const glm::mat4& worldToClip, GLsizei instances = 1) const;
 
+    /// Area lights' simplified casters (buildSoftCasters): the count of them standing for `fullCount`
+    /// of the full ones (indicesFor's all, or all but the open planar meshes), and their instanced
+    /// draw (closed meshes with front faces culled, as draw).
+    GLsizei softIndicesFor(GLsizei fullCount) const;
+    void drawSoft(GLsizei count, GLsizei instances) const;
+    /// Triangles of the simplified casters, and the time simplifying took.
+    GLsizei softTriangles() const { return mSoftCount / 3; }
+    double softBuildMs() const { return mSoftBuildMs; }
+
     const gl::Buffer& positions() const { return mVbo; }
     const gl::Buffer& indices() const { return mIbo; }
     GLuint vertexCount() const { return mVertexCount; }
@@ -44,6 +53,8 @@ public:
     GLsizei closedIndexCount() const { return mClosedIndexCount; }
 
 private:
+    void buildSoftCasters(const ShadowGeometry& casters);
+
     Box mScene, mReceivers;
     gl::Buffer mVbo, mIbo;
     gl::VertexArray mVao;
@@ -54,6 +65,14 @@ private:
     GLsizei mPlanarStart = 0;       // indices[this, end) are open planar meshes, with these planes:
     std::vector<glm::vec4> mPlanes; // oriented so that every receiver is on the positive side
     bool mPlanesSkippable = false;  // ... which holds for all of them (else never left out)
+    gl::Buffer mSoftIbo;            // area lights' simplified casters, same vertices
+    gl::VertexArray mSoftVao;
+    GLsizei mSoftClosedCount = 0, mSoftPlanarStart = 0, mSoftCount = 0;
+    double mSoftBuildMs = 0.0;
 };
+
+/// How far area lights' simplified casters may stray from the full ones: this fraction of the
+/// scene's diagonal (Casters::buildSoftCasters; measured in tests/gpu/area_light_test.cpp).
+constexpr float SOFT_CASTER_ERROR = 0.002f;
 
 } // namespace dfb::engine

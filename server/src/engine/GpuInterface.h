@@ -52,7 +52,7 @@
     X(SSBO_TESS_INDICES, 4, "bendy_classify.comp's triangles for the tessellated draws")              \
     X(SSBO_DRAW_COMMANDS, 5, "BendyDrawCommands: the deformed map's four indirect draws")             \
     X(SSBO_LINK_MASK, 6, "per light: bit (id % 32) of word (id / 32) set = the object is lit")    \
-    X(SSBO_AREA_LAYERS, 7, "an area light's shadow layers: vec4(clip-space x, y offset of the layer's eye, 0, 0)")
+    X(SSBO_AREA_LAYERS, 7, "an area light's shadow layers: vec4(clip-space x, y offset of the layer's eye, its emitter coordinates along right, up)")
 
 // Uniform blocks (glBindBufferBase(GL_UNIFORM_BUFFER); layout(std140, binding)).
 #define DFB_GPU_UNIFORM_BLOCKS(X)                                                  \

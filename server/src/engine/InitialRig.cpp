@@ -35,6 +35,7 @@ Rig initialRig(const Scene& scene, bool* imported) {
             l.pattern = sl.pattern;
             l.shadowGrid = {sl.shadowGrid.x, sl.shadowGrid.y};
             l.shadowMapSize = protocol::AREA_DEFAULT_MAP_SIZE;
+            l.shadowFilter = 0; // as switching a light to an area light does (Schema.cpp setType)
             // The roll that turns the product's frame (spotFrame) onto the node's +X.
             const lightmath::SpotFrame<float> f = lightmath::spotFrame(sl.direction);
             l.rollDeg = glm::degrees(std::atan2(glm::dot(sl.right, f.up), glm::dot(sl.right, f.right)));

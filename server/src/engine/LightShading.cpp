@@ -111,6 +111,7 @@ std::string LightShading::shadeDefines(const LightCache& c, int output, bool coo
     def("SHADE_OUTPUT", std::to_string(output));
     flag("SHADE_SHEEN", mGBuffer.hasSheen);
     flag("SHADE_COAT", mGBuffer.hasCoat);
+    if (l.type == LightType::Area) def("AREA_LAYERS", std::to_string(std::max(c.shadowLayers, 1)));
     if (l.type == LightType::Bendy) {
         def("BENDY_K", std::to_string(c.bendySegments()));
         flag("BENDY_EXACT", l.exactDirection);

@@ -217,7 +217,7 @@ Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
         for (int i = 0; i < grid.x; ++i) {
             const glm::vec2 g = areaGridPoint(l, i, j, grid);
             const glm::vec3 d = f.right * g.x + f.up * g.y;
-            offsets[size_t(j * grid.x + i)] = glm::vec4(p00 * glm::dot(d, view.right), p00 * glm::dot(d, view.up), 0.f, 0.f);
+            offsets[size_t(j * grid.x + i)] = glm::vec4(p00 * glm::dot(d, view.right), p00 * glm::dot(d, view.up), g.x, g.y);
         }
     c.areaLayers = gl::makeBuffer(offsets.data(), offsets.size() * sizeof(glm::vec4));
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_AREA_LAYERS, c.areaLayers.id());
@@ -225,11 +225,11 @@ Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
     block.worldToLightClip = c.worldToLightClip;
     mLight.upload(block);
     beginDepthPass(c.shadowFb.id(), size);
-    c.casterIndexCount = mCasters.indicesFor(l, c.chain);
+    c.casterIndexCount = mCasters.softIndicesFor(mCasters.indicesFor(l, c.chain));
     if (mAreaProgram) {
         clearDepth(c.shadowFb.id());
         glUseProgram(mAreaProgram);
-        mCasters.draw(c.casterIndexCount, c.worldToLightClip, layers);
+        mCasters.drawSoft(c.casterIndexCount, layers);
     } else {
         glUseProgram(mDepthProgram);
         for (int k = 0; k < layers; ++k) {
@@ -240,7 +240,7 @@ Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
             layer.worldToLightClip[3][0] -= offsets[size_t(k)].x;
             layer.worldToLightClip[3][1] -= offsets[size_t(k)].y;
             mLight.upload(layer);
-            mCasters.draw(c.casterIndexCount, layer.worldToLightClip);
+            mCasters.drawSoft(c.casterIndexCount, 1);
         }
         glNamedFramebufferTexture(c.shadowFb.id(), GL_DEPTH_ATTACHMENT, c.shadowMap.id(), 0);
     }
