@@ -157,6 +157,55 @@ Result<Scene> loadFromBytesGuarded(const std::string& path, const std::string& b
 
 } // namespace
 
+// An area light under a node's extras.dfb_area_light (KHR_lights_punctual has none;
+// docs/gbuffer-format.md, "Area lights in glTF"): placed and turned by the node, its -Z the
+// emitting side and +X the width axis. A bad field is an error naming the node and the field,
+// not a silent default.
+static Result<SceneLight> readAreaLight(const tinygltf::Value& a, const glm::mat4& world, const std::string& nodeName) {
+    const std::string where = "node '" + nodeName + "': extras.dfb_area_light";
+    auto bad = [&](const std::string& what) { return makeError(ErrorCode::InvalidFile, where + what); };
+    if (!a.IsObject()) return bad(" must be an object");
+    SceneLight l;
+    l.name = nodeName;
+    l.type = "area";
+    l.position = glm::vec3(world[3]);
+    l.direction = glm::normalize(-glm::vec3(world[2]));
+    l.right = glm::normalize(glm::vec3(world[0]));
+    // `count` numbers in [lo, hi] (count 0: one number, not an array) into out.
+    auto numbers = [&](const char* key, int count, double lo, double hi, const char* shape, float* out) -> Status {
+        if (!a.Has(key)) return okStatus();
+        const tinygltf::Value& v = a.Get(key);
+        if (count > 0 && (!v.IsArray() || v.ArrayLen() != size_t(count))) return bad(std::string(".") + key + " must be " + shape);
+        for (int i = 0; i < std::max(count, 1); ++i) {
+            const tinygltf::Value& x = count > 0 ? v.Get(i) : v;
+            if (!x.IsNumber() || !(x.GetNumberAsDouble() >= lo && x.GetNumberAsDouble() <= hi)) {
+                return bad(std::string(".") + key + (count > 0 ? "[" + std::to_string(i) + "]" : "") + " must be a number in [" +
+                           std::to_string(lo) + ", " + std::to_string(hi) + "]");
+            }
+            out[i] = float(x.GetNumberAsDouble());
+        }
+        return okStatus();
+    };
+    if (a.Has("shape")) {
+        const std::string shape = a.Get("shape").IsString() ? a.Get("shape").Get<std::string>() : "";
+        if (shape != "rect" && shape != "disk") return bad(".shape must be \"rect\" or \"disk\"");
+        l.disk = shape == "disk";
+    }
+    float grid[2] = {float(l.shadowGrid.x), float(l.shadowGrid.y)};
+    for (const Status& st : {numbers("size", 2, 1e-4, 1e7, "[width, height]", &l.size.x),
+                             numbers("intensity", 0, 0.0, 1e12, "a number", &l.intensity),
+                             numbers("color", 3, 0.0, 1e6, "[r, g, b]", &l.color.x),
+                             numbers("shadowGrid", 2, 1, 16, "[m, n]", grid)}) {
+        if (!st) return st.error();
+    }
+    l.shadowGrid = glm::ivec2(int(grid[0]), int(grid[1]));
+    if (a.Has("pattern")) {
+        if (!a.Get("pattern").IsString()) return bad(".pattern must be a file name");
+        l.pattern = a.Get("pattern").Get<std::string>();
+    }
+    return l;
+}
+
 Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
     namespace fs = std::filesystem;
     std::error_code ec;
@@ -275,82 +324,12 @@ Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir,
         }
 
         if (node.extras.IsObject() && node.extras.Has("dfb_area_light")) {
-            // Area lights under the node's extras (KHR_lights_punctual has none): a bad one is a
-            // clear error naming the node and the field, not a silent default.
-            const tinygltf::Value& a = node.extras.Get("dfb_area_light");
-            SceneLight l;
-            l.name = !node.name.empty() ? node.name : "area" + std::to_string(nodeIndex);
-            l.type = "area";
-            l.position = glm::vec3(world[3]);
-            l.direction = glm::normalize(-glm::vec3(world[2]));
-            l.right = glm::normalize(glm::vec3(world[0]));
-            auto number = [&](const tinygltf::Value& v, const char* what, double lo, double hi, double& out) {
-                if (!v.IsNumber() || !(v.GetNumberAsDouble() >= lo && v.GetNumberAsDouble() <= hi)) {
-                    failure = "node '" + nodeName + "': extras.dfb_area_light." + what + " must be a number in [" +
-                              std::to_string(lo) + ", " + std::to_string(hi) + "]";
-                    return false;
-                }
-                out = v.GetNumberAsDouble();
-                return true;
-            };
-            double v = 0.0;
-            if (!a.IsObject()) {
-                failure = "node '" + nodeName + "': extras.dfb_area_light must be an object";
+            auto area = readAreaLight(node.extras.Get("dfb_area_light"), world, nodeName);
+            if (!area) {
+                failure = area.error().message;
                 return;
             }
-            if (a.Has("shape")) {
-                const std::string shape = a.Get("shape").IsString() ? a.Get("shape").Get<std::string>() : "";
-                if (shape != "rect" && shape != "disk") {
-                    failure = "node '" + nodeName + "': extras.dfb_area_light.shape must be \"rect\" or \"disk\"";
-                    return;
-                }
-                l.disk = shape == "disk";
-            }
-            if (a.Has("size")) {
-                const tinygltf::Value& sz = a.Get("size");
-                if (!sz.IsArray() || sz.ArrayLen() != 2) {
-                    failure = "node '" + nodeName + "': extras.dfb_area_light.size must be [width, height]";
-                    return;
-                }
-                for (int i = 0; i < 2; ++i) {
-                    if (!number(sz.Get(i), i ? "size[1]" : "size[0]", 1e-4, 1e7, v)) return;
-                    l.size[i] = float(v);
-                }
-            }
-            if (a.Has("intensity")) {
-                if (!number(a.Get("intensity"), "intensity", 0.0, 1e12, v)) return;
-                l.intensity = float(v);
-            }
-            if (a.Has("color")) {
-                const tinygltf::Value& c = a.Get("color");
-                if (!c.IsArray() || c.ArrayLen() != 3) {
-                    failure = "node '" + nodeName + "': extras.dfb_area_light.color must be [r, g, b]";
-                    return;
-                }
-                for (int i = 0; i < 3; ++i) {
-                    if (!number(c.Get(i), "color", 0.0, 1e6, v)) return;
-                    l.color[i] = float(v);
-                }
-            }
-            if (a.Has("pattern")) {
-                if (!a.Get("pattern").IsString()) {
-                    failure = "node '" + nodeName + "': extras.dfb_area_light.pattern must be a file name";
-                    return;
-                }
-                l.pattern = a.Get("pattern").Get<std::string>();
-            }
-            if (a.Has("shadowGrid")) {
-                const tinygltf::Value& g = a.Get("shadowGrid");
-                if (!g.IsArray() || g.ArrayLen() != 2) {
-                    failure = "node '" + nodeName + "': extras.dfb_area_light.shadowGrid must be [m, n]";
-                    return;
-                }
-                for (int i = 0; i < 2; ++i) {
-                    if (!number(g.Get(i), "shadowGrid", 1, 16, v)) return;
-                    l.shadowGrid[i] = int(v);
-                }
-            }
-            scene.lights.push_back(l);
+            scene.lights.push_back(area.value());
         }
 
         if (node.mesh >= 0) {

@@ -126,15 +126,21 @@ Status setMapSize(const Property& p, Light& l, const json& v, const std::string&
     return ok();
 }
 
-Status setCookie(const Property&, Light& l, const json& v, const std::string& path, int) {
+// A file name inside the asset folder (a cookie, a pattern): no absolute paths, no way out of it.
+Result<std::string> assetFileName(const json& v, const std::string& path, const char* what) {
     if (!v.is_string()) return invalid(path + ": expected a file name (string)");
     const std::string c = v.get<std::string>();
-    // A name inside the asset folder: no absolute paths, no way out of it.
     if (c.size() > 255 || (!c.empty() && (c[0] == '/' || c.find("..") != std::string::npos || c.find('\\') != std::string::npos ||
                                           c.find('\0') != std::string::npos))) {
-        return invalid(path + ": a cookie is a relative file name inside the asset folder (no '/' at the start, no '..')");
+        return invalid(path + ": a " + what + " is a relative file name inside the asset folder (no '/' at the start, no '..')");
     }
-    l.cookie = c;
+    return c;
+}
+
+Status setCookie(const Property&, Light& l, const json& v, const std::string& path, int) {
+    auto c = assetFileName(v, path, "cookie");
+    if (!c) return c.error();
+    l.cookie = c.value();
     return ok();
 }
 
@@ -193,13 +199,9 @@ Status setShadowGrid(const Property& p, Light& l, const json& v, const std::stri
 }
 
 Status setPattern(const Property&, Light& l, const json& v, const std::string& path, int) {
-    if (!v.is_string()) return invalid(path + ": expected a file name (string)");
-    const std::string c = v.get<std::string>();
-    if (c.size() > 255 || (!c.empty() && (c[0] == '/' || c.find("..") != std::string::npos || c.find('\\') != std::string::npos ||
-                                          c.find('\0') != std::string::npos))) {
-        return invalid(path + ": a pattern is a relative file name inside the asset folder (no '/' at the start, no '..')");
-    }
-    l.pattern = c;
+    auto c = assetFileName(v, path, "pattern");
+    if (!c) return c.error();
+    l.pattern = c.value();
     return ok();
 }
 

@@ -5,6 +5,7 @@
 // re-renders the maps), and what the light refuses.
 
 #include "support/RayCaster.h"
+#include "support/FlatMesh.h"
 
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/lightmath/AreaLight.h>
@@ -24,24 +25,10 @@ using namespace dfb;
 
 namespace {
 
+using test::flatPart;
+using test::quad;
+
 constexpr int WIDTH = 160, HEIGHT = 120;
-
-MeshPart flatPart(uint32_t id, const std::vector<glm::vec3>& corners) {
-    MeshPart p;
-    p.objectId = id;
-    p.materialId = 1;
-    for (size_t t = 0; t + 2 < corners.size(); t += 3) {
-        const glm::vec3 n = glm::normalize(glm::cross(corners[t + 1] - corners[t], corners[t + 2] - corners[t]));
-        for (int k = 0; k < 3; ++k) {
-            p.indices.push_back(uint32_t(p.positions.size()));
-            p.positions.push_back(corners[t + size_t(k)]);
-            p.normals.push_back(n);
-        }
-    }
-    return p;
-}
-
-void quad(std::vector<glm::vec3>& out, glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) { out.insert(out.end(), {a, b, c, a, c, d}); }
 
 // A ground 8 x 8 at y = 0 and a 0.6-unit box standing on it (its five visible faces), seen from
 // above and in front.
@@ -51,6 +38,20 @@ struct Shot {
     std::unique_ptr<Engine> engine;
     test::RayCaster rays;
 };
+
+// Bakes s.scene at WIDTH x HEIGHT, makes the engine over its casters and the reference rays.
+void finishShot(Shot& s, BakeOptions o) {
+    o.width = WIDTH;
+    o.height = HEIGHT;
+    auto b = bake(s.scene, o);
+    ASSERT_TRUE(b.ok()) << b.error().toString();
+    s.g = std::move(b.value());
+    auto e = Engine::create(s.g, shadowCasters(s.scene));
+    ASSERT_TRUE(e.ok()) << e.error().toString();
+    s.engine = std::move(e.value());
+    for (const MeshPart& p : s.scene.parts) s.rays.addMesh(p.positions, p.indices);
+    s.rays.commit();
+}
 
 void makeShot(Shot& s, bool withBox) {
     s.scene.materials.push_back(Material{});
@@ -74,19 +75,10 @@ void makeShot(Shot& s, bool withBox) {
     for (const MeshPart& p : s.scene.parts)
         for (const glm::vec3& v : p.positions) s.scene.bounds.extend(v);
     BakeOptions o;
-    o.width = WIDTH;
-    o.height = HEIGHT;
     o.lookFrom = glm::vec3(0.f, 4.f, 4.5f);
     o.lookAt = glm::vec3(0.f, 0.f, 0.f);
     o.fovDegrees = 50.f;
-    auto b = bake(s.scene, o);
-    ASSERT_TRUE(b.ok()) << b.error().toString();
-    s.g = std::move(b.value());
-    auto e = Engine::create(s.g, shadowCasters(s.scene));
-    ASSERT_TRUE(e.ok()) << e.error().toString();
-    s.engine = std::move(e.value());
-    for (const MeshPart& p : s.scene.parts) s.rays.addMesh(p.positions, p.indices);
-    s.rays.commit();
+    finishShot(s, o);
 }
 
 Light panel(const char* name, float height, bool disk) {
@@ -195,7 +187,6 @@ VisibilityError visibilityError(Shot& shot, const Light& l) {
             }
         if (all <= 0.0) return; // faces away from the whole emitter
         const double ref = lit / all, d = std::abs(vis - ref);
-        if (getenv("DUMP") && d > 0.3) std::printf("  px %zu %zu obj %u vis %.2f ref %.2f NgL %.2f\n", p % size_t(shot.g.width), p / size_t(shot.g.width), shot.g.objectId[s], vis, ref, glm::dot(glm::normalize(Ng), glm::normalize(f.centre - P)));
         v.mean += d;
         ++v.pixels;
         if (ref > 0.02 && ref < 0.98) v.penumbra += d, ++v.penumbraPixels;
@@ -251,17 +242,7 @@ TEST(AreaLight, SimplifiedCastersKeepTheTabletopsSoftShadows) {
     auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
     ASSERT_TRUE(scene.ok()) << scene.error().toString();
     shot.scene = std::move(scene.value());
-    BakeOptions o;
-    o.width = WIDTH;
-    o.height = HEIGHT;
-    auto b = bake(shot.scene, o);
-    ASSERT_TRUE(b.ok()) << b.error().toString();
-    shot.g = std::move(b.value());
-    auto e = Engine::create(shot.g, shadowCasters(shot.scene));
-    ASSERT_TRUE(e.ok()) << e.error().toString();
-    shot.engine = std::move(e.value());
-    for (const MeshPart& p : shot.scene.parts) shot.rays.addMesh(p.positions, p.indices);
-    shot.rays.commit();
+    ASSERT_NO_FATAL_FAILURE(finishShot(shot, BakeOptions{}));
     const Bounds& bb = shot.scene.bounds;
     const Rig rig = defaultRig({bb.min.x, bb.min.y, bb.min.z}, {bb.max.x, bb.max.y, bb.max.z});
     Light l = panel("panel", 0.f, false);

@@ -19,6 +19,7 @@
 // measured floors only (BENT_FLOORS).
 
 #include "support/Assets.h"
+#include "support/FlatMesh.h"
 #include "support/RayCaster.h"
 #include "support/ShadowAgreement.h"
 
@@ -39,6 +40,9 @@ using namespace dfb;
 using namespace dfb::lightmath;
 
 namespace {
+
+using test::flatPart;
+using test::quad;
 
 // Small enough for the whole test to stay well under a minute on llvmpipe.
 constexpr int WIDTH = 320, HEIGHT = 180;
@@ -70,27 +74,6 @@ void finishShot(Shot& s, const BakeOptions& o) {
     s.rays = std::make_unique<test::RayCaster>();
     for (const MeshPart& p : s.scene.parts) s.rays->addMesh(p.positions, p.indices);
     s.rays->commit();
-}
-
-// Flat-shaded triangles (one vertex per corner), counter-clockwise from the front.
-MeshPart flatPart(uint32_t id, const std::vector<glm::vec3>& corners) {
-    MeshPart p;
-    p.objectId = id;
-    p.materialId = 1;
-    for (size_t t = 0; t + 2 < corners.size(); t += 3) {
-        const glm::vec3 n = glm::normalize(glm::cross(corners[t + 1] - corners[t], corners[t + 2] - corners[t]));
-        for (int k = 0; k < 3; ++k) {
-            p.indices.push_back(uint32_t(p.positions.size()));
-            p.positions.push_back(corners[t + size_t(k)]);
-            p.normals.push_back(n);
-        }
-    }
-    return p;
-}
-
-// A quad a, b, c, d (counter-clockwise from its front) as two triangles.
-void quad(std::vector<glm::vec3>& out, glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) {
-    out.insert(out.end(), {a, b, c, a, c, d});
 }
 
 Scene sceneWith(std::vector<std::string> names) {

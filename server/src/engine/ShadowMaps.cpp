@@ -50,6 +50,24 @@ void rawDepth(GLuint texture) {
     glTextureParameteri(texture, GL_TEXTURE_COMPARE_MODE, GL_NONE);
 }
 
+// A depth texture of several faces or layers (a point light's cube map, an area light's 2D array)
+// for raw-depth lookups, and a framebuffer without colour for it (the caller attaches a face, or
+// every layer).
+void makeLayeredDepth(LightCache& c, GLenum target, int size, int layers) {
+    GLuint id = 0;
+    glCreateTextures(target, 1, &id);
+    c.shadowMap = gl::Texture(id);
+    if (target == GL_TEXTURE_CUBE_MAP) glTextureStorage2D(id, 1, GL_DEPTH_COMPONENT32F, size, size);
+    else glTextureStorage3D(id, 1, GL_DEPTH_COMPONENT32F, size, size, layers);
+    rawDepth(id);
+    glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    GLuint fb = 0;
+    glCreateFramebuffers(1, &fb);
+    c.shadowFb = gl::Framebuffer(fb);
+    glNamedFramebufferDrawBuffer(fb, GL_NONE);
+}
+
 } // namespace
 
 int shadowSizeFor(const Light& l, bool preview) {
@@ -142,17 +160,7 @@ Status ShadowMaps::renderCube(LightCache& c, int size) {
     if (!c.shadowMap || !c.shadowIsCube || c.shadowSize != size) {
         c.shadowIsCube = true;
         c.shadowSize = size;
-        GLuint id = 0;
-        glCreateTextures(GL_TEXTURE_CUBE_MAP, 1, &id);
-        c.shadowMap = gl::Texture(id);
-        glTextureStorage2D(id, 1, GL_DEPTH_COMPONENT32F, size, size);
-        rawDepth(id);
-        glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        GLuint fb = 0;
-        glCreateFramebuffers(1, &fb);
-        c.shadowFb = gl::Framebuffer(fb);
-        glNamedFramebufferDrawBuffer(fb, GL_NONE);
+        makeLayeredDepth(c, GL_TEXTURE_CUBE_MAP, size, 6);
     }
     // Filtering across face edges (the PCF taps of a direction near an edge reach the next face).
     glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
@@ -192,19 +200,9 @@ Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
         c.shadowIsCube = false;
         c.shadowSize = size;
         c.shadowLayers = layers;
-        GLuint id = 0;
-        glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &id);
-        c.shadowMap = gl::Texture(id);
-        glTextureStorage3D(id, 1, GL_DEPTH_COMPONENT32F, size, size, layers);
-        rawDepth(id);
-        glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        GLuint fb = 0;
-        glCreateFramebuffers(1, &fb);
-        c.shadowFb = gl::Framebuffer(fb);
-        glNamedFramebufferDrawBuffer(fb, GL_NONE);
-        glNamedFramebufferTexture(fb, GL_DEPTH_ATTACHMENT, id, 0); // layered: gl_Layer picks
-        if (auto s = gl::checkFramebuffer(fb, ("area shadow maps of light '" + l.name + "'").c_str()); !s) return s;
+        makeLayeredDepth(c, GL_TEXTURE_2D_ARRAY, size, layers);
+        glNamedFramebufferTexture(c.shadowFb.id(), GL_DEPTH_ATTACHMENT, c.shadowMap.id(), 0); // layered: gl_Layer picks
+        if (auto s = gl::checkFramebuffer(c.shadowFb.id(), ("area shadow maps of light '" + l.name + "'").c_str()); !s) return s;
     }
     c.areaHalfAngle = areaShadowHalfAngle(l, mCasters.scene());
     c.worldToLightClip = lightViewProj(l, mCasters.scene(), mCasters.receivers());

@@ -295,27 +295,19 @@ void Session::updateFits(Rig& rig) const {
     }
 }
 
-Status Session::checkCookies(const Rig& next) const {
-    for (const Light& l : next.lights) {
-        const Light* old = mRig.find(l.name);
-        if (l.type == LightType::Area && !l.pattern.empty() && !(old && old->pattern == l.pattern && old->type == LightType::Area)) {
-            const std::string file = (std::filesystem::path(mAssetDir) / l.pattern).string();
-            if (auto img = checkImageFile(file); !img) {
-                return makeError(ErrorCode::InvalidValue, l.name + ".pattern: '" + l.pattern +
+Status Session::checkImages(const Rig& next) const {
+    // Cookies and area lights' patterns name images in the asset folder; a new name must be one.
+    for (const auto& [field, prop] : {std::pair{&Light::cookie, "cookie"}, std::pair{&Light::pattern, "pattern"}}) {
+        for (const Light& l : next.lights) {
+            const std::string& name = l.*field;
+            const Light* before = mRig.find(l.name);
+            if (name.empty() || (before && before->*field == name)) continue;
+            if (auto img = checkImageFile((std::filesystem::path(mAssetDir) / name).string()); !img) {
+                // The network layer takes the server's folders out of what clients see
+                // (SharedState::redact), so the asset folder is not named here.
+                return makeError(ErrorCode::InvalidValue, l.name + "." + prop + ": '" + name +
                                                               "' is not a readable image in the asset folder (" + img.error().message + ")");
             }
-        }
-    }
-    for (const Light& l : next.lights) {
-        const Light* before = mRig.find(l.name);
-        if (l.cookie.empty() || (before && before->cookie == l.cookie)) continue;
-        const std::string file = (std::filesystem::path(mAssetDir) / l.cookie).string();
-        auto img = checkImageFile(file);
-        if (!img) {
-            // The network layer takes the server's folders out of what clients see
-            // (SharedState::redact), so the asset folder is not named here.
-            return makeError(ErrorCode::InvalidValue, l.name + ".cookie: '" + l.cookie + "' is not a readable image in the asset folder (" +
-                                                          img.error().message + ")");
         }
     }
     return okStatus();
@@ -367,7 +359,7 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
     // Only for new changes: a replayed journal shows what was accepted then, even if a cookie
     // file has gone since (the render then reports it).
     if (record && (kind == "edit" || kind == "replace")) {
-        if (auto st = checkCookies(next); !st) return st.error();
+        if (auto st = checkImages(next); !st) return st.error();
     }
     if (record) {
         json line = op;
@@ -449,7 +441,7 @@ Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes
         Rig probe = mRig;
         if (auto st = protocol::applyChanges(probe, changes); !st) return st.error();
         if (auto st = protocol::checkRigLimits(probe, mLimits); !st) return st.error();
-        if (auto st = checkCookies(probe); !st) return st.error();
+        if (auto st = checkImages(probe); !st) return st.error();
     }
     json overwrote = json::array();
     if (base && *base < mRig.version) {

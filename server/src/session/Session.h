@@ -139,9 +139,9 @@ private:
     void saveRigNow(); // with mMutex held
     // Applies one journal operation (replay) or a new one (journal != null: written first).
     Result<ChangeOutcome> apply(const nlohmann::json& op, bool record);
-    // A cookie new in `next` must be an image the engine can read, or the change is refused now
-    // rather than every frame failing later.
-    Status checkCookies(const Rig& next) const;
+    // A cookie or area-light pattern new in `next` must be an image the engine can read, or the
+    // change is refused now rather than every frame failing later.
+    Status checkImages(const Rig& next) const;
     /// Writes every area light's Light::alphaBeta: the fit of its shape and pattern
     /// (fitAreaAlphaBeta; cached, so only a new pattern, shape or aspect costs a fit). A pattern
     /// that cannot be read keeps the defaults (the render reports it).
