@@ -10,7 +10,7 @@ uint64_t lightMemoryBytes(const Light& l, const RigLimits& limits) {
     if (l.shadow) {
         const uint64_t side = uint64_t(l.shadowMapSize);
         const uint64_t maps = l.type == LightType::Point ? 6
-                              : l.type == LightType::Area ? uint64_t(l.shadowGrid[0]) * uint64_t(l.shadowGrid[1])
+                              : l.type == LightType::Area || l.type == LightType::BentArea ? uint64_t(l.shadowGrid[0]) * uint64_t(l.shadowGrid[1])
                                                           : 1;
         bytes += side * side * 4 * maps;
     }

@@ -38,6 +38,21 @@ void makeStraightChain(Light& light, float length, int segments) {
     }
 }
 
+void makeStraightCorners(Light& light, float length, int segments) {
+    const int n = 2 * segments;
+    const float tanTheta = std::tan(light.coneAngleDeg * 3.14159265358979f / 180.f);
+    light.cornerPoints.clear();
+    light.cornerRadii.clear();
+    for (int c = 0; c < BENT_AREA_CORNERS; ++c) {
+        light.cornerRadii.push_back(0.f);
+        for (int i = 1; i <= n; ++i) {
+            const float a = length * float(i) / float(n);
+            light.cornerPoints.push_back({a, 0.f, 0.f});
+            light.cornerRadii.push_back(a * tanTheta);
+        }
+    }
+}
+
 Rig defaultRig(const Vec3& bmin, const Vec3& bmax) {
     const Vec3 size = sub(bmax, bmin);
     const float radius = std::max(0.5f * length(size), 1e-3f);

@@ -76,14 +76,20 @@ Status setName(const Property&, Light& l, const json& v, const std::string& path
 
 Status setType(const Property&, Light& l, const json& v, const std::string& path, int) {
     const auto t = v.is_string() ? lightTypeFromName(v.get<std::string>()) : std::nullopt;
-    if (!t) return invalid(path + ": unknown light type " + excerpt(v) + " (\"spot\", \"point\", \"bendy\", \"directional\" or \"area\")");
+    if (!t) {
+        return invalid(path + ": unknown light type " + excerpt(v) +
+                       " (\"spot\", \"point\", \"bendy\", \"directional\", \"area\" or \"bentArea\")");
+    }
     // A new chain starts straight along the axis, matching the cone: it looks like the spot.
     if (*t == LightType::Bendy && l.controlPoints.empty()) makeStraightChain(l, 4.f);
     // An area light's shadow is a grid of maps (shadowGrid, 4 x 4 by default) of this size each:
     // soft shadows need far fewer texels than one hard map.
     // The grid's average is the softening, so each map needs only one bilinear comparison
     // (shadowFilter 0: 4x4 shadows shade in 98 ms instead of 142 at 960 x 540 on llvmpipe).
-    if (*t == LightType::Area && l.type != LightType::Area) {
+    // A bent area light's corners start straight along the normal, matching the cone.
+    if (*t == LightType::BentArea && l.cornerPoints.empty()) makeStraightCorners(l, 4.f);
+    const auto areaLike = [](LightType x) { return x == LightType::Area || x == LightType::BentArea; };
+    if (areaLike(*t) && !areaLike(l.type)) {
         l.shadowMapSize = std::min(l.shadowMapSize, AREA_DEFAULT_MAP_SIZE);
         l.shadowFilter = 0;
     }
@@ -213,6 +219,8 @@ Status setAlphaBeta(const Property&, Light&, const json& v, const std::string& p
 }
 
 bool isArea(const Light& l) { return l.type == LightType::Area; }
+bool isAreaLike(const Light& l) { return l.type == LightType::Area || l.type == LightType::BentArea; }
+bool isBentArea(const Light& l) { return l.type == LightType::BentArea; }
 
 // ---- BendyLight chains ---------------------------------------------------------------------------
 
@@ -323,6 +331,108 @@ Status setCpColor(const Property& p, Light& l, const json& v, const std::string&
     return ok();
 }
 
+// ---- bent area lights' corner chains (paper 003 section 4.1) ------------------------------------
+
+Status needsCorners(const Light& l, const Property& p, const std::string& path) {
+    if (l.type != LightType::BentArea) {
+        return invalid(path + ": '" + std::string(p.path).substr(0, std::string(p.path).find('[')) +
+                       "' applies to bent area lights only (set type to \"bentArea\")");
+    }
+    return ok();
+}
+
+// A corner chain whose segment has no length has no direction to carry light along: refused (the
+// interior chains blended from it would be degenerate too).
+Status checkCornerSegments(const std::vector<Vec3>& pts, const std::string& path) {
+    const int K = int(pts.size() / (2 * BENT_AREA_CORNERS));
+    auto at = [&](int c, int i) { return i == 0 ? Vec3{0.f, 0.f, 0.f} : pts[size_t(c * 2 * K + i - 1)]; };
+    auto far = [](const Vec3& a, const Vec3& b) {
+        return std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]) > 1e-6f;
+    };
+    for (int c = 0; c < BENT_AREA_CORNERS; ++c) {
+        for (int k = 0; k < K; ++k) {
+            if (!far(at(c, 2 * k), at(c, 2 * k + 2)) && !far(at(c, 2 * k), at(c, 2 * k + 1))) {
+                return invalid(path + ": corner " + std::to_string(c) + "'s segment " + std::to_string(k) +
+                               " has zero length (its control points " + std::to_string(2 * k) + ".." +
+                               std::to_string(2 * k + 2) + " coincide): a degenerate corner chain");
+            }
+        }
+    }
+    return ok();
+}
+
+Status setCornerPoints(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (auto s = needsCorners(l, p, path); !s) return s;
+    constexpr size_t MAX_POINTS = size_t(2 * MAX_BENDY_SEGMENTS * BENT_AREA_CORNERS);
+    if (v.is_array() && v.size() > MAX_POINTS) {
+        return makeError(ErrorCode::LimitExceeded, path + ": " + std::to_string(v.size()) + " corner points; the limit is " +
+                                                       std::to_string(MAX_POINTS) + " (4 chains of " +
+                                                       std::to_string(MAX_BENDY_SEGMENTS) + " segments)");
+    }
+    if (!v.is_array() || v.empty() || v.size() % size_t(2 * BENT_AREA_CORNERS) != 0) {
+        return invalid(path + ": expected 4 chains of 2K [a, b, c] points (K = 1.." + std::to_string(MAX_BENDY_SEGMENTS) +
+                       "), corner-major, in the emitter's frame");
+    }
+    std::vector<Vec3> pts;
+    for (size_t i = 0; i < v.size(); ++i) {
+        auto q = getVec3(v[i], path + "[" + std::to_string(i) + "]", p.min, p.max);
+        if (!q) return q.error();
+        pts.push_back(q.value());
+    }
+    if (auto s = checkCornerSegments(pts, path); !s) return s;
+    if (pts.size() != l.cornerPoints.size()) {
+        // Each corner's radii resampled to the new segment count.
+        const size_t oldN = l.cornerRadii.size() / BENT_AREA_CORNERS, newN = pts.size() / BENT_AREA_CORNERS + 1;
+        std::vector<float> radii;
+        for (int c = 0; c < BENT_AREA_CORNERS; ++c) {
+            const std::vector<float> one(l.cornerRadii.begin() + std::ptrdiff_t(size_t(c) * oldN),
+                                         l.cornerRadii.begin() + std::ptrdiff_t(size_t(c + 1) * oldN));
+            const std::vector<float> r = oldN ? resample(one, newN) : std::vector<float>(newN, 0.f);
+            radii.insert(radii.end(), r.begin(), r.end());
+        }
+        l.cornerRadii = std::move(radii);
+    }
+    l.cornerPoints = std::move(pts);
+    return ok();
+}
+
+Status setCornerRadii(const Property& p, Light& l, const json& v, const std::string& path, int) {
+    if (auto s = needsCorners(l, p, path); !s) return s;
+    const size_t n = size_t(BENT_AREA_CORNERS * (2 * l.cornerSegments() + 1));
+    if (!v.is_array() || v.size() != n) return invalid(path + ": expected " + std::to_string(n) + " radii (4 x (2K + 1))");
+    std::vector<float> radii(n);
+    for (size_t i = 0; i < n; ++i) {
+        auto r = getNumber(v[i], path + "[" + std::to_string(i) + "]", p.min, p.max);
+        if (!r) return r.error();
+        radii[i] = r.value();
+    }
+    l.cornerRadii = std::move(radii);
+    return ok();
+}
+
+Status setCornerCp(const Property& p, Light& l, const json& v, const std::string& path, int index) {
+    if (auto s = needsCorners(l, p, path); !s) return s;
+    const int n = int(l.cornerPoints.size());
+    if (index < 0 || index >= n) return invalid(path + ": index out of range 0.." + std::to_string(n - 1));
+    auto q = getVec3(v, path, p.min, p.max);
+    if (!q) return q.error();
+    std::vector<Vec3> pts = l.cornerPoints;
+    pts[size_t(index)] = q.value();
+    if (auto s = checkCornerSegments(pts, path); !s) return s;
+    l.cornerPoints = std::move(pts);
+    return ok();
+}
+
+Status setCornerR(const Property& p, Light& l, const json& v, const std::string& path, int index) {
+    if (auto s = needsCorners(l, p, path); !s) return s;
+    const int n = int(l.cornerRadii.size());
+    if (index < 0 || index >= n) return invalid(path + ": index out of range 0.." + std::to_string(n - 1));
+    auto r = getNumber(v, path, p.min, p.max);
+    if (!r) return r.error();
+    l.cornerRadii[size_t(index)] = r.value();
+    return ok();
+}
+
 Status setKeysRow(const Property& p, Light& l, const json& v, const std::string& path, int) {
     return setKeys(l, p.path, v, path);
 }
@@ -344,13 +454,14 @@ json getKeys(const Light& l) {
 
 bool sameConeForShadow(const Light& a, const Light& b) {
     // A BendyLight's deformed geometry depends on the exact cone (its tube radii follow it).
-    if (a.type == LightType::Bendy) return a.coneAngleDeg == b.coneAngleDeg;
+    if (a.type == LightType::Bendy || a.type == LightType::BentArea) return a.coneAngleDeg == b.coneAngleDeg;
     return shadowHalfAngleDeg(a) == shadowHalfAngleDeg(b);
 }
 
-constexpr unsigned LOCATED = APPLIES_SPOT | APPLIES_POINT | APPLIES_BENDY | APPLIES_AREA;  // has a position
-constexpr unsigned AIMED = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_AREA; // has a direction
-constexpr unsigned CONED = APPLIES_SPOT | APPLIES_BENDY;                    // has a cone
+constexpr unsigned LOCATED = APPLIES_SPOT | APPLIES_POINT | APPLIES_BENDY | APPLIES_AREA | APPLIES_BENT_AREA; // has a position
+constexpr unsigned AIMED = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_AREA | APPLIES_BENT_AREA; // has a direction
+constexpr unsigned CONED = APPLIES_SPOT | APPLIES_BENDY | APPLIES_BENT_AREA;  // has a cone
+constexpr unsigned AREA_LIKE = APPLIES_AREA | APPLIES_BENT_AREA;             // has an emitter rectangle
 
 using enum PropType;
 using enum Invalidates;
@@ -359,14 +470,17 @@ const std::vector<Property> LIGHT_PROPERTIES = {
     {.path = "name", .label = "Name", .type = String, .unit = "", .invalidates = Shadow, .valueDoc = "string",
      .doc = "1-64 of `[A-Za-z0-9_-]`, unique in the rig", .set = setName, .same = sameField<&Light::name>,
      .get = getField<&Light::name>},
-    {.path = "type", .label = "Type", .type = Enum, .unit = "", .invalidates = Shadow, .values = "spot,point,directional,bendy,area",
+    {.path = "type", .label = "Type", .type = Enum, .unit = "", .invalidates = Shadow, .values = "spot,point,directional,bendy,area,bentArea",
      .valueDoc = "string",
      .doc = "`\"spot\"`, `\"point\"` (every direction from `position`, candela, cube-map shadows; `direction` and the cone "
             "unused), `\"directional\"` (parallel light along `direction`, `intensity` in lux, no cone; `position` unused) or "
             "`\"bendy\"`; switching a light without a chain to `bendy` gives it a straight 4-unit chain matching its cone (it "
             "looks unchanged), or `\"area\"` (a one-sided rectangle or disk at `position` emitting towards `direction`, "
             "`intensity` its radiance in cd/m²; switching to `area` caps `shadowMapSize` at 512, the size of each map of its "
-            "`shadowGrid`, and sets `shadowFilter` to 0: the grid's average softens)",
+            "`shadowGrid`, and sets `shadowFilter` to 0: the grid's average softens), or `\"bentArea\"` (an area light's "
+            "rectangle whose light travels along four corner BendyLight chains, `cornerPoints`; each of its `shadowGrid` "
+            "interior BendyLights has the cone `coneAngle`; switching gives it straight 4-unit corner chains, and caps the map "
+            "size and sets the filter as for `area`)",
      .set = setType, .same = sameField<&Light::type>, .get = getType},
     {.path = "enabled", .label = "Enabled", .type = Boolean, .unit = "", .invalidates = Composite, .valueDoc = "bool",
      .doc = "", .set = setBool<&Light::enabled>, .same = sameField<&Light::enabled>, .get = getField<&Light::enabled>},
@@ -426,15 +540,15 @@ const std::vector<Property> LIGHT_PROPERTIES = {
      .doc = "area lights: `\"rect\"` (`size` = [width, height]) or `\"disk\"` (`size[0]` = diameter)", .set = setShape,
      .same = sameField<&Light::areaShape>, .present = isArea, .get = getShape},
     {.path = "size", .label = "Size", .type = Numbers, .unit = "scene units", .min = 1e-4, .max = MAX_COORD, .uiMin = 0.05,
-     .uiMax = 10, .step = 0.05, .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_AREA, .size = 2,
+     .uiMax = 10, .step = 0.05, .keyframable = true, .invalidates = Shadow, .appliesTo = AREA_LIKE, .size = 2,
      .valueDoc = "[width, height]",
      .doc = "area lights: the emitter's width (along its right) and height (along its up), scene units, each in [1e-4, 1e7]; "
             "a disk's diameter is `size[0]`",
-     .set = setAreaSize, .same = sameField<&Light::areaSize>, .present = isArea, .get = getField<&Light::areaSize>},
+     .set = setAreaSize, .same = sameField<&Light::areaSize>, .present = isAreaLike, .get = getField<&Light::areaSize>},
     {.path = "roll", .label = "Roll", .type = Number, .unit = "degrees", .min = -360, .max = 360, .uiMin = -180, .uiMax = 180,
-     .step = 1, .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_AREA, .valueDoc = "number",
+     .step = 1, .keyframable = true, .invalidates = Shadow, .appliesTo = AREA_LIKE, .valueDoc = "number",
      .doc = "area lights: the emitter's turn about its normal, degrees, [-360, 360] (docs/lighting.md, \"Area lights\")",
-     .set = setNumber<&Light::rollDeg>, .same = sameField<&Light::rollDeg>, .present = isArea, .get = getField<&Light::rollDeg>},
+     .set = setNumber<&Light::rollDeg>, .same = sameField<&Light::rollDeg>, .present = isAreaLike, .get = getField<&Light::rollDeg>},
     {.path = "pattern", .label = "Pattern", .type = String, .unit = "", .invalidates = Shade, .appliesTo = APPLIES_AREA,
      .valueDoc = "string",
      .doc = "area lights: an RGB image in the asset folder across the emitter (its top row at the emitter's up edge), "
@@ -443,11 +557,12 @@ const std::vector<Property> LIGHT_PROPERTIES = {
      .set = setPattern, .same = sameField<&Light::pattern>, .present = [](const Light& l) { return !l.pattern.empty(); },
      .get = getField<&Light::pattern>},
     {.path = "shadowGrid", .label = "Shadow grid", .type = Numbers, .unit = "shadow maps", .min = 1,
-     .max = MAX_AREA_SHADOW_GRID, .uiMin = 1, .uiMax = 8, .step = 1, .invalidates = Shadow, .appliesTo = APPLIES_AREA,
+     .max = MAX_AREA_SHADOW_GRID, .uiMin = 1, .uiMax = 8, .step = 1, .invalidates = Shadow, .appliesTo = AREA_LIKE,
      .size = 2, .valueDoc = "[m, n]",
      .doc = "area lights: m x n shadow maps (each `shadowMapSize` square) from points spread over the emitter, their "
-            "visibilities averaged: soft shadows; each an integer in [1, 16], default [4, 4]; previews during drags use 2 x 2",
-     .set = setShadowGrid, .same = sameField<&Light::shadowGrid>, .present = isArea, .get = getField<&Light::shadowGrid>},
+            "visibilities averaged: soft shadows; each an integer in [1, 16], default [4, 4]; previews during drags use 2 x 2. "
+            "Bent area lights: the m x n interior BendyLights, each with its deformed shadow map",
+     .set = setShadowGrid, .same = sameField<&Light::shadowGrid>, .present = isAreaLike, .get = getField<&Light::shadowGrid>},
     {.path = "alphaBeta", .label = "One-shot fit", .type = Numbers, .unit = "", .appliesTo = APPLIES_AREA, .size = 2,
      .readOnly = true, .valueDoc = "[alpha, beta]",
      .doc = "written by the server: the one-shot radius factors fitted for the area light's shape and pattern (Wang et al. "
@@ -489,6 +604,26 @@ const std::vector<Property> LIGHT_PROPERTIES = {
      .appliesTo = APPLIES_BENDY, .valueDoc = "bool", .doc = "BendyLight: the exact flow-line tangent instead of paper eq. 9",
      .set = setBool<&Light::exactDirection>, .same = sameField<&Light::exactDirection>, .present = hasChain,
      .get = getField<&Light::exactDirection>},
+    {.path = "cornerPoints", .label = "Corner chains", .type = Points, .unit = "scene units", .min = -MAX_COORD,
+     .max = MAX_COORD, .invalidates = Shadow, .appliesTo = APPLIES_BENT_AREA, .valueDoc = "[[a, b, c], ...]",
+     .doc = "bent area lights: the four corner chains' control points p1..p2K (K = 1..8, the same for all four), corner-major "
+            "(corner c's p[i] at index c·2K + i − 1; corners 0..3 at (−w/2, −h/2), (+w/2, −h/2), (−w/2, +h/2), (+w/2, +h/2)), "
+            "each relative to its corner in the emitter's frame: corner + a·normal + b·up + c·right (docs/lighting.md); a "
+            "segment of zero length is refused; changing K resamples `cornerRadii`",
+     .set = setCornerPoints, .same = sameField<&Light::cornerPoints>, .present = isBentArea,
+     .get = getField<&Light::cornerPoints>},
+    {.path = "ccp[]", .label = "Corner point", .type = Vec3, .unit = "scene units", .min = -MAX_COORD, .max = MAX_COORD,
+     .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_BENT_AREA, .indexOf = "cornerPoints",
+     .valueDoc = "[a, b, c]", .doc = "bent area lights: one corner point, i = c·2K + j − 1 for corner c's p[j]", .set = setCornerCp},
+    {.path = "cornerRadii", .label = "Corner radii", .type = Numbers, .unit = "scene units", .min = 0, .max = MAX_COORD,
+     .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_BENT_AREA, .valueDoc = "[r, ...]",
+     .doc = "bent area lights: the four corner chains' tube radii r0..r2K, corner-major (corner c's r[j] at c·(2K + 1) + j), "
+            "scene units, >= 0; the interior chains' radii are their bilinear blend (paper 003 eq. 9)",
+     .set = setCornerRadii, .same = sameField<&Light::cornerRadii>, .present = isBentArea,
+     .get = getField<&Light::cornerRadii>},
+    {.path = "cr[]", .label = "Corner radius", .type = Number, .unit = "scene units", .min = 0, .max = MAX_COORD,
+     .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_BENT_AREA, .indexOf = "cornerRadii",
+     .valueDoc = "number", .doc = "bent area lights: one corner radius, i = c·(2K + 1) + j", .set = setCornerR},
     {.path = "keys", .label = "Keys", .type = Keys, .unit = "", .valueDoc = "object",
      .doc = "all keyframes: `{\"PROPERTY\": [{\"t\": s, \"value\": v, \"interp\": \"linear\"|\"smooth\"}, ...]}`; PROPERTY is "
             "any keyframable property path of the light (`intensity`, `position`, `cp[2]`, ...: `keyframable` in the schema)",
@@ -547,7 +682,8 @@ json rowJson(const Property& p, bool rigLevel) {
     }
     if (!rigLevel) {
         json types = json::array();
-        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area}) {
+        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area,
+                            LightType::BentArea}) {
             if (p.appliesTo & (1u << unsigned(t))) types.push_back(lightTypeName(t));
         }
         j["appliesTo"] = types;
@@ -643,6 +779,7 @@ std::string lightTypeName(LightType t) {
     case LightType::Directional: return "directional";
     case LightType::Point: return "point";
     case LightType::Area: return "area";
+    case LightType::BentArea: return "bentArea";
     case LightType::Spot: break;
     }
     return "spot";
@@ -654,6 +791,7 @@ std::optional<LightType> lightTypeFromName(std::string_view n) {
     if (n == "directional") return LightType::Directional;
     if (n == "bendy") return LightType::Bendy;
     if (n == "area") return LightType::Area;
+    if (n == "bentArea") return LightType::BentArea;
     return std::nullopt;
 }
 
@@ -662,7 +800,7 @@ json schemaJson() {
     for (const Property& p : RIG_PROPERTIES) rig.push_back(rowJson(p, true));
     for (const Property& p : LIGHT_PROPERTIES) light.push_back(rowJson(p, false));
     return json{{"schema", 1},
-                {"lightTypes", {"spot", "point", "bendy", "directional", "area"}},
+                {"lightTypes", {"spot", "point", "bendy", "directional", "area", "bentArea"}},
                 {"rig", rig},
                 {"light", light},
                 {"dragModes", dragModesJson()}};

@@ -22,7 +22,8 @@ layout(std140, binding = UBO_LIGHT) uniform LightBlock {
     vec4 lightRight;        // xyz the spot's right (axis x up, as its shadow frustum), w = 1 if cookie
     vec4 lightUp;           // xyz the spot's up, w = tan(outer half-angle) (cookie mapping)
     vec4 lightDoors;        // barn doors: left, right, top, bottom half-angles in radians
-    vec4 lightCube;         // point lights: x = near, y = far of the cube faces' projections
+    vec4 lightCube;         // point lights: x = near, y = far of the cube faces' projections;
+                            // z = 1: a Lambertian emitter's cell (a bent area light's interior)
 } uLight;
 
 layout(std140, binding = UBO_VIEW) uniform ViewBlock {

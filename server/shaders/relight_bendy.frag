@@ -32,6 +32,13 @@ layout(location = LOC_RELIGHT_LINKED) uniform int uLinked;
 layout(location = LOC_RELIGHT_PIXEL_STEP) uniform int uPixelStep;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 
+// A bent area light's interior light (docs/lighting.md, "Bent area lights") is a cell of a
+// Lambertian emitter: its intensity falls with the cosine between the (undeformed) emission
+// direction and the emitter's normal, the spotlight's axis.
+#ifndef BENDY_EMITTER_COSINE
+#define BENDY_EMITTER_COSINE (uLight.lightCube.z > 0.5)
+#endif
+
 // The tube coordinates and arc length (`s2`) of P + d from those of P (c, s), to first order,
 // which spares a cubic solve per shifted point. The foot moves along u_hat by
 // ds = (d . u_hat) / (1 - (P - foot) . du_hat/ds): on a bend the frame turns under the offset
@@ -159,7 +166,8 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
     vec3 f = evaluateLayeredBrdfCos(N, Li, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
                                     texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
-    return f * segmentColor(c.g, c.t) * (spot * vis * inverseSquare(dist2)) * pA.w;
+    float emitter = BENDY_EMITTER_COSINE ? max(dot(toSource / dist, -uBendy.bendyAxisU.xyz), 0.0) : 1.0;
+    return f * segmentColor(c.g, c.t) * (spot * vis * emitter * inverseSquare(dist2)) * pA.w;
 }
 
 void main() {

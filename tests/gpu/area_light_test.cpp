@@ -4,8 +4,7 @@
 // (Embree, 16 x 16 rays per pixel to the emitter), caching (an intensity edit rescales, a move
 // re-renders the maps), and what the light refuses.
 
-#include "support/RayCaster.h"
-#include "support/FlatMesh.h"
+#include "support/AreaShot.h"
 
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/lightmath/AreaLight.h>
@@ -25,99 +24,7 @@ using namespace dfb;
 
 namespace {
 
-using test::flatPart;
-using test::quad;
-
-constexpr int WIDTH = 160, HEIGHT = 120;
-
-// A ground 8 x 8 at y = 0 and a 0.6-unit box standing on it (its five visible faces), seen from
-// above and in front.
-struct Shot {
-    Scene scene;
-    DeepBuffer g;
-    std::unique_ptr<Engine> engine;
-    test::RayCaster rays;
-};
-
-// Bakes s.scene at WIDTH x HEIGHT, makes the engine over its casters and the reference rays.
-void finishShot(Shot& s, BakeOptions o) {
-    o.width = WIDTH;
-    o.height = HEIGHT;
-    auto b = bake(s.scene, o);
-    ASSERT_TRUE(b.ok()) << b.error().toString();
-    s.g = std::move(b.value());
-    auto e = Engine::create(s.g, shadowCasters(s.scene));
-    ASSERT_TRUE(e.ok()) << e.error().toString();
-    s.engine = std::move(e.value());
-    for (const MeshPart& p : s.scene.parts) s.rays.addMesh(p.positions, p.indices);
-    s.rays.commit();
-}
-
-void makeShot(Shot& s, bool withBox) {
-    s.scene.materials.push_back(Material{});
-    s.scene.materials[0].metallic = 0.f;
-    s.scene.materials[0].roughness = 0.5f;
-    s.scene.materials[0].baseColor = glm::vec4(0.8f, 0.8f, 0.8f, 1.f);
-    s.scene.objectNames = {"ground", "box"};
-    std::vector<glm::vec3> g;
-    quad(g, {-4, 0, 4}, {4, 0, 4}, {4, 0, -4}, {-4, 0, -4});
-    s.scene.parts.push_back(flatPart(1, g));
-    if (withBox) {
-        std::vector<glm::vec3> c;
-        const glm::vec3 a(-0.3f, 0.f, -0.3f), b(0.3f, 0.6f, 0.3f);
-        quad(c, {a.x, b.y, b.z}, {b.x, b.y, b.z}, {b.x, b.y, a.z}, {a.x, b.y, a.z});
-        quad(c, {a.x, a.y, b.z}, {b.x, a.y, b.z}, {b.x, b.y, b.z}, {a.x, b.y, b.z});
-        quad(c, {b.x, a.y, a.z}, {a.x, a.y, a.z}, {a.x, b.y, a.z}, {b.x, b.y, a.z});
-        quad(c, {b.x, a.y, b.z}, {b.x, a.y, a.z}, {b.x, b.y, a.z}, {b.x, b.y, b.z});
-        quad(c, {a.x, a.y, a.z}, {a.x, a.y, b.z}, {a.x, b.y, b.z}, {a.x, b.y, a.z});
-        s.scene.parts.push_back(flatPart(2, c));
-    }
-    for (const MeshPart& p : s.scene.parts)
-        for (const glm::vec3& v : p.positions) s.scene.bounds.extend(v);
-    BakeOptions o;
-    o.lookFrom = glm::vec3(0.f, 4.f, 4.5f);
-    o.lookAt = glm::vec3(0.f, 0.f, 0.f);
-    o.fovDegrees = 50.f;
-    finishShot(s, o);
-}
-
-Light panel(const char* name, float height, bool disk) {
-    Light l;
-    l.name = name;
-    l.type = LightType::Area;
-    l.position = {0.2f, height, 0.1f};
-    l.direction = {0.f, -1.f, 0.f};
-    l.areaShape = disk ? AreaShape::Disk : AreaShape::Rect;
-    l.areaSize = {1.5f, 1.f};
-    l.rollDeg = 20.f;
-    l.intensityCd = 1.f;
-    l.shadowMapSize = 512;
-    l.alphaBeta = {0.55f, 3.2f};
-    return l;
-}
-
-// Per pixel (one sample each: a flat bake), the C++ value of `f` at the pixel's sample.
-template <class F> void forEachSample(const DeepBuffer& g, F&& fn) {
-    for (int y = 0; y < g.height; ++y)
-        for (int x = 0; x < g.width; ++x) {
-            if (g.pixelSamples(x, y) != 1) continue;
-            const size_t s = g.firstSample(x, y);
-            if (g.A[s] < 0.999f) continue;
-            fn(size_t(y) * size_t(g.width) + size_t(x), s);
-        }
-}
-
-struct Errors {
-    double sumAbs = 0, sumRef = 0, maxRel = 0;
-    size_t n = 0;
-    void add(double got, double want) {
-        sumAbs += std::abs(got - want);
-        sumRef += std::abs(want);
-        if (want > 1e-3) maxRel = std::max(maxRel, std::abs(got - want) / want);
-        ++n;
-    }
-    double meanRel() const { return sumRef > 0 ? sumAbs / sumRef : 0; }
-};
+using namespace test;
 
 // The GPU's per-sample value against the C++ mirror with the same material, unshadowed.
 Errors compareWithCpu(Shot& shot, const Light& l, bool reference) {

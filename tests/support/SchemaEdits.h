@@ -45,8 +45,8 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
     case PropType::Boolean: return std::pair{path, json(!jsonOf(p.path).get<bool>())};
     case PropType::Enum: {
         if (path == "shape") return std::pair{path, json(rng() % 2 ? "rect" : "disk")};
-        static const char* types[] = {"spot", "point", "directional", "bendy", "area"};
-        return std::pair{path, json(types[rng() % 5])};
+        static const char* types[] = {"spot", "point", "directional", "bendy", "area", "bentArea"};
+        return std::pair{path, json(types[rng() % 6])};
     }
     case PropType::String: // cookie, pattern: images
         return std::pair{path, json(o.cookies[rng() % o.cookies.size()])};
@@ -59,6 +59,10 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
         if (path == "penumbra") return std::pair{path, json(std::min(l.coneAngleDeg, perturb(l.penumbraDeg, 0.f, 20.f, 3.f)))};
         if (path == "shadowBias") return std::pair{path, json(perturb(l.shadowBias, 0.5f, 4.f, 0.6f))};
         if (path == "roll") return std::pair{path, json(perturb(l.rollDeg, -90.f, 90.f, 30.f))};
+        if (path == "cr[]") { // a bent area light's corner radius, not a source's
+            const int per = 2 * l.cornerSegments() + 1, i = int(rng() % 4u) * per + 1 + int(rng() % uint32_t(per - 1));
+            return std::pair{"cr[" + std::to_string(i) + "]", json(perturb(l.cornerRadii[size_t(i)], 0.f, 4.f, 0.2f))};
+        }
         if (path == "r[]") {
             const int i = 1 + int(rng() % uint32_t(2 * K));
             return std::pair{"r[" + std::to_string(i) + "]", json(perturb(l.radii[size_t(i)], 0.f, 4.f, 0.2f))};
@@ -66,6 +70,10 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
         break;
     case PropType::Vec3:
         if (path == "position") return std::pair{path, vec(l.position, o.positionStep)};
+        if (path == "ccp[]") {
+            const int i = int(rng() % uint32_t(l.cornerPoints.size()));
+            return std::pair{"ccp[" + std::to_string(i) + "]", vec(l.cornerPoints[size_t(i)], 0.5f * o.positionStep)};
+        }
         if (path == "cp[]") {
             const int i = 1 + int(rng() % uint32_t(2 * K));
             return std::pair{"cp[" + std::to_string(i) + "]", vec(l.controlPoints[size_t(i - 1)], o.positionStep)};
@@ -84,6 +92,10 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
             for (int i = 0; i < 2; ++i) v.push_back(perturb(l.areaSize[size_t(i)], 0.2f, 2.f, 0.3f));
         } else if (path == "shadowGrid") {
             for (int i = 0; i < 2; ++i) v.push_back(1 + int(rng() % 4u));
+        } else if (path == "cornerRadii") {
+            const size_t per = size_t(2 * l.cornerSegments() + 1);
+            for (size_t i = 0; i < l.cornerRadii.size(); ++i)
+                v.push_back(i % per == 0 ? l.cornerRadii[i] : std::max(0.f, l.cornerRadii[i] + 0.15f * u(rng)));
         } else if (p.size > 0) { // barn doors
             for (int i = 0; i < p.size; ++i) v.push_back(u01(rng) < 0.5f ? 90.f : 10.f + 80.f * u01(rng));
         } else { // radii
@@ -100,7 +112,7 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
     }
     case PropType::Points: {
         json v = json::array();
-        for (const Vec3& q : l.controlPoints) v.push_back(vec(q, 0.5f * o.positionStep));
+        for (const Vec3& q : path == "cornerPoints" ? l.cornerPoints : l.controlPoints) v.push_back(vec(q, 0.5f * o.positionStep));
         return std::pair{path, v};
     }
     case PropType::Colors: {

@@ -30,6 +30,7 @@ Light lightOfType(LightType t) {
     Light l;
     l.name = "l";
     if (t == LightType::Bendy) makeStraightChain(l, 3.f, 2);
+    if (t == LightType::BentArea) makeStraightCorners(l, 3.f, 2);
     l.type = t;
     return l;
 }
@@ -86,7 +87,8 @@ TEST(Schema, DragModesAreOneTableAndTheDocsShowIt) {
 }
 
 TEST(Schema, ToJsonWritesExactlyTheRowsWithValuesAndTheyRoundTrip) {
-    for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional}) {
+    for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area,
+                            LightType::BentArea}) {
         Light l = lightOfType(t);
         l.cookie = "c.png";
         l.include = {1};
@@ -110,7 +112,8 @@ TEST(Schema, EveryRowRefusesWrongTypesAndOutOfRangeValuesNamingThePath) {
     for (const Property& p : lightProperties()) {
         if (!editable(p) || p.type == PropType::String) continue;
         SCOPED_TRACE(p.path);
-        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional}) {
+        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area,
+                            LightType::BentArea}) {
             if (!(p.appliesTo & (1u << unsigned(t)))) continue;
             Rig rig;
             rig.lights = {lightOfType(t)};
@@ -135,7 +138,10 @@ TEST(Schema, KeyframableRowsTakeKeysAndTheOthersRefuseThem) {
     for (const Property& p : lightProperties()) {
         if (!editable(p) || (!p.get && !*p.indexOf)) continue;
         SCOPED_TRACE(p.path);
-        const LightType t = (p.appliesTo & APPLIES_BENDY) ? LightType::Bendy : LightType::Spot;
+        const LightType t = (p.appliesTo & APPLIES_BENDY)       ? LightType::Bendy
+                            : (p.appliesTo & APPLIES_SPOT)      ? LightType::Spot
+                            : (p.appliesTo & APPLIES_AREA)      ? LightType::Area
+                                                                : LightType::BentArea;
         Rig rig;
         rig.lights = {lightOfType(t)};
         auto edit = test::randomEdit(p, rig.lights[0], rng, {});
@@ -156,7 +162,8 @@ TEST(Schema, EveryRowsEditChangesTheCacheKeysItsRowNames) {
     opt.cookies = {"a.png", "b.png"};
     for (const Property& p : lightProperties()) {
         if (!editable(p) || std::string(p.path) == "name" || std::string(p.path) == "type") continue;
-        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional}) {
+        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area,
+                            LightType::BentArea}) {
             if (!(p.appliesTo & (1u << unsigned(t)))) continue;
             SCOPED_TRACE(std::string(p.path) + " on " + lightTypeName(t));
             Rig rig;
@@ -196,10 +203,9 @@ TEST(Schema, ServedJsonListsEveryRowWithItsRangeAndDefault) {
     ASSERT_EQ(s["rig"].size(), rigProperties().size());
     const Light def;
     for (const json& row : s["light"]) {
-        const Property* p = findLightProperty(row["path"].get<std::string>() == "cp[]" ? "cp[1]"
-                                              : row["path"].get<std::string>() == "r[]" ? "r[0]"
-                                              : row["path"].get<std::string>() == "cpColor[]" ? "cpColor[0]"
-                                                                                               : row["path"].get<std::string>());
+        std::string path = row["path"].get<std::string>();
+        if (path.ends_with("[]")) path.replace(path.size() - 2, 2, "[1]"); // an element row: any index
+        const Property* p = findLightProperty(path);
         ASSERT_NE(p, nullptr) << row.dump();
         if (row.contains("default")) {
             EXPECT_EQ(row["default"], p->get(def)) << p->path;

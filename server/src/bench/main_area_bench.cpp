@@ -7,7 +7,8 @@
 // / mean reference; the time of a one-shot edit and of the reference; the pattern tables' build
 // time and memory and the alpha/beta fits' time. Then edit -> frame for an area light in the
 // default rig: move with 1x1, 2x2, 4x4 and 8x8 shadow grids (full quality, and preview frames as
-// during a drag), pattern change. A benchmark prints numbers; nothing here passes or fails.
+// during a drag), pattern change; a bent area light's corner control-point edit with 2x2 and 4x4
+// interior lights (full quality and preview). A benchmark prints numbers; nothing here passes or fails.
 //
 //   dfb-area-bench SHOT.exr [--scene SCENE] [--edits N] [--cells G]
 
@@ -240,6 +241,26 @@ int main(int argc, char** argv) {
                        [&](Light& l, int i) { l.pattern = i % 2 ? "window.png" : "tubes.png"; }))
             return 3;
         if (!timeEdits("intensity (a rescale)", rig, false, [&](Light& l, int i) { l.intensityCd = 1.f + 0.1f * float(i); })) return 3;
+    }
+    // A bent area light (paper 003 section 4.1): the same rectangle, its four corner chains bent
+    // sideways by a quarter of their length; one corner's control point dragged.
+    for (bool preview : {false, true}) {
+        for (int g : {2, 4}) {
+            Rig rig = base;
+            auto [light, fitMs] = areaLight(cases[1], size);
+            (void)fitMs;
+            light.type = LightType::BentArea;
+            light.coneAngleDeg = 60.f;
+            light.penumbraDeg = 10.f;
+            light.shadowGrid = {g, g};
+            makeStraightCorners(light, 2.f * size);
+            for (size_t i = 0; i < light.cornerPoints.size(); ++i) light.cornerPoints[i][2] += 0.125f * size * float(i % 4);
+            rig.lights.push_back(light);
+            char what[80];
+            std::snprintf(what, sizeof what, "bent area cp edit, %dx%d%s", g, g, preview ? " (preview)" : "");
+            if (!timeEdits(what, rig, preview, [&](Light& l, int i) { l.cornerPoints[1][1] += (i % 2 ? -1.f : 1.f) * 0.02f * size; }))
+                return 3;
+        }
     }
     return 0;
 }

@@ -58,14 +58,16 @@ Status GlEngine::updateShadows(const Rig& rig, FrameStats& st) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
         const bool shadowValid = c.hasShadow && sameShadowInputs(c.params, l) && (mPreview || !c.previewShadow) &&
-                                 (l.type != LightType::Bendy || c.subdivisionLimit == mSubdivisionLimit);
+                                 ((l.type != LightType::Bendy && l.type != LightType::BentArea) ||
+                                  c.subdivisionLimit == mSubdivisionLimit);
         if (l.shadow && !shadowValid) {
             c.params = l;
             c.hasContribution = false;
             if (auto s = mShadows.render(c, mPreview, mSubdivisionLimit); !s) return s;
             ++st.shadowMapsRendered;
             st.shadowCasterTriangles += c.casterIndexCount / 3;
-            if (l.type == LightType::Bendy && c.appliedSubdivision < mSubdivisionLimit) ++st.subdivisionLowered;
+            if ((l.type == LightType::Bendy || l.type == LightType::BentArea) && c.appliedSubdivision < mSubdivisionLimit)
+                ++st.subdivisionLowered;
         } else if (!l.shadow && !sameShadowInputs(c.params, l)) {
             c.worldToLightClip = lightViewProj(l, mCasters.scene(), mCasters.receivers());
             c.hasShadow = false;

@@ -11,6 +11,7 @@
 #include <dfb/protocol/Rig.h>
 
 #include <cstdint>
+#include <vector>
 
 namespace dfb::engine {
 
@@ -42,10 +43,20 @@ struct LightCache {
     glm::vec3 scale{1.f};          // colour x intensity: the contribution is shaded at unit radiance
     uint64_t version = 0;          // bumped whenever the contribution or its scale changes
     uint64_t compositedVersion = ~0ull;
+    // A bent area light (docs/lighting.md, "Bent area lights"): its interior BendyLights, each
+    // with its own deformed shadow map, for the grid `interiorGrid` (its shadowGrid, or a
+    // preview's); their contributions are summed into this light's.
+    std::vector<LightCache> interior;
+    glm::ivec2 interiorGrid{0};
+    bool emitterCosine = false; // an interior light: a Lambertian emitter's cell (relight_bendy.frag)
 };
 
 /// Colour x intensity: what a contribution (shaded at unit radiance) is multiplied by.
 inline glm::vec3 radiance(const Light& l) { return toGlm(l.color) * l.intensityCd; }
+
+/// Sets c.interior to c.params' interior BendyLights for `grid` (bentAreaInterior), keeping the GL
+/// objects of those already there.
+void syncInterior(LightCache& c, glm::ivec2 grid);
 
 /// Converts c.params' chain (a BendyLight's) into c.chain and c.bendy and binds it at UBO_BENDY.
 void uploadBendy(LightCache& c);

@@ -2,7 +2,10 @@
 
 #include "GpuInterface.h"
 
+#include "ShadowMaps.h"
+
 #include <dfb/server/AreaPattern.h>
+#include <dfb/server/BentArea.h>
 
 #include <algorithm>
 #include <cmath>
@@ -60,7 +63,8 @@ LightBlock lightBlock(const LightCache& c, bool cookie, const glm::vec3& pattern
     // An open door (90 degrees) must never cut: put it out of atan's reach.
     auto door = [&](int i) { return l.barnDoorsDeg[size_t(i)] >= 90.f ? 10.f : glm::radians(l.barnDoorsDeg[size_t(i)]); };
     block.lightDoors = l.type == LightType::Spot ? glm::vec4(door(0), door(1), door(2), door(3)) : glm::vec4(10.f);
-    block.lightCube = glm::vec4(c.cubeNearFar, 0.f, 0.f);
+    // z: a bent area light's interior light, a Lambertian emitter's cell (BENDY_EMITTER_COSINE).
+    block.lightCube = glm::vec4(c.cubeNearFar, c.emitterCosine ? 1.f : 0.f, 0.f);
     if (l.type == LightType::Area) {
         // common_area.glsl's layout of the block.
         const auto f = areaFrameOf<float>(l);
@@ -115,6 +119,7 @@ std::string LightShading::shadeDefines(const LightCache& c, int output, bool coo
     if (l.type == LightType::Bendy) {
         def("BENDY_K", std::to_string(c.bendySegments()));
         flag("BENDY_EXACT", l.exactDirection);
+        flag("BENDY_EMITTER_COSINE", c.emitterCosine);
     }
     return d;
 }
@@ -147,11 +152,11 @@ Result<GLuint> LightShading::target(LightCache& c, bool perSample) {
 // A light reaches part of the frame (the surfaces facing it; a spot's cone; a BendyLight's tubes):
 // mark that footprint in the depth buffer first, and the shading pass's early depth test skips
 // the rest (relight_mask.frag). Leaves the depth test on, equal, without writes.
-Status LightShading::markFootprint(GLuint target, const std::string& defines, bool bendy, int step) {
+Status LightShading::markFootprint(GLuint target, const std::string& defines, bool bendy, int step, bool clearColor) {
     auto mask = mShaders.variant({"common_fullscreen.vert", "relight_mask.frag"}, defines + (bendy ? "#define SHADE_BENDY 1\n" : ""));
     if (!mask) return mask.error();
     const float zero[4] = {0.f, 0.f, 0.f, 0.f}, far = 1.f;
-    glClearNamedFramebufferfv(target, GL_COLOR, 0, zero);
+    if (clearColor) glClearNamedFramebufferfv(target, GL_COLOR, 0, zero);
     glClearNamedFramebufferfv(target, GL_DEPTH, 0, &far);
     glUseProgram(mask.value());
     glUniform1i(LOC_RELIGHT_PIXEL_STEP, step);
@@ -195,6 +200,39 @@ void LightShading::bindLinkMask(LightCache& c, bool linked) {
 }
 
 Status LightShading::shade(LightCache& c, int output, bool preview, int referenceCells) {
+    if (c.params.type == LightType::BentArea) return shadeBentArea(c, output, preview);
+    return shadeInto(c, c, output, preview, referenceCells, {});
+}
+
+// A bent area light (paper 003 section 4.1): the sum of its interior BendyLights, each shaded as a
+// BendyLight whose intensity is its cell's share of the emitter (bentAreaCellArea, candela per
+// unit radiance) with a Lambertian emitter's cosine, into this light's contribution. The interior
+// lights are those its shadow maps were rendered for (or, unshadowed, the grid it has now).
+Status LightShading::shadeBentArea(LightCache& c, int output, bool preview) {
+    const Light& l = c.params;
+    syncInterior(c, l.shadow && c.hasShadow ? c.interiorGrid : areaGridFor(l, preview));
+    const float cells = float(std::max<size_t>(c.interior.size(), 1));
+    // Radiance: each interior light's candela per unit radiance; a shadow mask: the mean.
+    const float weight = output == 0 ? bentAreaCellArea(l, c.interiorGrid) : 1.f / cells;
+    if (c.interior.empty()) {
+        auto target = this->target(c, false);
+        if (!target) return target.error();
+        const float zero[4] = {0.f, 0.f, 0.f, 0.f};
+        glClearNamedFramebufferfv(target.value(), GL_COLOR, 0, zero);
+    }
+    for (size_t k = 0; k < c.interior.size(); ++k) {
+        if (auto s = shadeInto(c.interior[k], c, output, preview, 0, {true, k == 0, weight}); !s) return s;
+    }
+    c.hasContribution = true;
+    if (output == 0) {
+        c.previewShading = preview;
+        c.scale = radiance(l);
+        ++c.version;
+    }
+    return okStatus();
+}
+
+Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool preview, int referenceCells, Accumulation acc) {
     const Light& l = c.params;
     const bool bendy = l.type == LightType::Bendy, area = l.type == LightType::Area;
     GLuint cookie = 0;
@@ -222,7 +260,7 @@ Status LightShading::shade(LightCache& c, int output, bool preview, int referenc
     // shadow masks and full frames shade every pixel.
     const int step = preview && output == 0 ? 2 : 1;
     const bool perSample = !mGBuffer.flat && !mShaders.generic() && step == 1;
-    auto target = this->target(c, perSample);
+    auto target = this->target(into, perSample);
     if (!target) return target.error();
     glBindFramebuffer(GL_FRAMEBUFFER, target.value());
     if (perSample) glViewport(0, 0, mGBuffer.sampleRow, mGBuffer.sampleRows);
@@ -244,8 +282,17 @@ Status LightShading::shade(LightCache& c, int output, bool preview, int referenc
     if (!shader) return shader.error();
     const bool footprint = !mShaders.generic();
     if (footprint) {
-        if (auto s = markFootprint(target.value(), defines, bendy, step); !s) return s;
+        if (auto s = markFootprint(target.value(), defines, bendy, step, perSample || !acc.on || acc.first); !s) return s;
     }
+    // Accumulating: the pass adds weight x its radiance (or replaces with it, the first), straight
+    // into the target or through the per-sample resolve.
+    auto blend = [&acc] {
+        if (!acc.on) return;
+        glEnable(GL_BLEND);
+        glBlendColor(acc.weight, acc.weight, acc.weight, acc.weight);
+        glBlendFunc(GL_CONSTANT_COLOR, acc.first ? GL_ZERO : GL_ONE);
+    };
+    if (!perSample) blend();
     glUseProgram(shader.value());
     setRelightUniforms(output, linked, step);
     bindLinkMask(c, linked);
@@ -274,13 +321,16 @@ Status LightShading::shade(LightCache& c, int output, bool preview, int referenc
     glDepthMask(GL_TRUE);
     glDepthFunc(GL_LESS);
     if (perSample) {
-        glBindFramebuffer(GL_FRAMEBUFFER, c.contributionFb.id());
+        glBindFramebuffer(GL_FRAMEBUFFER, into.contributionFb.id());
         glViewport(0, 0, mGBuffer.width, mGBuffer.height);
         glUseProgram(mResolveProgram);
         glBindTextureUnit(TEX_INPUT, mSampleRadiance.id());
         glBindTextureUnit(TEX_PIXEL_SAMPLES, mGBuffer.pixelSamples.id());
+        blend();
         glDrawArrays(GL_TRIANGLES, 0, 3);
     }
+    glDisable(GL_BLEND);
+    if (acc.on) return okStatus(); // the bent area light records its own contribution
     c.hasContribution = true;
     if (output == 0 && referenceCells == 0) {
         c.previewShading = step != 1;

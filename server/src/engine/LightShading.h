@@ -34,9 +34,18 @@ public:
     Status shade(LightCache& c, int output, bool preview, int referenceCells = 0);
 
 private:
+    /// How one light's pass writes its target: replacing it (a light of its own), or, for a bent
+    /// area light's interior lights, adding `weight` times it (`first`: replacing, weighted).
+    struct Accumulation {
+        bool on = false;
+        bool first = false;
+        float weight = 1.f;
+    };
+    Status shadeInto(LightCache& c, LightCache& into, int output, bool preview, int referenceCells, Accumulation acc);
+    Status shadeBentArea(LightCache& c, int output, bool preview);
     std::string shadeDefines(const LightCache& c, int output, bool cookie, bool linked) const;
     Result<GLuint> target(LightCache& c, bool perSample);
-    Status markFootprint(GLuint target, const std::string& defines, bool bendy, int step);
+    Status markFootprint(GLuint target, const std::string& defines, bool bendy, int step, bool clearColor);
     void bindLinkMask(LightCache& c, bool linked);
 
     ShaderVariants& mShaders;

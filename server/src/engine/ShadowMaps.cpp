@@ -71,7 +71,7 @@ void makeLayeredDepth(LightCache& c, GLenum target, int size, int layers) {
 } // namespace
 
 int shadowSizeFor(const Light& l, bool preview) {
-    if (l.type == LightType::Area) return l.shadowMapSize;
+    if (l.type == LightType::Area || l.type == LightType::BentArea) return l.shadowMapSize;
     return preview ? std::min(l.shadowMapSize, std::max(256, l.shadowMapSize / 4)) : l.shadowMapSize;
 }
 
@@ -115,9 +115,9 @@ Status ShadowMaps::render(LightCache& c, bool preview, int subdivisionLimit) {
     const Light& l = c.params;
     c.previewShadow = preview && shadowSizeFor(l, true) != l.shadowMapSize;
     const int size = shadowSizeFor(l, preview);
-    if (l.type == LightType::Area) {
+    if (l.type == LightType::Area || l.type == LightType::BentArea) {
         c.previewShadow = preview && areaGridFor(l, true) != areaGridFor(l, false);
-        if (auto s = renderArea(c, size, preview); !s) return s;
+        if (auto s = l.type == LightType::Area ? renderArea(c, size, preview) : renderBentArea(c, preview, subdivisionLimit); !s) return s;
         c.hasShadow = true;
         return okStatus();
     }
@@ -151,6 +151,24 @@ Status ShadowMaps::renderPlanar(LightCache& c, int size, int subdivisionLimit) {
         mCasters.draw(c.casterIndexCount, c.worldToLightClip);
     }
     endDepthPass();
+    return okStatus();
+}
+
+// A bent area light's interior BendyLights (paper 003 section 4.1), each its deformed map at the
+// light's map size: the preview takes fewer of them (areaGridFor), as an area light's layers.
+Status ShadowMaps::renderBentArea(LightCache& c, bool preview, int subdivisionLimit) {
+    syncInterior(c, areaGridFor(c.params, preview));
+    c.casterIndexCount = 0;
+    c.appliedSubdivision = subdivisionLimit;
+    for (LightCache& interior : c.interior) {
+        if (auto s = renderPlanar(interior, c.params.shadowMapSize, subdivisionLimit); !s) return s;
+        interior.hasShadow = true;
+        c.casterIndexCount += interior.casterIndexCount;
+        c.appliedSubdivision = std::min(c.appliedSubdivision, interior.appliedSubdivision);
+    }
+    c.shadowSize = c.params.shadowMapSize;
+    c.shadowLayers = int(c.interior.size());
+    c.subdivisionLimit = subdivisionLimit;
     return okStatus();
 }
 

@@ -17,7 +17,8 @@ namespace dfb::engine {
 /// (each of its grid's) keep their size: the preview takes fewer of them instead.
 int shadowSizeFor(const Light& l, bool preview);
 
-/// The m x n shadow layers of an area light now: its grid, or at most 2 x 2 in a preview.
+/// The m x n shadow layers of an area light now (a bent area light's interior lights): its grid,
+/// or at most 2 x 2 in a preview.
 glm::ivec2 areaGridFor(const Light& l, bool preview);
 
 /// Where layer (i, j) of an m x n grid looks from, in the emitter's (right, up) coordinates,
@@ -42,6 +43,7 @@ private:
     Status renderPlanar(LightCache& c, int size, int subdivisionLimit);
     Status renderCube(LightCache& c, int size);
     Status renderArea(LightCache& c, int size, bool preview);
+    Status renderBentArea(LightCache& c, bool preview, int subdivisionLimit);
 
     ShaderVariants& mShaders;
     const Casters& mCasters;

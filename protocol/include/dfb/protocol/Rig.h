@@ -21,7 +21,14 @@ using Vec3 = std::array<float, 3>;
 /// Area: a one-sided planar rectangle or disk centred at `position` emitting towards `direction`,
 /// intensity = the emitter's radiance (cd/m^2, nits), optionally patterned (docs/lighting.md,
 /// "Area lights"; one-shot shading, Wang et al. 2008).
-enum class LightType { Spot, Bendy, Directional, Point, Area };
+/// BentArea: a rectangular area light whose light travels along four corner BendyLight chains
+/// (paper 003 section 4.1): an m x n grid of interior BendyLights blended from the corners, each
+/// with its deformed shadow map (docs/lighting.md, "Bent area lights").
+enum class LightType { Spot, Bendy, Directional, Point, Area, BentArea };
+
+/// A bent area light's corners: 0 = (-w/2, -h/2), 1 = (+w/2, -h/2), 2 = (-w/2, +h/2), 3 = (+w/2, +h/2)
+/// in the emitter's (right, up) coordinates.
+constexpr int BENT_AREA_CORNERS = 4;
 
 /// An area light's outline: a rectangle `size[0]` x `size[1]`, or a disk of diameter `size[0]`.
 enum class AreaShape { Rect, Disk };
@@ -97,6 +104,15 @@ struct Light {
     /// Set by the server: the one-shot radius factors (alpha, beta) fitted for the shape and
     /// pattern (Wang et al. 2008, section 3); (0.30, 0.57) before a fit.
     std::array<float, 2> alphaBeta{0.30f, 0.57f};
+
+    // Bent area light (type BentArea): the emitter as an area light's rectangle (areaSize, rollDeg;
+    // intensity its radiance), and four corner chains in the emitter's frame: corner c's point
+    // (a, b, c') is its corner + a n + b up' + c' right. All four have K segments:
+    // cornerPoints[c * 2K + i - 1] is corner c's p[i] (i = 1..2K), cornerRadii[c * (2K + 1) + i]
+    // its r[i] (i = 0..2K). shadowGrid is the m x n grid of interior BendyLights, coneAngle and
+    // penumbra each one's cone.
+    std::vector<Vec3> cornerPoints;   ///< 4 x 2K points, scene units
+    std::vector<float> cornerRadii;   ///< 4 x (2K + 1) radii, scene units, >= 0
     /// Keyframes by property path relative to the light ("intensity", "position", "cp[2]", "r[1]",
     /// ...): every numeric property can be animated. Keys are kept sorted by time.
     std::map<std::string, std::vector<Key>> keys;
@@ -106,11 +122,16 @@ struct Light {
     std::string warning;
 
     int segments() const { return int(controlPoints.size() / 2); }
+    int cornerSegments() const { return int(cornerPoints.size() / (2 * BENT_AREA_CORNERS)); }
 };
 
 /// Makes `light` a BendyLight whose chain is straight along its axis, `length` long, in
 /// `segments` segments, with radii matching its cone: it renders exactly like the spot light.
 void makeStraightChain(Light& light, float length, int segments = 2);
+
+/// Gives `light` four straight corner chains along its normal, `length` long, in `segments`
+/// segments, radii matching its cone (a bent area light that renders as the straight one).
+void makeStraightCorners(Light& light, float length, int segments = 2);
 
 /// How linear radiance becomes display values (after exposure): the sRGB transfer function alone,
 /// or a filmic curve (the ACES fitted curve of Narkowicz 2016, shoulder and toe) then sRGB.

@@ -53,7 +53,8 @@ enum LightTypeBits : unsigned {
     APPLIES_DIRECTIONAL = 1u << unsigned(LightType::Directional),
     APPLIES_POINT = 1u << unsigned(LightType::Point),
     APPLIES_AREA = 1u << unsigned(LightType::Area),
-    APPLIES_ALL = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_POINT | APPLIES_AREA,
+    APPLIES_BENT_AREA = 1u << unsigned(LightType::BentArea),
+    APPLIES_ALL = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_POINT | APPLIES_AREA | APPLIES_BENT_AREA,
 };
 
 struct Property;
