@@ -18,10 +18,11 @@ const void* commandAt(size_t offset) { return reinterpret_cast<const void*>(offs
 
 Status BendyShadow::init() {
     // The deform and tessellation programs are variants per number of segments (draw).
-    const size_t vertices = mCasters.vertexCount();
+    const size_t vertices = std::max<size_t>(mCasters.vertexCount(), mCasters.softVertexCount());
     mDeformed = gl::makeBuffer(nullptr, std::max<size_t>(vertices, 1) * 2 * sizeof(glm::vec4));
     mDeformedTexture = gl::makeBufferTexture(GL_RGBA32F, mDeformed);
     mCasterIndexTexture = gl::makeBufferTexture(GL_R32UI, mCasters.indices());
+    mSoftIndexTexture = gl::makeBufferTexture(GL_R32UI, mCasters.softIndices());
     auto classify = mShaders.variant({"bendy_classify.comp"});
     if (!classify) return classify.error();
     mClassifyProgram = classify.value();
@@ -37,6 +38,7 @@ Status BendyShadow::init() {
     mFlatVao = gl::VertexArray(v); // positions come from the deformed buffer by index
     glVertexArrayElementBuffer(v, mFlatIndices.id());
     mTessVao = positionVao(mCasters.positions(), mTessIndices);
+    mSoftTessVao = positionVao(mCasters.softPositions(), mTessIndices);
     return okStatus();
 }
 
@@ -51,17 +53,19 @@ Status BendyShadow::draw(LightCache& c, int subdivisionLimit) {
     auto tess = mShaders.variant({"shadow_bendy.vert", "shadow_bendy.tesc", "shadow_bendy.tese", "shadow_bendy.frag"}, segments);
     if (!tess) return tess.error();
     // Deform every caster vertex once, then draw patches that reuse it.
-    const GLuint vertices = mCasters.vertexCount();
+    const GLuint vertices = c.softCasters ? mCasters.softVertexCount() : mCasters.vertexCount();
     glUseProgram(deform.value());
     glUniform1ui(LOC_DEFORM_VERTEX_COUNT, vertices);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_CASTER_POSITIONS, mCasters.positions().id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_CASTER_POSITIONS,
+                     c.softCasters ? mCasters.softPositions().id() : mCasters.positions().id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_DEFORMED, mDeformed.id());
     glDispatchCompute(groupsFor(vertices), 1, 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     const float texelSize = texelPerDistance(l, c.shadowSize);
     // Sort the triangles: plain draw where no edge needs subdividing, tessellation elsewhere.
-    const auto closed = uint32_t(mCasters.closedIndexCount());
+    const auto closed = uint32_t(c.softCasters ? mCasters.softClosedIndexCount() : mCasters.closedIndexCount());
     c.casterIndexCount = mCasters.indicesFor(l, c.chain);
+    if (c.softCasters) c.casterIndexCount = mCasters.softIndicesFor(c.casterIndexCount);
     const GLuint triangles = GLuint(c.casterIndexCount / 3);
     auto classify = [&](int maxLevel) {
         const BendyDrawCommands commands{{0, 1, 0, 0, 0}, {0, 1, closed, 0, 0}, {0, 1, 0, 0, 0}, {0, 1, closed, 0, 0}, 0, {}};
@@ -72,7 +76,7 @@ Status BendyShadow::draw(LightCache& c, int subdivisionLimit) {
         glUniform1f(LOC_CLASSIFY_TEXEL_PER_DISTANCE, texelSize);
         glUniform1ui(LOC_CLASSIFY_CLOSED_TRIANGLES, closed / 3);
         glBindTextureUnit(TEX_DEFORMED, mDeformedTexture.id());
-        glBindTextureUnit(TEX_CASTER_INDICES, mCasterIndexTexture.id());
+        glBindTextureUnit(TEX_CASTER_INDICES, c.softCasters ? mSoftIndexTexture.id() : mCasterIndexTexture.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_FLAT_INDICES, mFlatIndices.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_TESS_INDICES, mTessIndices.id());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_DRAW_COMMANDS, mIndirect.id());
@@ -104,7 +108,7 @@ Status BendyShadow::draw(LightCache& c, int subdivisionLimit) {
     glDisable(GL_CULL_FACE);
     glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, commandAt(offsetof(BendyDrawCommands, plainOpen)));
     glUseProgram(tess.value());
-    glBindVertexArray(mTessVao.id());
+    glBindVertexArray(c.softCasters ? mSoftTessVao.id() : mTessVao.id());
     glUniform1f(LOC_TESS_MAX_LEVEL, float(level));
     glUniform1f(LOC_TESS_TEXEL_PER_DISTANCE, texelSize);
     glPatchParameteri(GL_PATCH_VERTICES, 3);

@@ -33,9 +33,10 @@ private:
     const Casters& mCasters;
     GLuint mClassifyProgram = 0, mFlatProgram = 0; // owned by mShaders
     gl::Buffer mFlatIndices, mTessIndices, mIndirect; // triangle lists sorted by bendy_classify.comp
-    gl::VertexArray mFlatVao, mTessVao;
+    gl::VertexArray mFlatVao, mTessVao, mSoftTessVao; // the last: tessellated simplified casters
     gl::Buffer mDeformed; // 2 vec4 per caster vertex (bendy_deform.comp)
     gl::Texture mDeformedTexture, mCasterIndexTexture; // buffer textures of mDeformed and the casters' indices
+    gl::Texture mSoftIndexTexture;                     // and of the simplified casters' indices
 };
 
 } // namespace dfb::engine

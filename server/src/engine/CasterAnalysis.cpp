@@ -220,9 +220,22 @@ void Casters::buildSoftCasters(const ShadowGeometry& casters) {
     mSoftPlanarStart = GLsizei(out.size());
     simplify(size_t(mPlanarStart), size_t(mIndexCount));
     mSoftCount = GLsizei(out.size());
+    // Their own vertices, only those they use: a bent area light's interior lights deform every
+    // vertex of their casters per map (BendyShadow), a few hundred instead of the scene's.
+    std::vector<glm::vec3> positions;
+    if (!out.empty()) {
+        std::vector<uint32_t> remap(casters.positions.size());
+        positions.resize(meshopt_optimizeVertexFetchRemap(remap.data(), out.data(), out.size(), casters.positions.size()));
+        meshopt_remapVertexBuffer(positions.data(), casters.positions.data(), casters.positions.size(), sizeof(glm::vec3), remap.data());
+        meshopt_remapIndexBuffer(out.data(), out.data(), out.size(), remap.data());
+    }
     const uint32_t dummyIndex = 0;
+    const glm::vec3 dummyVertex(0.f);
     mSoftIbo = out.empty() ? gl::makeBuffer(&dummyIndex, sizeof dummyIndex) : gl::makeBuffer(out.data(), out.size() * sizeof(uint32_t));
-    mSoftVao = positionVao(mVbo, mSoftIbo);
+    mSoftVbo = positions.empty() ? gl::makeBuffer(&dummyVertex, sizeof dummyVertex)
+                                 : gl::makeBuffer(positions.data(), positions.size() * sizeof(glm::vec3));
+    mSoftVertexCount = GLuint(positions.size());
+    mSoftVao = positionVao(mSoftVbo, mSoftIbo);
     mSoftBuildMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 

@@ -37,13 +37,17 @@ public:
     /// many instances of every run (an area light's layers), none left out.
     void draw(GLsizei count, const glm::mat4& worldToClip, GLsizei instances = 1) const;
 
-    /// Area lights' simplified casters (buildSoftCasters): the count of them standing for `fullCount`
+    /// Area lights' (and bent area lights' interior lights') simplified casters (buildSoftCasters): the count of them standing for `fullCount`
     /// of the full ones (indicesFor's all, or all but the open planar meshes), and their instanced
     /// draw (closed meshes with front faces culled, as draw).
     GLsizei softIndicesFor(GLsizei fullCount) const;
     void drawSoft(GLsizei count, GLsizei instances) const;
     /// Triangles of the simplified casters, and the time simplifying took.
     GLsizei softTriangles() const { return mSoftCount / 3; }
+    const gl::Buffer& softIndices() const { return mSoftIbo; }   // into softPositions()
+    const gl::Buffer& softPositions() const { return mSoftVbo; } // the vertices they use, alone
+    GLuint softVertexCount() const { return mSoftVertexCount; }
+    GLsizei softClosedIndexCount() const { return mSoftClosedCount; }
     double softBuildMs() const { return mSoftBuildMs; }
 
     const gl::Buffer& positions() const { return mVbo; }
@@ -65,7 +69,8 @@ private:
     GLsizei mPlanarStart = 0;       // indices[this, end) are open planar meshes, with these planes:
     std::vector<glm::vec4> mPlanes; // oriented so that every receiver is on the positive side
     bool mPlanesSkippable = false;  // ... which holds for all of them (else never left out)
-    gl::Buffer mSoftIbo;            // area lights' simplified casters, same vertices
+    gl::Buffer mSoftIbo, mSoftVbo;  // area lights' simplified casters and their vertices
+    GLuint mSoftVertexCount = 0;
     gl::VertexArray mSoftVao;
     GLsizei mSoftClosedCount = 0, mSoftPlanarStart = 0, mSoftCount = 0;
     double mSoftBuildMs = 0.0;

@@ -17,6 +17,7 @@ void syncInterior(LightCache& c, glm::ivec2 grid) {
     for (size_t k = 0; k < lights.size(); ++k) {
         c.interior[k].params = std::move(lights[k]);
         c.interior[k].emitterCosine = true;
+        c.interior[k].softCasters = true;
     }
     c.interiorGrid = grid;
 }

@@ -49,6 +49,7 @@ struct LightCache {
     std::vector<LightCache> interior;
     glm::ivec2 interiorGrid{0};
     bool emitterCosine = false; // an interior light: a Lambertian emitter's cell (relight_bendy.frag)
+    bool softCasters = false;   // an interior light: its map from the simplified casters (BendyShadow)
 };
 
 /// Colour x intensity: what a contribution (shaded at unit radiance) is multiplied by.

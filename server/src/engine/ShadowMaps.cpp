@@ -79,7 +79,9 @@ static_assert(AREA_MAX_LAYERS == MAX_AREA_SHADOW_GRID * MAX_AREA_SHADOW_GRID);
 
 glm::ivec2 areaGridFor(const Light& l, bool preview) {
     const glm::ivec2 g(std::clamp(l.shadowGrid[0], 1, MAX_AREA_SHADOW_GRID), std::clamp(l.shadowGrid[1], 1, MAX_AREA_SHADOW_GRID));
-    return preview ? glm::min(g, glm::ivec2(2)) : g;
+    // A bent area light's interior lights cost a BendyLight each (its inverse mapping per pixel):
+    // a preview takes one, the emitter's centre carrying all of it.
+    return preview ? glm::min(g, glm::ivec2(l.type == LightType::BentArea ? 1 : 2)) : g;
 }
 
 glm::vec2 areaGridPoint(const Light& l, int i, int j, glm::ivec2 grid) {

@@ -18,7 +18,7 @@ namespace dfb::engine {
 int shadowSizeFor(const Light& l, bool preview);
 
 /// The m x n shadow layers of an area light now (a bent area light's interior lights): its grid,
-/// or at most 2 x 2 in a preview.
+/// or at most 2 x 2 in a preview (1 x 1 for a bent area light).
 glm::ivec2 areaGridFor(const Light& l, bool preview);
 
 /// Where layer (i, j) of an m x n grid looks from, in the emitter's (right, up) coordinates,
