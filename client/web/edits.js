@@ -138,8 +138,15 @@ export function addLight(type) {
     const target = V.add(Cam.pos, V.scale(Cam.forward, d));
     const position = V.add(V.add(target, V.scale(Cam.up, 0.5 * d)), V.scale(Cam.right, 0.3 * d));
     const dir = V.norm(V.sub(target, position));
+    const dist = V.len(V.sub(target, position));
     const l = { name, type, enabled: true, position, direction: dir, color: [1, 1, 1],
-                intensity: type === "directional" ? 2 : 2 * V.len(V.sub(target, position)) ** 2, coneAngle: 30, penumbra: 6, shadow: true };
+                intensity: type === "directional" ? 2 : 2 * dist ** 2, coneAngle: 30, penumbra: 6, shadow: true };
+    if (type === "area") {
+      // A square panel a fifth of its distance across, as bright as the point light above would
+      // be head-on (radiance x area = its candela: docs/lighting.md "Area light").
+      const side = Number((0.2 * dist).toFixed(3));
+      Object.assign(l, { shape: "rect", size: [side, side], roll: 0, intensity: l.intensity / (side * side) });
+    }
     rig.lights.push(l);
     S.selected = name;
     return rig;
