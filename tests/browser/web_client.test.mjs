@@ -957,6 +957,13 @@ try {
                w: l.size[0], h: l.shape === "disk" ? l.size[0] : l.size[1] };
     };
     const at = (e, x, y) => add(e.c, add(scale(e.right, x), scale(e.up, y)));
+    // A handle's centre, where a press reaches it (nothing of the page, messages included, over it).
+    const reach = async (selector) => {
+      const p = await center(a, selector);
+      const top = await a.evaluate(([x, y, sel]) => document.elementFromPoint(x, y)?.matches(sel) ?? false, [p.x, p.y, selector]);
+      assert(top, `${selector} at ${JSON.stringify(p)} is covered: a press there does not reach it`);
+      return p;
+    };
     const toImage = (p) => { const q = project(toNDC, p); return { x: (q.ndc[0] + 1) * 160, y: (1 - q.ndc[1]) * 90 }; };
     const dist = (p, q) => Math.hypot(p.x - q.x, p.y - q.y);
 
@@ -1008,7 +1015,7 @@ try {
 
     // Width: the right edge's handle dragged outwards along the projected right axis.
     const screenOf = async (p) => { const q = toImage(p); return imageToScreen(a, q.x, q.y); };
-    const wh = await center(a, '[data-handle="width"]');
+    const wh = await reach('[data-handle="width"]');
     const wExpect = await screenOf(at(e0, e0.w / 2, 0));
     assert(Math.hypot(wh.x - wExpect.x, wh.y - wExpect.y) < 1.5, `the width handle at ${JSON.stringify(wh)}, the edge's midpoint at ${JSON.stringify(wExpect)}`);
     const beyond = await screenOf(at(e0, e0.w, 0));
@@ -1030,7 +1037,7 @@ try {
     console.log(`     size ${l0.size.map((v) => v.toFixed(3))} -> ${lW.size.map((v) => v.toFixed(3))}`);
 
     // Roll: the handle dragged 40 degrees about the projected centre (clockwise on the screen).
-    const rh = await center(a, '[data-handle="roll"]');
+    const rh = await reach('[data-handle="roll"]');
     const C = await screenOf(lW.position);
     const rad = Math.hypot(rh.x - C.x, rh.y - C.y), a0 = Math.atan2(rh.y - C.y, rh.x - C.x);
     assert(rad > 10, `the roll handle is ${rad.toFixed(1)} px from the centre`);
@@ -1065,7 +1072,7 @@ try {
     console.log(`     roll ${lW.roll.toFixed(1)} -> ${lR.roll.toFixed(1)}`);
 
     // Position: the centre handle moves the emitter in the plane parallel to the image.
-    const ph = await center(a, '#overlay [data-light="panel"] [data-handle="position"]');
+    const ph = await reach('#overlay [data-light="panel"] [data-handle="position"]');
     const pTo = { x: ph.x - 35, y: ph.y + 20 };
     await a.mouse.move(ph.x, ph.y);
     await a.mouse.down();
@@ -1088,7 +1095,7 @@ try {
       const q = toImage(at(eD, eD.w / 2 * Math.cos(t), eD.w / 2 * Math.sin(t)));
       assert(dist(drawnDisk[k], q) < 0.5, `rim vertex ${k} drawn at ${JSON.stringify(drawnDisk[k])}, projects to ${JSON.stringify(q)}`);
     }
-    const mh = await center(a, '[data-handle="rim"]');
+    const mh = await reach('[data-handle="rim"]');
     const mBeyond = await screenOf(at(eD, eD.w, 0));
     const mLen = Math.hypot(mBeyond.x - mh.x, mBeyond.y - mh.y);
     await a.mouse.move(mh.x, mh.y);
@@ -1101,7 +1108,7 @@ try {
     await shot(a, "16-area-disk.png");
     // Dragged past the centre, the diameter stops at the schema's minimum: no size <= 0 is sent
     // (the server would refuse it and keep the last positive one).
-    const mh2 = await center(a, '[data-handle="rim"]');
+    const mh2 = await reach('[data-handle="rim"]');
     const C2 = await screenOf(lD.position);
     await a.mouse.move(mh2.x, mh2.y);
     await a.mouse.down();
