@@ -940,7 +940,7 @@ try {
     await waitRig((r) => r.lights.find((l) => l.name === "fill").keys?.intensity?.length === 1, "the key at t = 2 is deleted");
   });
 
-  await check("an area light: its outline at the projected corners; width, roll, position and rim handles edit it", async () => {
+  await check("an area light: its outline at the projected corners; width, roll, position, corner and rim handles edit it", async () => {
     // The camera's place and axes from worldToCamera (a rigid transform: its rows are the axes).
     const w2c = welcome.session.camera.worldToCamera;
     const row = (r) => [w2c[r], w2c[4 + r], w2c[8 + r]];
@@ -1085,10 +1085,29 @@ try {
     assert(Math.abs(project(toNDC, lP.position).ndc[2] - project(toNDC, lR.position).ndc[2]) < 1e-4, "the centre left the plane parallel to the image");
     assert(JSON.stringify(lP.size) === JSON.stringify(lR.size) && lP.roll === lR.roll, "moving the light resized or turned it");
 
+    // The corner: dragged outwards from the centre, width and height grow in proportion (a line
+    // through the centre in the image is one through it on the emitter's plane).
+    const ch = await reach('[data-handle="corner"]');
+    const CP = await screenOf(lP.position);
+    const cLen = Math.hypot(ch.x - CP.x, ch.y - CP.y);
+    await a.mouse.move(ch.x, ch.y);
+    await a.mouse.down();
+    const cTo = { x: ch.x + (ch.x - CP.x) / cLen * 25, y: ch.y + (ch.y - CP.y) / cLen * 25 };
+    await a.mouse.move(cTo.x, cTo.y, { steps: 5 });
+    await a.mouse.up();
+    const cDrop = await screenToImage(a, cTo.x, cTo.y);
+    const rigC = await waitRig((r) => {
+      const l = r.lights.find((x) => x.name === "panel"), e = emitter(l);
+      return l.size[0] > lP.size[0] * 1.05 && l.size[1] > lP.size[1] * 1.05 && dist(toImage(at(e, e.w / 2, e.h / 2)), cDrop) < 1;
+    }, "the corner handle grows width and height until the corner is under the pointer");
+    const lC = rigC.lights.find((l) => l.name === "panel");
+    assert(Math.abs(lC.size[0] / lP.size[0] - lC.size[1] / lP.size[1]) < 0.02, `the corner did not keep the aspect: ${lP.size} -> ${lC.size}`);
+    assert(JSON.stringify(lC.position) === JSON.stringify(lP.position) && lC.roll === lP.roll, "the corner handle moved or turned the light");
+
     // A disk: a 32-gon on its rim from the turned right axis; the rim handle sets the diameter.
     await postEdit([{ path: "panel.shape", value: "disk" }]);
     const drawnDisk = await outline("disk");
-    const eD = emitter({ ...lP, shape: "disk" });
+    const eD = emitter({ ...lC, shape: "disk" });
     assert(drawnDisk.length === 32, `${drawnDisk.length} outline vertices for a disk`);
     for (const k of [0, 8, 19]) {
       const t = 2 * Math.PI * k / 32;
@@ -1102,9 +1121,9 @@ try {
     await a.mouse.down();
     await a.mouse.move(mh.x - (mBeyond.x - mh.x) / mLen * 15, mh.y - (mBeyond.y - mh.y) / mLen * 15, { steps: 5 });
     await a.mouse.up();
-    const rigD = await waitRig((r) => r.lights.find((l) => l.name === "panel").size[0] < lP.size[0] * 0.95, "the rim handle shrinks the disk");
+    const rigD = await waitRig((r) => r.lights.find((l) => l.name === "panel").size[0] < lC.size[0] * 0.95, "the rim handle shrinks the disk");
     const lD = rigD.lights.find((l) => l.name === "panel");
-    assert(Math.abs(lD.size[1] - lP.size[1]) < 1e-6, `the rim handle changed size[1] (${lP.size[1]} -> ${lD.size[1]})`);
+    assert(Math.abs(lD.size[1] - lC.size[1]) < 1e-6, `the rim handle changed size[1] (${lC.size[1]} -> ${lD.size[1]})`);
     await shot(a, "16-area-disk.png");
     // Dragged past the centre, the diameter stops at the schema's minimum: no size <= 0 is sent
     // (the server would refuse it and keep the last positive one).
