@@ -93,13 +93,14 @@ function drawAreaOutline(l, area, color, selected, parent) {
   const scr = pts.map(toScreen);
   const front = V.dot(V.sub(Cam.pos, area.frame.centre), area.frame.normal) > 0;
   svg("polygon", { points: scr.map((p) => `${p.x},${p.y}`).join(" "), stroke: color, "stroke-width": selected ? 2 : 1.25,
-                   fill: front ? color : "none", "fill-opacity": selected ? 0.12 : 0.06, opacity: selected ? 1 : 0.7,
+                   fill: front ? color : "none", "fill-opacity": selected ? 0.12 : 0.06, opacity: selected ? 1 : l.enabled ? 0.7 : 0.35,
                    ...(front ? {} : { "stroke-dasharray": "5 3" }), class: "area-outline", "data-area-outline": l.name,
                    "data-shape": area.frame.disk ? "disk" : "rect" }, parent);
   const C = Cam.project(area.frame.centre), T = Cam.project(V.add(area.frame.centre, V.scale(area.frame.normal, area.tick)));
   if (C.front && T.front) {
     const sc = toScreen(C), st = toScreen(T);
-    svg("line", { x1: sc.x, y1: sc.y, x2: st.x, y2: st.y, stroke: color, "stroke-width": 1.5, opacity: selected ? 1 : 0.7, class: "area-normal" }, parent);
+    svg("line", { x1: sc.x, y1: sc.y, x2: st.x, y2: st.y, stroke: color, "stroke-width": 1.5, opacity: selected ? 1 : l.enabled ? 0.7 : 0.35,
+                  class: "area-normal" }, parent);
   }
 }
 
@@ -121,7 +122,6 @@ function drawAreaHandles(l, area, color, g) {
     const el = name === "corner"
       ? svg("path", { d: `M${s.x - 5},${s.y}l5,-5l5,5l-5,5z`, fill: "#222", stroke: color, "stroke-width": 1.5, class: "handle", "data-handle": name }, g)
       : svg("rect", { x: s.x - 4, y: s.y - 4, width: 8, height: 8, fill: "#222", stroke: color, "stroke-width": 1.5, class: "handle", "data-handle": name }, g);
-    el.dataset.x = s.x; el.dataset.y = s.y; // its centre (a diamond's path has no cx/cy)
     titled(el, tips[name]);
   }
   // Roll: a ring on a dashed stem from the edge it stands beyond.
