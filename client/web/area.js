@@ -109,9 +109,21 @@ export function turnedRoll(roll0, delta, lo = -360, hi = 360) {
   return Math.min(hi, Math.max(lo, r));
 }
 
-/** A size component clamped to the schema's [min, max], never zero or less, rounded for the wire. */
+// The least 32-bit float at or above x (x > 0).
+function floatAtOrAbove(x) {
+  const f = new Float32Array([x]);
+  if (f[0] < x) new Uint32Array(f.buffer)[0] += 1; // positive floats order as their bits
+  return f[0];
+}
+
+/**
+ * A size component clamped to the schema's [min, max], never zero or less, rounded for the wire.
+ * The least size is the least 32-bit float at or above min: the server keeps sizes as floats,
+ * and min = 1e-4 itself would be read back as 9.9999997e-5, below the range, so that the rig's
+ * GET would no longer PUT back (a whole-rig Add or Delete refused).
+ */
 export function clampSize(v, min, max) {
-  const lo = Math.max(min ?? 1e-4, 1e-6);
+  const lo = floatAtOrAbove(Math.max(min ?? 1e-4, 1e-6));
   const r = Number(Math.min(max ?? 1e7, Math.max(lo, v)).toFixed(5));
   return r >= lo ? r : lo;
 }

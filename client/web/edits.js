@@ -109,6 +109,8 @@ export function setPresence(editing) { send({ type: "presence", editing }); }
 
 // Whole-rig operations (add, duplicate, delete) are a PUT of the rig, conditional on its version:
 // v1 has no per-light add/delete message. The server broadcasts the new rig to everyone.
+// `mutate` may name the light to select afterwards in S.selectAfterPut (panels.js setRig selects
+// it when a rig that has it arrives); a refused PUT forgets it.
 async function replaceRig(mutate) {
   if (!canEdit()) return;
   for (let attempt = 0; attempt < 3; attempt++) {
@@ -122,10 +124,12 @@ async function replaceRig(mutate) {
       return;
     } catch (e) {
       if (e.status === 412) continue; // somebody edited between our read and write: read again
+      S.selectAfterPut = null;
       showMessage(e.message);
       return;
     }
   }
+  S.selectAfterPut = null;
   showMessage("the rig kept changing under us: try again");
 }
 export function addLight(type) {
@@ -148,7 +152,7 @@ export function addLight(type) {
       Object.assign(l, { shape: "rect", size: [side, side], roll: 0, intensity: l.intensity / (side * side) });
     }
     rig.lights.push(l);
-    S.selected = name;
+    S.selectAfterPut = name;
     return rig;
   });
 }
@@ -160,7 +164,7 @@ export function duplicateLight() {
     const copy = clone(src);
     copy.name = uniqueName(`${name}_copy`, rig);
     rig.lights.splice(rig.lights.indexOf(src) + 1, 0, copy);
-    S.selected = copy.name;
+    S.selectAfterPut = copy.name;
     return rig;
   });
 }

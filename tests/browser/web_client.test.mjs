@@ -1135,8 +1135,27 @@ try {
                        C2.y - (mh2.y - C2.y) - 30 * (mh2.y - C2.y) / Math.hypot(mh2.x - C2.x, mh2.y - C2.y), { steps: 6 });
     await a.mouse.up();
     const minSize = schemaSizeMin;
-    await waitRig((r) => Math.abs(r.lights.find((l) => l.name === "panel").size[0] - minSize) < minSize * 1e-3,
-                  `the diameter stops at the schema's minimum ${minSize}`);
+    const rigMin = await waitRig((r) => Math.abs(r.lights.find((l) => l.name === "panel").size[0] - minSize) < minSize * 1e-3,
+                                 `the diameter stops at the schema's minimum ${minSize}`);
+    // And the rig still round-trips (its GET PUT back): the least size the page sends is one the
+    // server's 32-bit float keeps in range (1e-4 itself is read back as 9.9999997e-5).
+    const again = { ...rigMin };
+    delete again.version;
+    for (const l of again.lights) delete l.warning;
+    const put = await fetch(new URL(`/v1/sessions/${server.session}/rig`, server.base),
+                            { method: "PUT", body: JSON.stringify(again),
+                              headers: { Authorization: `Bearer ${server.token}`, "Content-Type": "application/json", "If-Match": `"${rigMin.version}"` } });
+    assert(put.ok, `the rig at the least size does not PUT back: HTTP ${put.status}: ${await put.text()}`);
+    // Add offers area lights: a square panel whose outline is drawn; then deleted again.
+    await a.selectOption("#addType", "area");
+    await a.click("#addLight");
+    const rigN = await waitRig((r) => r.lights.some((l) => l.name === "area" && l.type === "area"), "an added area light");
+    const added = rigN.lights.find((l) => l.name === "area");
+    assert(added.shape === "rect" && added.size[0] > 0 && added.size[0] === added.size[1], `the added area light: ${JSON.stringify(added)}`);
+    await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "area", null, WAIT);
+    await a.waitForSelector('#overlay polygon[data-area-outline="area"][stroke-width="2"]', WAIT); // selected: highlighted
+    await a.click("#delLight");
+    await waitRig((r) => !r.lights.some((l) => l.name === "area"), "the added area light deleted");
     await a.mouse.move(10, 10);
     await a.keyboard.press("1");
   });

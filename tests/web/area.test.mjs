@@ -83,8 +83,12 @@ test("roll from angles: the turned up axis lies at the roll; steps wrap across 1
 });
 
 test("sizes are clamped to the schema's range and never reach 0", () => {
-  assert.equal(clampSize(-3, 1e-4, 1e7), 1e-4);
-  assert.equal(clampSize(0, 1e-4, 1e7), 1e-4);
+  // The least size is the least 32-bit float at or above the minimum: read back as a float it
+  // is still in range (Math.fround(1e-4) is below 1e-4).
+  for (const v of [-3, 0, 1e-5]) {
+    const s = clampSize(v, 1e-4, 1e7);
+    assert.ok(Math.fround(s) >= 1e-4 && s < 1.000001e-4, `clampSize(${v}) = ${s}`);
+  }
   assert.equal(clampSize(2.1234567, 1e-4, 1e7), 2.12346);
   assert.equal(clampSize(1e9, 1e-4, 1e7), 1e7);
   assert.ok(clampSize(0, 0, 10) > 0, "a schema minimum of 0 still gives a positive size");
