@@ -1,29 +1,85 @@
 // Dragging handles (paper 000 section 5, "Direct Control"): a point moves in the plane parallel to
 // the image through its current position (constant NDC depth); with Shift it moves along the
-// view ray instead (in depth), so its place in the image stays put.
+// view ray instead (in depth), so its place in the image stays put. An area light's size handles
+// follow the pointer along their axis of the emitter (the axis' point nearest to the pointer's
+// ray, as a gizmo's axis drag), its corner and roll handles on the emitter's plane.
 
+import { angleStep, clampSize, planeAngleDeg, rayOnAxis, rayOnPlane, turnedRoll } from "./area.js";
 import { Cam } from "./camera.js";
 import { scheduleRefetch } from "./connection.js";
 import { $ } from "./dom.js";
 import { beginGesture, endGesture, setLightProp, setPresence } from "./edits.js";
 import { V } from "./linalg.js";
 import { handlesOf } from "./overlay.js";
-import { lightFrame, worldToFrame } from "./rig.js";
+import { lightFrame, rangeOf, worldToFrame } from "./rig.js";
 import { S, evaluated, findLight } from "./state.js";
 import { eventToImage } from "./viewport.js";
+
+// An area light's handles (overlay.js areaHandlesOf) and the property each drags.
+const AREA_HANDLES = { width: "size", height: "size", corner: "size", rim: "size", roll: "roll" };
+
+// The ray from the camera through the pointer: origin on the near plane, direction towards NDC
+// depth 0.5 (perspective and orthographic alike).
+function pointerRay(e) {
+  const p = eventToImage(e);
+  const o = Cam.unproject(p.x, p.y, -1);
+  return { o, d: V.sub(Cam.unproject(p.x, p.y, 0.5), o) };
+}
 
 export function startDrag(e, handle, index) {
   const raw = findLight(S.selected);
   if (!raw) return;
   const l = evaluated(raw);
   const h = handlesOf(l);
-  const world = handle === "position" ? h.position : handle === "axis" ? h.axis : h.points[index];
+  const areaProp = h.area ? AREA_HANDLES[handle] : undefined;
+  const world = handle === "position" ? h.position : handle === "axis" ? h.axis : areaProp ? h.area.handles[handle] : h.points[index];
+  if (!world) return;
   S.drag = { handle, index, name: l.name, world: world.slice(), ndcZ: Cam.project(world).z, startY: e.clientY, lastY: e.clientY,
              pointerId: e.pointerId, moved: false };
+  if (areaProp) {
+    // The emitter as it was at the press: a resize keeps its centre and axes, a turn its plane.
+    // A turn follows the pointer's angle about the centre from where it pressed (on the plane;
+    // the handle itself if the plane is seen edge-on), so the press makes no jump.
+    const a = h.area.frame;
+    const { o, d } = pointerRay(e);
+    const hit = rayOnPlane(a, o, d) ?? { x: V.dot(V.sub(world, a.centre), a.right), y: V.dot(V.sub(world, a.centre), a.up) };
+    Object.assign(S.drag, { area: a, flip: h.area.flip, roll0: l.roll ?? 0, angle: planeAngleDeg(hit.x, hit.y), turned: 0 });
+  }
   $("overlay").setPointerCapture?.(e.pointerId);
   beginGesture();
-  const path = handle === "cp" ? `cp[${index}]` : handle === "radius" ? `r[${index}]` : handle === "axis" ? "direction" : "position";
+  const path = areaProp ?? (handle === "cp" ? `cp[${index}]` : handle === "radius" ? `r[${index}]` : handle === "axis" ? "direction" : "position");
   setPresence(`${l.name}.${path}`);
+}
+
+// One step of an area light's size or roll handle. Sizes stay in the schema's range of `size`
+// (never 0 or less); the other component is the light's current one.
+function moveAreaHandle(e, d, l) {
+  const a = d.area;
+  const { o, d: dir } = pointerRay(e);
+  d.moved = true;
+  if (d.handle === "roll") {
+    const hit = rayOnPlane(a, o, dir);
+    if (!hit) return;
+    const angle = planeAngleDeg(hit.x, hit.y);
+    d.turned += angleStep(d.angle, angle);
+    d.angle = angle;
+    const { min, max } = rangeOf("roll");
+    setLightProp(d.name, "roll", Number(turnedRoll(d.roll0, d.turned, min, max).toFixed(3)), { live: true });
+    return;
+  }
+  const { min, max } = rangeOf("size");
+  const size = (l.size ?? [a.width, a.height]).slice();
+  if (d.handle === "corner") {
+    const hit = rayOnPlane(a, o, dir);
+    if (!hit) return;
+    size[0] = clampSize(2 * Math.abs(hit.x), min, max);
+    size[1] = clampSize(2 * Math.abs(hit.y), min, max);
+  } else {
+    const t = rayOnAxis(a.centre, d.handle === "height" ? a.up : a.right, o, dir);
+    if (t === null) return;
+    size[d.handle === "height" ? 1 : 0] = clampSize(2 * t, min, max);
+  }
+  setLightProp(d.name, "size", size, { live: true });
 }
 
 export function moveDrag(e) {
@@ -31,6 +87,7 @@ export function moveDrag(e) {
   const raw = findLight(d.name);
   if (!raw) return endDrag(null);
   const l = evaluated(raw);
+  if (d.area) return moveAreaHandle(e, d, l);
   const f = lightFrame(l);
   let world;
   if (e.shiftKey && d.handle !== "radius") {

@@ -109,6 +109,8 @@ export function setPresence(editing) { send({ type: "presence", editing }); }
 
 // Whole-rig operations (add, duplicate, delete) are a PUT of the rig, conditional on its version:
 // v1 has no per-light add/delete message. The server broadcasts the new rig to everyone.
+// `mutate` may name the light to select afterwards in S.selectAfterPut (panels.js setRig selects
+// it when a rig that has it arrives); a refused PUT forgets it.
 async function replaceRig(mutate) {
   if (!canEdit()) return;
   for (let attempt = 0; attempt < 3; attempt++) {
@@ -122,10 +124,12 @@ async function replaceRig(mutate) {
       return;
     } catch (e) {
       if (e.status === 412) continue; // somebody edited between our read and write: read again
+      S.selectAfterPut = null;
       showMessage(e.message);
       return;
     }
   }
+  S.selectAfterPut = null;
   showMessage("the rig kept changing under us: try again");
 }
 export function addLight(type) {
@@ -138,10 +142,17 @@ export function addLight(type) {
     const target = V.add(Cam.pos, V.scale(Cam.forward, d));
     const position = V.add(V.add(target, V.scale(Cam.up, 0.5 * d)), V.scale(Cam.right, 0.3 * d));
     const dir = V.norm(V.sub(target, position));
+    const dist = V.len(V.sub(target, position));
     const l = { name, type, enabled: true, position, direction: dir, color: [1, 1, 1],
-                intensity: type === "directional" ? 2 : 2 * V.len(V.sub(target, position)) ** 2, coneAngle: 30, penumbra: 6, shadow: true };
+                intensity: type === "directional" ? 2 : 2 * dist ** 2, coneAngle: 30, penumbra: 6, shadow: true };
+    if (type === "area") {
+      // A square panel a fifth of its distance across, as bright as the point light above would
+      // be head-on (radiance x area = its candela: docs/lighting.md "Area light").
+      const side = Number((0.2 * dist).toFixed(3));
+      Object.assign(l, { shape: "rect", size: [side, side], roll: 0, intensity: l.intensity / (side * side) });
+    }
     rig.lights.push(l);
-    S.selected = name;
+    S.selectAfterPut = name;
     return rig;
   });
 }
@@ -153,7 +164,7 @@ export function duplicateLight() {
     const copy = clone(src);
     copy.name = uniqueName(`${name}_copy`, rig);
     rig.lights.splice(rig.lights.indexOf(src) + 1, 0, copy);
-    S.selected = copy.name;
+    S.selectAfterPut = copy.name;
     return rig;
   });
 }

@@ -1,7 +1,8 @@
 // The overlay: the selected light's handles (position, axis, BendyLight control points and tube
-// radii) and markers for the other lights, projected with the shot's camera and drawn as SVG in
-// screen space; who else is dragging what.
+// radii, an area light's size and roll) and markers for the other lights, area lights' outlines,
+// projected with the shot's camera and drawn as SVG in screen space; who else is dragging what.
 
+import { areaFrame, areaHandles, areaOutline } from "./area.js";
 import { Cam } from "./camera.js";
 import { $, SVGNS, svg } from "./dom.js";
 import { pointsSelectable, selectedPoints } from "./indirect.js";
@@ -55,7 +56,82 @@ export function handlesOf(l) {
     out.points = [l.position, ...l.controlPoints.map((a) => frameToWorld(l, f, a))];
     out.radii = l.radii || [];
   }
+  if (l.type === "area") out.area = areaHandlesOf(l, d);
   return out;
+}
+
+// An area light's emitter, outline and handles. The roll handle sits a fixed share of the
+// light's distance beyond the top edge (about 20 px at 1:1 with the default lens, as the axis
+// handle's 0.18 d is about 50), so it stays apart from the height handle however small the
+// emitter looks; where that is outside the viewport (a light near the image's top, the toolbars
+// above) and below the bottom edge is not, it goes there instead, and stays on its side during
+// its own drag.
+function areaHandlesOf(l, d) {
+  const a = areaFrame(l);
+  const gap = 0.08 * d;
+  let flip = false;
+  if (S.drag?.handle === "roll" && S.drag.name === l.name) flip = S.drag.flip;
+  else {
+    const vp = $("viewport");
+    const inView = (p) => {
+      const P = Cam.project(p);
+      if (!P.front) return false;
+      const s = toScreen(P);
+      return s.x >= 8 && s.y >= 8 && s.x <= vp.clientWidth - 8 && s.y <= vp.clientHeight - 8;
+    };
+    flip = !inView(areaHandles(a, gap).roll) && inView(areaHandles(a, gap, true).roll);
+  }
+  return { frame: a, outline: areaOutline(a), handles: areaHandles(a, gap, flip), flip, tick: 0.06 * d };
+}
+
+// An area light's outline in the image (every area light; the selected one highlighted, filled
+// faintly where the camera sees its emitting side, dashed where it sees its back) and a short
+// tick along the normal from its centre, towards the side it lights.
+function drawAreaOutline(l, area, color, selected, parent) {
+  const pts = area.outline.map((p) => Cam.project(p));
+  if (pts.some((P) => !P.front)) return;
+  const scr = pts.map(toScreen);
+  const front = V.dot(V.sub(Cam.pos, area.frame.centre), area.frame.normal) > 0;
+  svg("polygon", { points: scr.map((p) => `${p.x},${p.y}`).join(" "), stroke: color, "stroke-width": selected ? 2 : 1.25,
+                   fill: front ? color : "none", "fill-opacity": selected ? 0.12 : 0.06, opacity: selected ? 1 : l.enabled ? 0.7 : 0.35,
+                   ...(front ? {} : { "stroke-dasharray": "5 3" }), class: "area-outline", "data-area-outline": l.name,
+                   "data-shape": area.frame.disk ? "disk" : "rect" }, parent);
+  const C = Cam.project(area.frame.centre), T = Cam.project(V.add(area.frame.centre, V.scale(area.frame.normal, area.tick)));
+  if (C.front && T.front) {
+    const sc = toScreen(C), st = toScreen(T);
+    svg("line", { x1: sc.x, y1: sc.y, x2: st.x, y2: st.y, stroke: color, "stroke-width": 1.5, opacity: selected ? 1 : l.enabled ? 0.7 : 0.35,
+                  class: "area-normal" }, parent);
+  }
+}
+
+// The selected area light's resize and roll handles (drag.js: "width", "height", "corner", "rim",
+// "roll").
+function drawAreaHandles(l, area, color, g) {
+  const titled = (el, text) => el.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: text }));
+  const at = (p) => { const P = Cam.project(p); return P.front ? toScreen(P) : null; };
+  const size = (v) => Number(v).toFixed(3);
+  const tips = {
+    width: `width = ${size(area.frame.width)}: drag to resize (about the centre)`,
+    height: `height = ${size(area.frame.height)}: drag to resize (about the centre)`,
+    corner: `size = ${size(area.frame.width)} x ${size(area.frame.height)}: drag to resize both (about the centre)`,
+    rim: `diameter = ${size(area.frame.width)}: drag to resize (about the centre)`,
+  };
+  for (const [name, p] of Object.entries(area.handles)) {
+    const s = at(p);
+    if (!s || name === "roll") continue;
+    const el = name === "corner"
+      ? svg("path", { d: `M${s.x - 5},${s.y}l5,-5l5,5l-5,5z`, fill: "#222", stroke: color, "stroke-width": 1.5, class: "handle", "data-handle": name }, g)
+      : svg("rect", { x: s.x - 4, y: s.y - 4, width: 8, height: 8, fill: "#222", stroke: color, "stroke-width": 1.5, class: "handle", "data-handle": name }, g);
+    titled(el, tips[name]);
+  }
+  // Roll: a ring on a dashed stem from the edge it stands beyond.
+  const r = at(area.handles.roll);
+  const e = at(V.add(area.frame.centre, V.scale(area.frame.up, (area.flip ? -0.5 : 0.5) * area.frame.height)));
+  if (r) {
+    if (e) svg("line", { x1: e.x, y1: e.y, x2: r.x, y2: r.y, stroke: color, "stroke-width": 1, "stroke-dasharray": "2 2" }, g);
+    const el = svg("circle", { cx: r.x, cy: r.y, r: 5, fill: "#222", stroke: color, "stroke-width": 2, class: "handle", "data-handle": "roll" }, g);
+    titled(el, `roll = ${Number(l.roll ?? 0).toFixed(1)}°: drag around the centre to turn the light about its normal`);
+  }
 }
 // The projected radius of a sphere of radius r at p: a circle around the handle.
 function radiusHandlePoint(p, r) { return V.add(p, V.scale(Cam.right, r)); }
@@ -93,6 +169,7 @@ function drawOverlay() {
     const h = handlesOf(l);
     const P = Cam.project(h.position);
     const ps = toScreen(P);
+    if (h.area) drawAreaOutline(l, h.area, color, selected, root);
     if (!selected) {
       if (!P.front) continue;
       // Other lights: a small marker that selects them.
@@ -144,6 +221,7 @@ function drawOverlay() {
         rh.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: `r${i} = ${r.toFixed(3)}: drag to change the tube radius` }));
       });
     }
+    if (h.area) drawAreaHandles(l, h.area, color, g);
     // Axis: the light's direction (turning it turns the whole BendyLight tube). A point light
     // shines every way: no axis.
     if (l.type !== "point") line(h.position, h.axis, {});

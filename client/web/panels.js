@@ -20,6 +20,9 @@ const typeLabel = (t) => (t === "bendy" ? "BendyLight" : t);
 export function setRig(rig) {
   const selectedBefore = S.selected;
   S.rig = rig;
+  // An added or duplicated light is selected when a rig that has it comes; a rig from before
+  // it (a re-read still under way) leaves the wish in place rather than selecting another light.
+  if (S.selectAfterPut && findLight(S.selectAfterPut)) { S.selected = S.selectAfterPut; S.selectAfterPut = null; }
   if (!findLight(S.selected)) S.selected = rig.lights.find((l) => l.name === selectedBefore)?.name ?? rig.lights[0]?.name ?? null;
   refreshUi(true);
 }
@@ -80,6 +83,7 @@ export function renderLights() {
 }
 
 export function selectLight(name) {
+  S.selectAfterPut = null; // the artist chose meanwhile
   if (S.selected === name) return;
   S.selected = name;
   refreshUi(true);

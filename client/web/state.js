@@ -18,6 +18,7 @@ export const S = {
   frameTimes: [], latency: null, frameVersion: 0, frameSize: [0, 0], objectUrl: null,
   live: { inFlight: false, queued: null }, // one live (drag/slider) edit in flight, the newest queued
   drag: null, gesture: null, zoom: 1, panX: 0, panY: 0, fitted: false, showHandles: true,
+  selectAfterPut: null, // the light an Add or Duplicate selects once a rig from the server has it (edits.js)
   pickResult: null, timeEnd: 4, refetchTimer: null,
   dragMode: "direct", // "direct" (handles, drag.js) or a schema drag mode (indirect.js)
   indirect: null, lastIndirect: null, // the indirect drag going on; a summary of the last one

@@ -188,11 +188,11 @@ async function waitMessage(page, re) {
                              re.source, WAIT);
 }
 async function waitRig(pred, what) {
-  // Polls the server's rig (HTTP) until pred holds; bounded by WAIT.
+  // Polls the server's rig (HTTP) until pred (which may be async) holds; bounded by WAIT.
   const end = Date.now() + WAIT.timeout;
   for (;;) {
     const rig = await getRig();
-    if (pred(rig)) return rig;
+    if (await pred(rig)) return rig;
     if (Date.now() > end) throw new Error(`timed out waiting for the rig: ${what}`);
     await new Promise((r) => setTimeout(r, 50));
   }
@@ -938,6 +938,226 @@ try {
     await a.click("#viewport", { position: { x: 5, y: 5 } });
     await a.keyboard.press("Shift+K");
     await waitRig((r) => r.lights.find((l) => l.name === "fill").keys?.intensity?.length === 1, "the key at t = 2 is deleted");
+  });
+
+  await check("an area light: its outline at the projected corners; width, roll, position, corner and rim handles edit it", async () => {
+    // The camera's place and axes from worldToCamera (a rigid transform: its rows are the axes).
+    const w2c = welcome.session.camera.worldToCamera;
+    const row = (r) => [w2c[r], w2c[4 + r], w2c[8 + r]];
+    const camRight = row(0), camUp = row(1), camBack = row(2);
+    const camPos = [0, 1, 2].map((k) => -(w2c[12] * camRight[k] + w2c[13] * camUp[k] + w2c[14] * camBack[k]));
+    const add = (p, q) => p.map((x, k) => x + q[k]), scale = (p, f) => p.map((x) => x * f);
+    const norm = (v) => scale(v, 1 / Math.hypot(...v));
+    // The emitter, as lightmath::areaFrame builds it (AreaLight.h): the light frame turned by roll,
+    // right_r = right cos + up' sin, up_r = up' cos - right sin.
+    const emitter = (l) => {
+      const [n, up0, right0] = lightFrame(l.direction);
+      const t = l.roll * Math.PI / 180, c = Math.cos(t), sn = Math.sin(t);
+      return { c: l.position, n, right: add(scale(right0, c), scale(up0, sn)), up: add(scale(up0, c), scale(right0, -sn)),
+               w: l.size[0], h: l.shape === "disk" ? l.size[0] : l.size[1] };
+    };
+    const at = (e, x, y) => add(e.c, add(scale(e.right, x), scale(e.up, y)));
+    // A handle's centre, where a press reaches it (nothing of the page, messages included, over it).
+    const reach = async (selector) => {
+      const p = await center(a, selector);
+      const top = await a.evaluate(([x, y, sel]) => document.elementFromPoint(x, y)?.matches(sel) ?? false, [p.x, p.y, selector]);
+      assert(top, `${selector} at ${JSON.stringify(p)} is covered: a press there does not reach it`);
+      return p;
+    };
+    const toImage = (p) => { const q = project(toNDC, p); return { x: (q.ndc[0] + 1) * 160, y: (1 - q.ndc[1]) * 90 }; };
+    const dist = (p, q) => Math.hypot(p.x - q.x, p.y - q.y);
+
+    // Added through the protocol (a conditional PUT of the rig, as the page's Add does): 5 units
+    // in front of the camera, a little above its line of sight, facing it and down, rolled 25
+    // degrees so that the page must turn the frame as the server does.
+    const schema = await (await fetch(new URL("/v1/schema", server.base))).json();
+    const schemaSizeMin = schema.light.find((r) => r.path === "size").min;
+    assert(schemaSizeMin > 0, `the schema's size minimum is ${schemaSizeMin}`);
+    const rig0 = await getRig();
+    const d = 5;
+    const position = add(camPos, add(scale(scale(camBack, -1), d), scale(camUp, 0.12 * d)));
+    const direction = norm(add(camBack, scale(camUp, -0.8)));
+    const panel = { name: "panel", type: "area", enabled: true, position, direction, color: [1, 1, 1], intensity: 20,
+                    shape: "rect", size: [0.3 * d, 0.2 * d], roll: 25, shadow: true };
+    const next = { ...rig0, lights: [...rig0.lights, panel] };
+    delete next.version;
+    for (const l of next.lights) delete l.warning;
+    const res = await fetch(new URL(`/v1/sessions/${server.session}/rig`, server.base),
+                            { method: "PUT", body: JSON.stringify(next),
+                              headers: { Authorization: `Bearer ${server.token}`, "Content-Type": "application/json", "If-Match": `"${rig0.version}"` } });
+    assert(res.ok, `PUT rig: HTTP ${res.status}: ${await res.text()}`);
+    const rigA = await waitRig((r) => r.lights.some((l) => l.name === "panel" && l.type === "area"), "the area light is added");
+    await a.waitForSelector('#lights li[data-light="panel"]', WAIT);
+    await a.click('#lights li[data-light="panel"] .lname');
+    await a.click("#viewport", { position: { x: 5, y: 5 } }); // the keys go to the page, not a field
+    await a.keyboard.press("f"); // larger: the handles further apart
+    await frameAtLeast(a, rigA.version);
+    const vp = await a.locator("#viewport").boundingBox();
+    // The outline's vertices in image pixels (the overlay is in the viewport's coordinates).
+    const outline = async (shape) => {
+      const sel = `#overlay polygon[data-area-outline="panel"][data-shape="${shape}"]`;
+      await a.waitForSelector(sel, WAIT);
+      const pts = await a.$eval(sel, (e) => e.getAttribute("points"));
+      return Promise.all(pts.trim().split(/\s+/).map((xy) => { const [x, y] = xy.split(",").map(Number); return screenToImage(a, vp.x + x, vp.y + y); }));
+    };
+    const l0 = rigA.lights.find((l) => l.name === "panel");
+    const e0 = emitter(l0);
+    const corners = [at(e0, e0.w / 2, e0.h / 2), at(e0, -e0.w / 2, e0.h / 2), at(e0, -e0.w / 2, -e0.h / 2), at(e0, e0.w / 2, -e0.h / 2)];
+    const drawn = await outline("rect");
+    assert(drawn.length === 4, `${drawn.length} outline vertices for a rectangle`);
+    corners.forEach((p, i) => {
+      const q = toImage(p);
+      assert(dist(drawn[i], q) < 0.5, `corner ${i} drawn at ${JSON.stringify(drawn[i])}, projects to ${JSON.stringify(q)}`);
+    });
+    // The outline is large enough in the image for the handles below to mean something.
+    assert(dist(toImage(corners[0]), toImage(corners[2])) > 20, "the panel is tiny in the image");
+    await shot(a, "15-area-light.png");
+
+    // Width: the right edge's handle dragged outwards along the projected right axis.
+    const screenOf = async (p) => { const q = toImage(p); return imageToScreen(a, q.x, q.y); };
+    const wh = await reach('[data-handle="width"]');
+    const wExpect = await screenOf(at(e0, e0.w / 2, 0));
+    assert(Math.hypot(wh.x - wExpect.x, wh.y - wExpect.y) < 1.5, `the width handle at ${JSON.stringify(wh)}, the edge's midpoint at ${JSON.stringify(wExpect)}`);
+    const beyond = await screenOf(at(e0, e0.w, 0));
+    const len = Math.hypot(beyond.x - wh.x, beyond.y - wh.y);
+    const wTo = { x: wh.x + (beyond.x - wh.x) / len * 40, y: wh.y + (beyond.y - wh.y) / len * 40 };
+    await a.mouse.move(wh.x, wh.y);
+    await a.mouse.down();
+    await a.mouse.move(wTo.x, wTo.y, { steps: 8 });
+    await a.mouse.up();
+    const wDrop = await screenToImage(a, wTo.x, wTo.y);
+    const rigW = await waitRig((r) => {
+      const l = r.lights.find((x) => x.name === "panel");
+      const e = emitter(l);
+      return l.size[0] > l0.size[0] * 1.1 && dist(toImage(at(e, e.w / 2, 0)), wDrop) < 1;
+    }, "size[0] grows until the right edge is under the pointer");
+    const lW = rigW.lights.find((l) => l.name === "panel");
+    assert(Math.abs(lW.size[1] - l0.size[1]) < 1e-6, `dragging the width changed the height (${l0.size[1]} -> ${lW.size[1]})`);
+    assert(JSON.stringify(lW.position) === JSON.stringify(l0.position) && lW.roll === l0.roll, "dragging the width moved or turned the light");
+    console.log(`     size ${l0.size.map((v) => v.toFixed(3))} -> ${lW.size.map((v) => v.toFixed(3))}`);
+
+    // Roll: the handle dragged 40 degrees about the projected centre (clockwise on the screen).
+    const rh = await reach('[data-handle="roll"]');
+    const C = await screenOf(lW.position);
+    const rad = Math.hypot(rh.x - C.x, rh.y - C.y), a0 = Math.atan2(rh.y - C.y, rh.x - C.x);
+    assert(rad > 10, `the roll handle is ${rad.toFixed(1)} px from the centre`);
+    // Beyond the top edge, or (near the viewport's edge) below the bottom one: it stands on the up axis.
+    const eW = emitter(lW), top = await screenOf(at(eW, 0, eW.h / 2));
+    const side = (rh.x - C.x) * (top.x - C.x) + (rh.y - C.y) * (top.y - C.y) > 0 ? 1 : -1;
+    assert(Math.abs(Math.sin(Math.atan2(top.y - C.y, top.x - C.x) - a0)) < 0.03, "the roll handle is not on the emitter's up axis");
+    await a.mouse.move(rh.x, rh.y);
+    await a.mouse.down();
+    for (let i = 1; i <= 8; i++) {
+      const t = a0 + (40 * Math.PI / 180) * i / 8;
+      await a.mouse.move(C.x + rad * Math.cos(t), C.y + rad * Math.sin(t));
+    }
+    await a.mouse.up();
+    const rTo = { x: C.x + rad * Math.cos(a0 + 40 * Math.PI / 180), y: C.y + rad * Math.sin(a0 + 40 * Math.PI / 180) };
+    // Done when the emitter's up axis (which the handle stands on) points at the drop in the image.
+    const upAngle = async (l) => { const e = emitter(l); const u = await screenOf(at(e, 0, side * e.h / 2)); return Math.atan2(u.y - C.y, u.x - C.x); };
+    const dropAngle = Math.atan2(rTo.y - C.y, rTo.x - C.x);
+    const wrap = (x) => Math.atan2(Math.sin(x), Math.cos(x));
+    let lR;
+    await waitRig(async (r) => {
+      lR = r.lights.find((x) => x.name === "panel");
+      return lR.roll !== lW.roll && Math.abs(wrap((await upAngle(lR)) - dropAngle)) < 2 * Math.PI / 180;
+    }, "the roll turns the up axis to the pointer");
+    const turned = lR.roll - lW.roll;
+    // Foreshortened (the panel is seen about 40 degrees off its normal: an ellipse of axis ratio
+    // 0.78) the plane's angle differs from the screen's by up to about 7 degrees at each end;
+    // its size is about the dragged 40 degrees.
+    assert(Math.abs(turned) > 24 && Math.abs(turned) < 67, `the roll changed by ${turned.toFixed(1)} degrees for a 40-degree drag`);
+    assert(JSON.stringify(lR.size) === JSON.stringify(lW.size) && JSON.stringify(lR.position) === JSON.stringify(lW.position),
+           "dragging the roll resized or moved the light");
+    console.log(`     roll ${lW.roll.toFixed(1)} -> ${lR.roll.toFixed(1)}`);
+
+    // Position: the centre handle moves the emitter in the plane parallel to the image.
+    const ph = await reach('#overlay [data-light="panel"] [data-handle="position"]');
+    const pTo = { x: ph.x - 35, y: ph.y + 20 };
+    await a.mouse.move(ph.x, ph.y);
+    await a.mouse.down();
+    await a.mouse.move(pTo.x, pTo.y, { steps: 6 });
+    await a.mouse.up();
+    const pDrop = await screenToImage(a, pTo.x, pTo.y);
+    const rigP = await waitRig((r) => dist(toImage(r.lights.find((x) => x.name === "panel").position), pDrop) < 1,
+                               "the area light's centre is where it was dropped");
+    const lP = rigP.lights.find((l) => l.name === "panel");
+    assert(Math.abs(project(toNDC, lP.position).ndc[2] - project(toNDC, lR.position).ndc[2]) < 1e-4, "the centre left the plane parallel to the image");
+    assert(JSON.stringify(lP.size) === JSON.stringify(lR.size) && lP.roll === lR.roll, "moving the light resized or turned it");
+
+    // The corner: dragged outwards from the centre, width and height grow in proportion (a line
+    // through the centre in the image is one through it on the emitter's plane).
+    const ch = await reach('[data-handle="corner"]');
+    const CP = await screenOf(lP.position);
+    const cLen = Math.hypot(ch.x - CP.x, ch.y - CP.y);
+    await a.mouse.move(ch.x, ch.y);
+    await a.mouse.down();
+    const cTo = { x: ch.x + (ch.x - CP.x) / cLen * 25, y: ch.y + (ch.y - CP.y) / cLen * 25 };
+    await a.mouse.move(cTo.x, cTo.y, { steps: 5 });
+    await a.mouse.up();
+    const cDrop = await screenToImage(a, cTo.x, cTo.y);
+    const rigC = await waitRig((r) => {
+      const l = r.lights.find((x) => x.name === "panel"), e = emitter(l);
+      return l.size[0] > lP.size[0] * 1.05 && l.size[1] > lP.size[1] * 1.05 && dist(toImage(at(e, e.w / 2, e.h / 2)), cDrop) < 1;
+    }, "the corner handle grows width and height until the corner is under the pointer");
+    const lC = rigC.lights.find((l) => l.name === "panel");
+    assert(Math.abs(lC.size[0] / lP.size[0] - lC.size[1] / lP.size[1]) < 0.02, `the corner did not keep the aspect: ${lP.size} -> ${lC.size}`);
+    assert(JSON.stringify(lC.position) === JSON.stringify(lP.position) && lC.roll === lP.roll, "the corner handle moved or turned the light");
+
+    // A disk: a 32-gon on its rim from the turned right axis; the rim handle sets the diameter.
+    await postEdit([{ path: "panel.shape", value: "disk" }]);
+    const drawnDisk = await outline("disk");
+    const eD = emitter({ ...lC, shape: "disk" });
+    assert(drawnDisk.length === 32, `${drawnDisk.length} outline vertices for a disk`);
+    for (const k of [0, 8, 19]) {
+      const t = 2 * Math.PI * k / 32;
+      const q = toImage(at(eD, eD.w / 2 * Math.cos(t), eD.w / 2 * Math.sin(t)));
+      assert(dist(drawnDisk[k], q) < 0.5, `rim vertex ${k} drawn at ${JSON.stringify(drawnDisk[k])}, projects to ${JSON.stringify(q)}`);
+    }
+    const mh = await reach('[data-handle="rim"]');
+    const mBeyond = await screenOf(at(eD, eD.w, 0));
+    const mLen = Math.hypot(mBeyond.x - mh.x, mBeyond.y - mh.y);
+    await a.mouse.move(mh.x, mh.y);
+    await a.mouse.down();
+    await a.mouse.move(mh.x - (mBeyond.x - mh.x) / mLen * 15, mh.y - (mBeyond.y - mh.y) / mLen * 15, { steps: 5 });
+    await a.mouse.up();
+    const rigD = await waitRig((r) => r.lights.find((l) => l.name === "panel").size[0] < lC.size[0] * 0.95, "the rim handle shrinks the disk");
+    const lD = rigD.lights.find((l) => l.name === "panel");
+    assert(Math.abs(lD.size[1] - lC.size[1]) < 1e-6, `the rim handle changed size[1] (${lC.size[1]} -> ${lD.size[1]})`);
+    await shot(a, "16-area-disk.png");
+    // Dragged past the centre, the diameter stops at the schema's minimum: no size <= 0 is sent
+    // (the server would refuse it and keep the last positive one).
+    const mh2 = await reach('[data-handle="rim"]');
+    const C2 = await screenOf(lD.position);
+    await a.mouse.move(mh2.x, mh2.y);
+    await a.mouse.down();
+    await a.mouse.move(C2.x - (mh2.x - C2.x) - 30 * (mh2.x - C2.x) / Math.hypot(mh2.x - C2.x, mh2.y - C2.y),
+                       C2.y - (mh2.y - C2.y) - 30 * (mh2.y - C2.y) / Math.hypot(mh2.x - C2.x, mh2.y - C2.y), { steps: 6 });
+    await a.mouse.up();
+    const minSize = schemaSizeMin;
+    const rigMin = await waitRig((r) => Math.abs(r.lights.find((l) => l.name === "panel").size[0] - minSize) < minSize * 1e-3,
+                                 `the diameter stops at the schema's minimum ${minSize}`);
+    // And the rig still round-trips (its GET PUT back): the least size the page sends is one the
+    // server's 32-bit float keeps in range (1e-4 itself is read back as 9.9999997e-5).
+    const again = { ...rigMin };
+    delete again.version;
+    for (const l of again.lights) delete l.warning;
+    const put = await fetch(new URL(`/v1/sessions/${server.session}/rig`, server.base),
+                            { method: "PUT", body: JSON.stringify(again),
+                              headers: { Authorization: `Bearer ${server.token}`, "Content-Type": "application/json", "If-Match": `"${rigMin.version}"` } });
+    assert(put.ok, `the rig at the least size does not PUT back: HTTP ${put.status}: ${await put.text()}`);
+    // Add offers area lights: a square panel whose outline is drawn; then deleted again.
+    await a.selectOption("#addType", "area");
+    await a.click("#addLight");
+    const rigN = await waitRig((r) => r.lights.some((l) => l.name === "area" && l.type === "area"), "an added area light");
+    const added = rigN.lights.find((l) => l.name === "area");
+    assert(added.shape === "rect" && added.size[0] > 0 && added.size[0] === added.size[1], `the added area light: ${JSON.stringify(added)}`);
+    await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "area", null, WAIT);
+    await a.waitForSelector('#overlay polygon[data-area-outline="area"][stroke-width="2"]', WAIT); // selected: highlighted
+    await a.click("#delLight");
+    await waitRig((r) => !r.lights.some((l) => l.name === "area"), "the added area light deleted");
+    await a.mouse.move(10, 10);
+    await a.keyboard.press("1");
   });
 
   await check("after the server restarts the page reconnects and shows the same rig", async () => {

@@ -1,7 +1,7 @@
 // Cases for the browser's mirror of the rig model (client/web/rig.js): keyframed lights evaluated
 // by protocol::evaluateRig at times before, at, between and after their keys, the light frame
-// dfb::lightFrame gives for directions around the near-vertical switch of its up vector, and the
-// rig schema (GET /v1/schema) the page takes its rows from. They are written to
+// dfb::lightFrame gives for directions around the near-vertical switch of its up vector, area
+// lights' emitter frames (lightmath::areaFrame: the light frame turned by roll), and the rig schema (GET /v1/schema) the page takes its rows from. They are written to
 // DFB_TEST_DATA/protocol_parity_cases.json, the schema also alone to DFB_TEST_DATA/rig_schema.json
 // (the node tests' rows); tests/web/parity.test.mjs (CTest web_parity, which requires this test's
 // fixture, as web_modules does) checks that the JavaScript gives the same values.
@@ -10,6 +10,7 @@
 
 #include <dfb/protocol/Codec.h>
 #include <dfb/protocol/Schema.h>
+#include <dfb/lightmath/AreaLight.h>
 #include <dfb/server/BendyChain.h>
 
 #include <gtest/gtest.h>
@@ -141,7 +142,8 @@ json vecJson(const glm::dvec3& v) { return json{v.x, v.y, v.z}; }
 
 TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
     json out{{"about", "written by tests/unit/protocol_parity_cases_test.cpp; read by tests/web/parity.test.mjs"},
-             {"keyframes", json::array()}, {"lightFrames", json::array()}, {"schema", protocol::schemaJson()}};
+             {"keyframes", json::array()}, {"lightFrames", json::array()}, {"areaFrames", json::array()},
+             {"schema", protocol::schemaJson()}};
     for (const KeyCase& c : keyCases()) {
         auto rig = protocol::rigFromJson(json{{"lights", {c.light}}});
         ASSERT_TRUE(rig.ok()) << c.name << ": " << rig.error().toString();
@@ -183,6 +185,16 @@ TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
         EXPECT_NEAR(glm::dot(u, w), 0, 1e-12);
         EXPECT_NEAR(glm::length(glm::cross(w, u) - v), 0, 1e-12);
         out["lightFrames"].push_back({{"direction", d}, {"uL", vecJson(u)}, {"vL", vecJson(v)}, {"wL", vecJson(w)}});
+        // The emitter's right and up at a few rolls (client/web/area.js areaFrame draws the outline
+        // and places the roll handle with them).
+        for (double roll : {0.0, 25.0, -90.0, 200.0}) {
+            const auto a = lightmath::areaFrame<double>(glm::dvec3(1, 2, 3), glm::dvec3(d[0], d[1], d[2]), roll,
+                                                       glm::dvec2(2, 1), false);
+            EXPECT_NEAR(glm::dot(a.right, a.up), 0, 1e-12);
+            EXPECT_NEAR(glm::dot(a.right, a.normal), 0, 1e-12);
+            out["areaFrames"].push_back({{"direction", d}, {"roll", roll}, {"normal", vecJson(a.normal)},
+                                         {"right", vecJson(a.right)}, {"up", vecJson(a.up)}});
+        }
     }
 
     for (const auto& [path, j] : {std::pair{CASES, out}, std::pair{SCHEMA, protocol::schemaJson()}}) {

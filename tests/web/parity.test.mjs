@@ -1,5 +1,6 @@
-// Keyframe evaluation and the light frame exist once each in the page (client/web/rig.js) and
-// once in the server (protocol::evaluateRig, dfb::lightFrame): this checks that both give the
+// Keyframe evaluation, the light frame and an area light's emitter frame exist once each in the
+// page (client/web/rig.js, area.js) and once in the server (protocol::evaluateRig,
+// dfb::lightFrame, lightmath::areaFrame): this checks that both give the
 // same values on the cases tests/unit/protocol_parity_cases_test.cpp writes (CTest runs that
 // first: fixture protocol_parity_cases; the file's path comes in DFB_PARITY_CASES), with the
 // server's schema rows (schema.mjs).
@@ -13,6 +14,7 @@ import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
 import { test } from "node:test";
 
+import { areaFrame } from "../../client/web/area.js";
 import { evaluateLight, lightFrame } from "../../client/web/rig.js";
 import { propertyRows } from "../../client/web/rows.js";
 import { serverSchema } from "./schema.mjs";
@@ -67,6 +69,17 @@ test("every row of the server's schema has a widget the panel knows, or its plac
     const rows = propertyRows({ name: "l", type, intensity: 50, coneAngle: 30, penumbra: 5 });
     assert.ok(rows.length >= 8, `${type}: ${rows.length} rows`);
     for (const [path, , , kind] of rows) assert.notEqual(kind, "json", `${path} (${type}) has no widget of its own`);
+  }
+});
+
+test("an area light's frame is lightmath::areaFrame's, roll included", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
+  assert.ok(cases.areaFrames.length >= 100, `${cases.areaFrames.length} area frames`);
+  for (const { direction, roll, normal, right, up } of cases.areaFrames) {
+    const a = areaFrame({ position: [1, 2, 3], direction, roll, size: [2, 1], shape: "rect" });
+    const where = `${JSON.stringify(direction)} roll ${roll}`;
+    same(a.normal, normal, `normal of ${where}`);
+    same(a.right, right, `right of ${where}`);
+    same(a.up, up, `up of ${where}`);
   }
 });
 
