@@ -127,3 +127,38 @@ export function clampSize(v, min, max) {
   const r = Number(Math.min(max ?? 1e7, Math.max(lo, v)).toFixed(5));
   return r >= lo ? r : lo;
 }
+
+// ---- bent area lights (docs/lighting.md "Bent area light") ----------------------------------
+
+/** Corner c (0..3) of a bent area light's rectangle: (-w/2, -h/2), (+w/2, -h/2), (-w/2, +h/2), (+w/2, +h/2) (Rig.h). */
+export const cornerOf = (a, c) => onPlane(a, (c & 1 ? 0.5 : -0.5) * a.width, (c & 2 ? 0.5 : -0.5) * a.height);
+
+/** A corner chain's point (a, b, c') of the emitter's frame (corner + a normal + b up + c' right) in world space. */
+export const cornerToWorld = (a, corner, q) =>
+  V.add(corner, V.add(V.scale(a.normal, q[0]), V.add(V.scale(a.up, q[1]), V.scale(a.right, q[2]))));
+
+/** The inverse: a world point as (a, b, c') relative to `corner`. */
+export const worldToCorner = (a, corner, p) => {
+  const d = V.sub(p, corner);
+  return [V.dot(d, a.normal), V.dot(d, a.up), V.dot(d, a.right)];
+};
+
+/**
+ * The four corner chains of bent area light `l` (evaluated) in world space: per corner its points
+ * p0..p2K (p0 the corner) and radii r0..r2K, with `cp` the flat index of p[i >= 1] in
+ * cornerPoints (c 2K + i - 1) and `r` that of r[i] in cornerRadii (c (2K + 1) + i).
+ */
+export function cornerChains(l, a) {
+  const pts = l.cornerPoints ?? [], radii = l.cornerRadii ?? [];
+  const K2 = pts.length / 4;
+  if (!Number.isInteger(K2) || K2 < 2) return [];
+  return [0, 1, 2, 3].map((c) => {
+    const corner = cornerOf(a, c);
+    return {
+      points: [corner, ...pts.slice(c * K2, (c + 1) * K2).map((q) => cornerToWorld(a, corner, q))],
+      radii: radii.slice(c * (K2 + 1), (c + 1) * (K2 + 1)),
+      cp: (i) => c * K2 + i - 1,
+      r: (i) => c * (K2 + 1) + i,
+    };
+  });
+}

@@ -4,7 +4,7 @@
 // follow the pointer along their axis of the emitter (the axis' point nearest to the pointer's
 // ray, as a gizmo's axis drag), its corner and roll handles on the emitter's plane.
 
-import { angleStep, clampSize, planeAngleDeg, rayOnAxis, rayOnPlane, turnedRoll } from "./area.js";
+import { angleStep, clampSize, cornerOf, planeAngleDeg, rayOnAxis, rayOnPlane, turnedRoll, worldToCorner } from "./area.js";
 import { Cam } from "./camera.js";
 import { scheduleRefetch } from "./connection.js";
 import { $ } from "./dom.js";
@@ -32,7 +32,8 @@ export function startDrag(e, handle, index) {
   const l = evaluated(raw);
   const h = handlesOf(l);
   const areaProp = h.area ? AREA_HANDLES[handle] : undefined;
-  const world = handle === "position" ? h.position : handle === "axis" ? h.axis : areaProp ? h.area.handles[handle] : h.points[index];
+  const world = handle === "position" ? h.position : handle === "axis" ? h.axis : areaProp ? h.area.handles[handle]
+                : handle === "ccp" ? h.cornerPoints?.[index] : handle === "cr" ? h.cornerCentres?.[index] : h.points[index];
   if (!world) return;
   S.drag = { handle, index, name: l.name, world: world.slice(), ndcZ: Cam.project(world).z, startY: e.clientY, lastY: e.clientY,
              pointerId: e.pointerId, moved: false };
@@ -47,7 +48,8 @@ export function startDrag(e, handle, index) {
   }
   $("overlay").setPointerCapture?.(e.pointerId);
   beginGesture();
-  const path = areaProp ?? (handle === "cp" ? `cp[${index}]` : handle === "radius" ? `r[${index}]` : handle === "axis" ? "direction" : "position");
+  const path = areaProp ?? (handle === "cp" ? `cp[${index}]` : handle === "radius" ? `r[${index}]` : handle === "ccp" ? `ccp[${index}]`
+                            : handle === "cr" ? `cr[${index}]` : handle === "axis" ? "direction" : "position");
   setPresence(`${l.name}.${path}`);
 }
 
@@ -118,6 +120,16 @@ export function moveDrag(e) {
     const centre = handlesOf(l).points[d.index];
     const r = V.len(V.sub(world, centre));
     setLightProp(d.name, `r[${d.index}]`, Number(r.toFixed(5)), { live: true });
+  } else if (d.handle === "ccp") {
+    // A bent area light's corner point: relative to its corner, in the emitter's frame.
+    d.world = world;
+    const h = handlesOf(l);
+    const K2 = (l.cornerPoints?.length ?? 0) / 4;
+    setLightProp(d.name, `ccp[${d.index}]`, round(worldToCorner(h.area.frame, cornerOf(h.area.frame, Math.floor(d.index / K2)), world)), { live: true });
+  } else if (d.handle === "cr") {
+    const centre = handlesOf(l).cornerCentres[d.index];
+    const r = V.len(V.sub(world, centre));
+    setLightProp(d.name, `cr[${d.index}]`, Number(r.toFixed(5)), { live: true });
   }
 }
 

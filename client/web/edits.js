@@ -145,11 +145,25 @@ export function addLight(type) {
     const dist = V.len(V.sub(target, position));
     const l = { name, type, enabled: true, position, direction: dir, color: [1, 1, 1],
                 intensity: type === "directional" ? 2 : 2 * dist ** 2, coneAngle: 30, penumbra: 6, shadow: true };
-    if (type === "area") {
+    if (type === "area" || type === "bentArea") {
       // A square panel a fifth of its distance across, as bright as the point light above would
       // be head-on (radiance x area = its candela: docs/lighting.md "Area light").
       const side = Number((0.2 * dist).toFixed(3));
-      Object.assign(l, { shape: "rect", size: [side, side], roll: 0, intensity: l.intensity / (side * side) });
+      Object.assign(l, { size: [side, side], roll: 0, intensity: l.intensity / (side * side) });
+      if (type === "area") l.shape = "rect";
+    }
+    if (type === "bentArea") {
+      // Four straight corner chains of two segments reaching the target, radii following a
+      // 45-degree cone: it renders as the straight panel until a chain is bent.
+      Object.assign(l, { coneAngle: 45, penumbra: 10, cornerPoints: [], cornerRadii: [] });
+      for (let c = 0; c < 4; c++) {
+        l.cornerRadii.push(0);
+        for (let i = 1; i <= 4; i++) {
+          const a = Number((dist * i / 4).toFixed(4));
+          l.cornerPoints.push([a, 0, 0]);
+          l.cornerRadii.push(a);
+        }
+      }
     }
     rig.lights.push(l);
     S.selectAfterPut = name;

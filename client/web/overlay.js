@@ -2,7 +2,7 @@
 // radii, an area light's size and roll) and markers for the other lights, area lights' outlines,
 // projected with the shot's camera and drawn as SVG in screen space; who else is dragging what.
 
-import { areaFrame, areaHandles, areaOutline } from "./area.js";
+import { areaFrame, areaHandles, areaOutline, cornerChains } from "./area.js";
 import { Cam } from "./camera.js";
 import { $, SVGNS, svg } from "./dom.js";
 import { pointsSelectable, selectedPoints } from "./indirect.js";
@@ -56,7 +56,19 @@ export function handlesOf(l) {
     out.points = [l.position, ...l.controlPoints.map((a) => frameToWorld(l, f, a))];
     out.radii = l.radii || [];
   }
-  if (l.type === "area") out.area = areaHandlesOf(l, d);
+  if (l.type === "area" || l.type === "bentArea") out.area = areaHandlesOf(l, d);
+  // A bent area light's four corner chains: drawn and dragged like a BendyLight's chain, each
+  // point and radius addressing its element of cornerPoints / cornerRadii (handles "ccp", "cr").
+  if (l.type === "bentArea") {
+    out.chains = cornerChains(l, out.area.frame).map((ch) => ({ ...ch, pointHandle: "ccp", radiusHandle: "cr", label: "c" }));
+    out.cornerPoints = [];
+    out.cornerCentres = [];
+    for (const ch of out.chains) {
+      ch.points.forEach((p, i) => { if (i > 0) out.cornerPoints[ch.cp(i)] = p; out.cornerCentres[ch.r(i)] = p; });
+    }
+  } else if (out.points.length) {
+    out.chains = [{ points: out.points, radii: out.radii, cp: (i) => i, r: (i) => i, pointHandle: "cp", radiusHandle: "radius", label: "" }];
+  }
   return out;
 }
 
@@ -186,39 +198,42 @@ function drawOverlay() {
       const sa = toScreen(A), sb = toScreen(B);
       svg("line", { x1: sa.x, y1: sa.y, x2: sb.x, y2: sb.y, stroke: color, "stroke-width": 1.5, ...attrs }, g);
     };
-    if (h.points.length) {
+    for (const ch of h.chains ?? []) {
       // The spline (solid), its control polygon (dashed) and the straight extension past the end.
       const pts = [];
-      for (let k = 0; 2 * k + 2 < h.points.length; k++) {
-        for (let i = 0; i <= 16; i++) pts.push(bezier(h.points[2 * k], h.points[2 * k + 1], h.points[2 * k + 2], i / 16));
+      for (let k = 0; 2 * k + 2 < ch.points.length; k++) {
+        for (let i = 0; i <= 16; i++) pts.push(bezier(ch.points[2 * k], ch.points[2 * k + 1], ch.points[2 * k + 2], i / 16));
       }
       const scr = pts.map((p) => Cam.project(p)).filter((p) => p.front).map(toScreen);
       svg("polyline", { points: scr.map((p) => `${p.x},${p.y}`).join(" "), fill: "none", stroke: color, "stroke-width": 2 }, g);
-      for (let i = 0; i + 1 < h.points.length; i++) line(h.points[i], h.points[i + 1], { "stroke-dasharray": "3 3", opacity: 0.6 });
-      const n = h.points.length, end = h.points[n - 1], tan = V.norm(V.sub(end, h.points[n - 2]));
-      line(end, V.add(end, V.scale(tan, V.len(V.sub(end, h.points[0])) * 0.3)), { "stroke-dasharray": "1 4", opacity: 0.6 });
-      // Control points selected for a drag mode (indirect.js): filled, with a ring.
-      const chosen = pointsSelectable() ? selectedPoints() : [];
-      h.points.forEach((p, i) => {
+      for (let i = 0; i + 1 < ch.points.length; i++) line(ch.points[i], ch.points[i + 1], { "stroke-dasharray": "3 3", opacity: 0.6 });
+      const n = ch.points.length, end = ch.points[n - 1], tan = V.norm(V.sub(end, ch.points[n - 2]));
+      line(end, V.add(end, V.scale(tan, V.len(V.sub(end, ch.points[0])) * 0.3)), { "stroke-dasharray": "1 4", opacity: 0.6 });
+      // Control points selected for a drag mode (indirect.js; BendyLights): filled, with a ring.
+      const chosen = ch.pointHandle === "cp" && pointsSelectable() ? selectedPoints() : [];
+      ch.points.forEach((p, i) => {
         const Pp = Cam.project(p);
         if (!Pp.front) return;
         const sp = toScreen(Pp);
-        const r = h.radii[i] ?? 0;
+        const r = ch.radii[i] ?? 0;
         const Rp = toScreen(Cam.project(radiusHandlePoint(p, r)));
         const rad = Math.hypot(Rp.x - sp.x, Rp.y - sp.y);
         svg("circle", { cx: sp.x, cy: sp.y, r: rad, fill: "none", stroke: color, "stroke-width": 1, opacity: 0.45 }, g);
+        const name = `${ch.label}${ch.label ? ch.cp(i) : `p${i}`}`;
         if (i > 0) {
           const on = chosen.includes(i);
           if (on) svg("circle", { cx: sp.x, cy: sp.y, r: 10, fill: "none", stroke: "#5ef", "stroke-width": 2, class: "cp-ring" }, g);
           const hc = svg("circle", { cx: sp.x, cy: sp.y, r: 6, fill: on ? "#5ef" : "#222", stroke: color, "stroke-width": 2,
-                                     class: on ? "handle cp-selected" : "handle", "data-handle": "cp", "data-index": i }, g);
+                                     class: on ? "handle cp-selected" : "handle", "data-handle": ch.pointHandle, "data-index": ch.cp(i) }, g);
           hc.append(Object.assign(document.createElementNS(SVGNS, "title"), {
-            textContent: `p${i}${on ? " (selected)" : ""}: drag in the image plane, Shift+drag in depth; in a drag mode Shift+click selects it` }));
-          svg("text", { x: sp.x + 8, y: sp.y - 6, fill: color }, g).textContent = `p${i}`;
+            textContent: ch.label ? `corner point ccp[${ch.cp(i)}]: drag in the image plane, Shift+drag in depth`
+                                  : `p${i}${on ? " (selected)" : ""}: drag in the image plane, Shift+drag in depth; in a drag mode Shift+click selects it` }));
+          svg("text", { x: sp.x + 8, y: sp.y - 6, fill: color }, g).textContent = ch.label ? `ccp${ch.cp(i)}` : name;
         }
         const rh = svg("rect", { x: Rp.x - 4, y: Rp.y - 4, width: 8, height: 8, fill: "#222", stroke: color, "stroke-width": 1.5,
-                                 class: "handle", "data-handle": "radius", "data-index": i }, g);
-        rh.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: `r${i} = ${r.toFixed(3)}: drag to change the tube radius` }));
+                                 class: "handle", "data-handle": ch.radiusHandle, "data-index": ch.r(i) }, g);
+        rh.append(Object.assign(document.createElementNS(SVGNS, "title"), {
+          textContent: `${ch.label ? `cr[${ch.r(i)}]` : `r${i}`} = ${r.toFixed(3)}: drag to change the tube radius` }));
       });
     }
     if (h.area) drawAreaHandles(l, h.area, color, g);

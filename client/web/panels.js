@@ -14,7 +14,7 @@ import { lowerFirst, propertyRows } from "./rows.js";
 import { LAYERS, S, evaluated, findLight } from "./state.js";
 import { renderKeyWhat, renderTimeline } from "./timeline.js";
 
-const typeLabel = (t) => (t === "bendy" ? "BendyLight" : t);
+const typeLabel = (t) => (t === "bendy" ? "BendyLight" : t === "bentArea" ? "bent area" : t);
 
 /** Takes a whole rig from the server (welcome, undo, redo, replace, re-read). */
 export function setRig(rig) {

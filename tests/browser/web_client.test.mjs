@@ -1160,6 +1160,64 @@ try {
     await a.keyboard.press("1");
   });
 
+  await check("a bent area light: Add draws its outline and four corner chains; a corner point's drag edits that point alone", async () => {
+    await a.selectOption("#addType", "bentArea");
+    await a.click("#addLight");
+    const rigB = await waitRig((r) => r.lights.some((l) => l.name === "bentArea" && l.type === "bentArea"), "an added bent area light");
+    const b0 = rigB.lights.find((l) => l.name === "bentArea");
+    assert(b0.cornerPoints.length === 16 && b0.cornerRadii.length === 20, `the added bent area light: ${JSON.stringify(b0)}`);
+    await a.waitForFunction(() => document.querySelector("#lights li.selected")?.dataset.light === "bentArea", null, WAIT);
+    await a.waitForSelector('#overlay polygon[data-area-outline="bentArea"]', WAIT);
+    await a.click("#viewport", { position: { x: 5, y: 5 } });
+    await a.keyboard.press("f");
+    await frameAtLeast(a, rigB.version);
+    const handles = await a.$$eval('#overlay [data-handle="ccp"]', (els) => els.map((e) => Number(e.dataset.index)));
+    assert(handles.length === 16 && new Set(handles).size === 16, `corner point handles drawn: ${JSON.stringify(handles)}`);
+    // A corner point's handle drawn where its world point projects: corner + a n + b up + c right
+    // of the emitter's frame (docs/lighting.md, "Bent area light"; roll 0).
+    const [n, up, right] = lightFrame(b0.direction);
+    const cornerPoint = (l, i) => {
+      const c = Math.floor(i / 4), q = l.cornerPoints[i];
+      const x = (c & 1 ? 0.5 : -0.5) * l.size[0], y = (c & 2 ? 0.5 : -0.5) * l.size[1];
+      return [0, 1, 2].map((k) => l.position[k] + x * right[k] + y * up[k] + q[0] * n[k] + q[1] * up[k] + q[2] * right[k]);
+    };
+    const vp = await a.locator("#viewport").boundingBox();
+    let picked = null;
+    for (const i of handles) {
+      const sel = `#overlay [data-handle="ccp"][data-index="${i}"]`;
+      const p = await center(a, sel);
+      const inside = p.x > vp.x + 40 && p.x < vp.x + vp.width - 40 && p.y > vp.y + 40 && p.y < vp.y + vp.height - 40;
+      const top = await a.evaluate(([x, y, s]) => document.elementFromPoint(x, y)?.matches(s) ?? false, [p.x, p.y, sel]);
+      if (inside && top) { picked = { i, p }; break; }
+    }
+    assert(picked, "no corner point handle is inside the view and reachable");
+    const q0 = project(toNDC, cornerPoint(b0, picked.i));
+    const drawnAt = await screenToImage(a, picked.p.x, picked.p.y);
+    assert(Math.hypot(drawnAt.x - (q0.ndc[0] + 1) * 160, drawnAt.y - (1 - q0.ndc[1]) * 90) < 1,
+           `ccp[${picked.i}] drawn at ${JSON.stringify(drawnAt)}, projects to ${q0.ndc}`);
+    const to = { x: picked.p.x + 30, y: picked.p.y - 10 };
+    await a.mouse.move(picked.p.x, picked.p.y);
+    await a.mouse.down();
+    await a.mouse.move(to.x, to.y, { steps: 6 });
+    await a.mouse.up();
+    const drop = await screenToImage(a, to.x, to.y);
+    const rigM = await waitRig((r) => {
+      const l = r.lights.find((x) => x.name === "bentArea");
+      const q = project(toNDC, cornerPoint(l, picked.i));
+      return Math.hypot((q.ndc[0] + 1) * 160 - drop.x, (1 - q.ndc[1]) * 90 - drop.y) < 1;
+    }, `ccp[${picked.i}] follows the pointer`);
+    const b1 = rigM.lights.find((l) => l.name === "bentArea");
+    b0.cornerPoints.forEach((q, i) => {
+      if (i !== picked.i) assert(JSON.stringify(q) === JSON.stringify(b1.cornerPoints[i]), `ccp[${i}] moved too`);
+    });
+    assert(JSON.stringify(b1.cornerRadii) === JSON.stringify(b0.cornerRadii), "the corner radii changed");
+    await shot(a, "17-bent-area.png");
+    await a.click("#delLight");
+    await waitRig((r) => !r.lights.some((l) => l.name === "bentArea"), "the bent area light deleted");
+    await a.mouse.move(10, 10);
+    await a.keyboard.press("1");
+  });
+
   await check("after the server restarts the page reconnects and shows the same rig", async () => {
     const rigBefore = await getRig();
     restarting = true;

@@ -12,6 +12,7 @@
 #include <dfb/protocol/Schema.h>
 #include <dfb/lightmath/AreaLight.h>
 #include <dfb/server/BendyChain.h>
+#include <dfb/server/BentArea.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -142,7 +143,7 @@ json vecJson(const glm::dvec3& v) { return json{v.x, v.y, v.z}; }
 
 TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
     json out{{"about", "written by tests/unit/protocol_parity_cases_test.cpp; read by tests/web/parity.test.mjs"},
-             {"keyframes", json::array()}, {"lightFrames", json::array()}, {"areaFrames", json::array()},
+             {"keyframes", json::array()}, {"lightFrames", json::array()}, {"areaFrames", json::array()}, {"bentCorners", json::array()},
              {"schema", protocol::schemaJson()}};
     for (const KeyCase& c : keyCases()) {
         auto rig = protocol::rigFromJson(json{{"lights", {c.light}}});
@@ -194,6 +195,25 @@ TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
             EXPECT_NEAR(glm::dot(a.right, a.normal), 0, 1e-12);
             out["areaFrames"].push_back({{"direction", d}, {"roll", roll}, {"normal", vecJson(a.normal)},
                                          {"right", vecJson(a.right)}, {"up", vecJson(a.up)}});
+            // A bent area light's corner chains in world space (dfb::bentAreaCorner, as the engine
+            // builds its BendyLights; client/web/area.js cornerChains draws them).
+            Light b;
+            b.name = "b";
+            b.type = LightType::BentArea;
+            b.position = {1.f, 2.f, 3.f};
+            b.direction = d;
+            b.rollDeg = float(roll);
+            b.areaSize = {2.f, 1.f};
+            makeStraightCorners(b, 3.f, 1);
+            for (size_t i = 0; i < b.cornerPoints.size(); ++i) b.cornerPoints[i] = {b.cornerPoints[i][0], 0.25f * float(i), -0.5f + 0.125f * float(i)};
+            json corners = json::array();
+            for (int c = 0; c < BENT_AREA_CORNERS; ++c) {
+                const auto ch = chainFromLight<double>(bentAreaCorner(b, c));
+                json pts = json::array();
+                for (int i = 0; i <= 2 * ch.segments; ++i) pts.push_back(vecJson(ch.p[i]));
+                corners.push_back(pts);
+            }
+            out["bentCorners"].push_back({{"light", protocol::toJson(b)}, {"corners", corners}});
         }
     }
 

@@ -14,7 +14,7 @@ import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
 import { test } from "node:test";
 
-import { areaFrame } from "../../client/web/area.js";
+import { areaFrame, cornerChains } from "../../client/web/area.js";
 import { evaluateLight, lightFrame } from "../../client/web/rig.js";
 import { propertyRows } from "../../client/web/rows.js";
 import { serverSchema } from "./schema.mjs";
@@ -80,6 +80,15 @@ test("an area light's frame is lightmath::areaFrame's, roll included", { skip: !
     same(a.normal, normal, `normal of ${where}`);
     same(a.right, right, `right of ${where}`);
     same(a.up, up, `up of ${where}`);
+  }
+});
+
+test("a bent area light's corner chains are dfb::bentAreaCorner's, roll included", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
+  assert.ok(cases.bentCorners.length >= 100, `${cases.bentCorners.length} bent area lights`);
+  for (const { light, corners } of cases.bentCorners) {
+    const chains = cornerChains(light, areaFrame(light));
+    assert.equal(chains.length, 4);
+    chains.forEach((ch, c) => ch.points.forEach((p, i) => same(p, corners[c][i], `corner ${c} p${i} of ${JSON.stringify(light.direction)} roll ${light.roll}`)));
   }
 });
 
