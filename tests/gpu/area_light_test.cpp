@@ -230,7 +230,10 @@ TEST(AreaLight, OneShotAndReferenceMatchTheirCppMirrors) {
 TEST(AreaLight, LtcMatchesItsCppMirror) {
     for (float metallic : {0.f, 1.f}) {
         Shot shot;
-        ASSERT_NO_FATAL_FAILURE(makeShot(shot, false, metallic, metallic > 0.f ? 0.35f : 0.5f));
+        // Roughness values a half float holds exactly: the G-buffer upload's float-to-half rounding
+        // and this test's `half` (round to nearest) differ by an ulp otherwise (roughness 0.35:
+        // 3e-3 in the glossy lobe's tail, 7e-4 mean).
+        ASSERT_NO_FATAL_FAILURE(makeShot(shot, false, metallic, metallic > 0.f ? 0.375f : 0.5f));
         for (bool disk : {false, true})
             for (float height : {0.6f, 1.2f}) {
                 const Light l = panel("panel", height, disk);
@@ -238,8 +241,9 @@ TEST(AreaLight, LtcMatchesItsCppMirror) {
                 std::printf("metallic %.0f %s at %.1f: LTC GPU vs C++ mean %.2e max %.2e (%zu px)\n", double(metallic),
                             disk ? "disk" : "rect", double(height), ltc.meanRel(), ltc.maxRel, ltc.n);
                 EXPECT_GT(ltc.n, size_t(WIDTH * HEIGHT / 2));
-                EXPECT_LT(ltc.meanRel(), 1e-4);
-                EXPECT_LT(ltc.maxRel, 5e-3);
+                // Measured 3e-7 - 8e-6 mean, 6e-4 max (float rounding in the glossy lobe's tail).
+                EXPECT_LT(ltc.meanRel(), 2e-5);
+                EXPECT_LT(ltc.maxRel, 2e-3);
             }
     }
 }
