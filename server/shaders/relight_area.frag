@@ -135,7 +135,7 @@ void layeredParts(vec3 N, vec3 L, vec3 V, vec3 albedo, vec4 brdf, vec4 sheen, ve
 
 // The layered BRDF (common_brdf.glsl evaluateLayeredBrdfCos) integrated over the uniform emitter
 // of unit radiance by LTC: the base layer as Ltc.h ltcShading (specular (F0 norm + (F90 - F0)
-// fresnel) E_spec, LTC 2016 section 4.3; Lambert's form factor E_diff dimmed by the dielectric
+// fresnel) E_spec, LTC 2016's Fresnel term; Lambert's form factor E_diff dimmed by the dielectric
 // Fresnel at the light's mean direction), the coat exactly as a second lobe (its Fresnel is of
 // N.v alone: coat F_c norm_c E_coat, the table at the coat's roughness), the sheen evaluated at
 // the mean direction times the cosine's integral pi E_diff (an approximation: no LTC is fitted to

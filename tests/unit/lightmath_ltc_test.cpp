@@ -26,17 +26,21 @@ double bruteFormFactor(const AreaFrame<double>& f, const V3& p, int g) {
     for (int j = 0; j < g; ++j)
         for (int i = 0; i < g; ++i) {
             double x = ((i + 0.5) / g - 0.5) * f.width, y = ((j + 0.5) / g - 0.5) * f.height;
-            if (f.disk && x * x + y * y > 0.25 * f.width * f.width) continue;
+            if (f.disk && x * x + y * y > 0.25 * f.width * f.width)
+                continue;
             const V3 t = f.centre + f.right * x + f.up * y;
             const V3 d = t - p;
             const double d2 = glm::dot(d, d);
             const V3 l = d / std::sqrt(d2);
-            sum += std::max(l.z, 0.0) * std::max(-glm::dot(l, f.normal), 0.0) / d2 * (f.width * f.height / (g * g));
+            sum += std::max(l.z, 0.0) * std::max(-glm::dot(l, f.normal), 0.0) / d2 *
+                   (f.width * f.height / (g * g));
         }
     return sum / PI;
 }
 
-ShadingFrame<double> upFrame() { return {V3(1, 0, 0), V3(0, 1, 0), V3(0, 0, 1)}; }
+ShadingFrame<double> upFrame() {
+    return {V3(1, 0, 0), V3(0, 1, 0), V3(0, 0, 1)};
+}
 
 } // namespace
 
@@ -49,9 +53,12 @@ TEST(Ltc, PolygonFormFactorWithHorizonClippingMatchesBruteForce) {
     for (int trial = 0; trial < 60; ++trial) {
         const V3 c(2 * u(rng), 2 * u(rng), 1.2 * u(rng));
         V3 n = glm::normalize(V3(u(rng), u(rng), u(rng)));
-        if (glm::dot(-c, n) <= 0.05) n = -n; // the origin in front
-        if (glm::dot(-c, n) <= 0.05) continue;
-        const AreaFrame<double> f = areaFrame<double>(c, n, 40.0 * u(rng), {0.5 + u(rng) * 0.4, 0.8}, false);
+        if (glm::dot(-c, n) <= 0.05)
+            n = -n; // the origin in front
+        if (glm::dot(-c, n) <= 0.05)
+            continue;
+        const AreaFrame<double> f =
+            areaFrame<double>(c, n, 40.0 * u(rng), {0.5 + u(rng) * 0.4, 0.8}, false);
         const ShadingFrame<double> s = upFrame();
         const double ltc = ltcEmitterIntegral(f, s, V3(0), nullptr, nullptr);
         const double ref = bruteFormFactor(f, V3(0), 400);
@@ -65,7 +72,9 @@ TEST(Ltc, PolygonFormFactorWithHorizonClippingMatchesBruteForce) {
         EXPECT_NEAR(ltc, ref, 2e-4 + 1e-3 * ref) << "trial " << trial;
         worst = std::max(worst, std::abs(ltc - ref));
     }
-    std::printf("polygon form factor vs 400^2 cells: worst |difference| %.2e (%d emitters straddle the horizon)\n", worst, straddling);
+    std::printf("polygon form factor vs 400^2 cells: worst |difference| %.2e (%d emitters straddle "
+                "the horizon)\n",
+                worst, straddling);
     EXPECT_GT(straddling, 10);
 }
 
@@ -75,13 +84,15 @@ TEST(Ltc, ClippedCapFormFactorMatchesBruteForce) {
     for (double sigmaDeg : {5.0, 20.0, 45.0, 70.0})
         for (double wDeg : {0.0, 30.0, 60.0, 80.0, 90.0, 100.0, 120.0}) {
             const double sg = sigmaDeg * PI / 180, w = wDeg * PI / 180;
-            const V3 axis(std::sin(w), 0, std::cos(w)), t1(std::cos(w), 0, -std::sin(w)), t2(0, 1, 0);
+            const V3 axis(std::sin(w), 0, std::cos(w)), t1(std::cos(w), 0, -std::sin(w)),
+                t2(0, 1, 0);
             const int g = 600;
             double sum = 0.0;
             // Uniform in (cos of the angle from the axis, azimuth): equal solid angle cells.
             for (int j = 0; j < g; ++j)
                 for (int i = 0; i < g; ++i) {
-                    const double ct = 1.0 - (1.0 - std::cos(sg)) * (j + 0.5) / g, ph = 2 * PI * (i + 0.5) / g;
+                    const double ct = 1.0 - (1.0 - std::cos(sg)) * (j + 0.5) / g,
+                                 ph = 2 * PI * (i + 0.5) / g;
                     const double st = std::sqrt(1 - ct * ct);
                     const V3 l = axis * ct + t1 * (st * std::cos(ph)) + t2 * (st * std::sin(ph));
                     sum += std::max(l.z, 0.0);
@@ -102,19 +113,23 @@ TEST(Ltc, DiskEllipseMethodIsExactAboveTheHorizonAndCloseAcrossIt) {
     for (int trial = 0; trial < 80; ++trial) {
         const V3 c(1.5 * u(rng), 1.5 * u(rng), 0.6 * u(rng) + 0.5);
         V3 n = glm::normalize(V3(u(rng), u(rng), u(rng)));
-        if (glm::dot(-c, n) < 0) n = -n;
-        if (glm::dot(-c, n) < 0.05 * glm::length(c)) continue;
+        if (glm::dot(-c, n) < 0)
+            n = -n;
+        if (glm::dot(-c, n) < 0.05 * glm::length(c))
+            continue;
         const double diameter = 0.3 + 0.9 * (u(rng) + 1);
         const AreaFrame<double> f = areaFrame<double>(c, n, 0.0, {diameter, diameter}, true);
         // Also a linear transform (a fitted lobe's shape): the ellipse is then general.
         LtcLobe<double> lobe;
-        lobe.a = 1.0 + 0.8 * u(rng), lobe.b = 0.3 * u(rng), lobe.c = 0.2 * u(rng), lobe.d = 0.7 + 0.3 * u(rng);
+        lobe.a = 1.0 + 0.8 * u(rng), lobe.b = 0.3 * u(rng), lobe.c = 0.2 * u(rng),
+        lobe.d = 0.7 + 0.3 * u(rng);
         for (bool transformed : {false, true}) {
             const ShadingFrame<double> s = upFrame();
             const LtcLobe<double>* l = transformed ? &lobe : nullptr;
             const double got = ltcEmitterIntegral(f, s, V3(0), l, nullptr);
             // Brute force in the cosine's space: cells of the transformed disk (a planar ellipse).
-            const V3 C = l ? ltcApply(*l, c) : c, R = l ? ltcApply(*l, f.right * (0.5 * diameter)) : f.right * (0.5 * diameter),
+            const V3 C = l ? ltcApply(*l, c) : c,
+                     R = l ? ltcApply(*l, f.right * (0.5 * diameter)) : f.right * (0.5 * diameter),
                      U = l ? ltcApply(*l, f.up * (0.5 * diameter)) : f.up * (0.5 * diameter);
             const V3 nn = glm::normalize(glm::cross(R, U));
             const int g = 500;
@@ -123,7 +138,8 @@ TEST(Ltc, DiskEllipseMethodIsExactAboveTheHorizonAndCloseAcrossIt) {
             for (int j = 0; j < g; ++j)
                 for (int i = 0; i < g; ++i) {
                     const double x = 2 * (i + 0.5) / g - 1, y = 2 * (j + 0.5) / g - 1;
-                    if (x * x + y * y > 1) continue;
+                    if (x * x + y * y > 1)
+                        continue;
                     const V3 t = C + R * x + U * y;
                     const double d2 = glm::dot(t, t);
                     const V3 w = t / std::sqrt(d2);
@@ -134,12 +150,14 @@ TEST(Ltc, DiskEllipseMethodIsExactAboveTheHorizonAndCloseAcrossIt) {
             for (double a : {0.0, 1.0})
                 for (int k = 0; k < 64; ++k) {
                     const double ph = 2 * PI * k / 64;
-                    allAbove = allAbove && (C + R * std::cos(ph) + U * std::sin(ph)).z > 0 && a >= 0;
+                    allAbove =
+                        allAbove && (C + R * std::cos(ph) + U * std::sin(ph)).z > 0 && a >= 0;
                 }
             // The Newton steps have converged: the same ellipse with 60 steps.
             {
                 const V3 Cs = l ? ltcApply(*l, c) : c;
-                const V3 Rs = l ? ltcApply(*l, f.right * (0.5 * diameter)) : f.right * (0.5 * diameter);
+                const V3 Rs =
+                    l ? ltcApply(*l, f.right * (0.5 * diameter)) : f.right * (0.5 * diameter);
                 const V3 Us = l ? ltcApply(*l, f.up * (0.5 * diameter)) : f.up * (0.5 * diameter);
                 const double six = ltcDiskFormFactor(Cs, Rs, Us, static_cast<V3*>(nullptr));
                 const double sixty = ltcDiskFormFactor(Cs, Rs, Us, static_cast<V3*>(nullptr), 60);
@@ -148,19 +166,23 @@ TEST(Ltc, DiskEllipseMethodIsExactAboveTheHorizonAndCloseAcrossIt) {
             if (allAbove) {
                 ++above;
                 EXPECT_NEAR(got, ref, 1e-4 + 1e-3 * ref) << "trial " << trial;
-                if (ref > 1e-3) worstAbove = std::max(worstAbove, std::abs(got - ref) / ref);
+                if (ref > 1e-3)
+                    worstAbove = std::max(worstAbove, std::abs(got - ref) / ref);
             } else {
                 ++across;
                 worstAcross = std::max(worstAcross, std::abs(got - ref));
-                // LTC 2017's clipping of the equivalent cap: measured within 0.024 (form factor units).
+                // LTC 2017's clipping of the equivalent cap: measured within 0.024 (form factor
+                // units).
                 EXPECT_NEAR(got, ref, 0.03) << "trial " << trial;
             }
         }
     }
-    std::printf("disk (ellipse method) vs 500^2 cells: %d above the horizon, worst relative %.2e; %d across it, worst "
+    std::printf("disk (ellipse method) vs 500^2 cells: %d above the horizon, worst relative %.2e; "
+                "%d across it, worst "
                 "|difference| %.2e (form factor units)\n",
                 above, worstAbove, across, worstAcross);
-    std::printf("disk: %d Newton steps against 60: worst relative %.2e\n", LTC_DISK_NEWTON_STEPS, worstNewton);
+    std::printf("disk: %d Newton steps against 60: worst relative %.2e\n", LTC_DISK_NEWTON_STEPS,
+                worstNewton);
     EXPECT_LT(worstNewton, 1e-9); // measured 1.8e-10
     EXPECT_GT(above, 40);
     EXPECT_GT(across, 10);
@@ -181,10 +203,12 @@ TEST(Ltc, TablesMatchIndependentIntegralsOfTheBrdf) {
             double norm = 0, fres = 0;
             for (int q = 0; q < g; ++q)
                 for (int p = 0; p < g; ++p) {
-                    const double cz = (q + 0.5) / g, ph = 2 * PI * (p + 0.5) / g, st = std::sqrt(1 - cz * cz);
+                    const double cz = (q + 0.5) / g, ph = 2 * PI * (p + 0.5) / g,
+                                 st = std::sqrt(1 - cz * cz);
                     const V3 L(st * std::cos(ph), st * std::sin(ph), cz);
                     const V3 H = glm::normalize(L + V);
-                    const double f = distributionGGX(H.z, alpha) * visibilitySmithGGX(cz, NdotV, alpha) * cz;
+                    const double f =
+                        distributionGGX(H.z, alpha) * visibilitySmithGGX(cz, NdotV, alpha) * cz;
                     norm += f;
                     fres += f * std::pow(1 - saturate(glm::dot(V, H)), 5.0);
                 }
@@ -208,7 +232,8 @@ struct Stats {
     // Aggregate: sum |got - ref| / sum ref.
     double mean() const {
         double e = 0, t = 0;
-        for (size_t i = 0; i < got.size(); ++i) e += std::abs(got[i] - ref[i]), t += ref[i];
+        for (size_t i = 0; i < got.size(); ++i)
+            e += std::abs(got[i] - ref[i]), t += ref[i];
         return t > 0 ? e / t : 0;
     }
     // Per point |got - ref| / ref over the points the light reaches (ref > 1 % of the largest):
@@ -217,7 +242,8 @@ struct Stats {
         const double peak = *std::max_element(ref.begin(), ref.end());
         std::vector<double> rel;
         for (size_t i = 0; i < got.size(); ++i)
-            if (ref[i] > 0.01 * peak) rel.push_back(std::abs(got[i] - ref[i]) / ref[i]);
+            if (ref[i] > 0.01 * peak)
+                rel.push_back(std::abs(got[i] - ref[i]) / ref[i]);
         std::sort(rel.begin(), rel.end());
         return {rel[size_t(0.95 * double(rel.size() - 1))], rel.back()};
     }
@@ -235,15 +261,18 @@ TEST(Ltc, ShadingIsCloseToTheReferenceBesideOneShot) {
         V3 albedo;
         double metallic, roughness, specular;
     };
-    const Material materials[] = {{"Lambert", V3(0.8), 0, 0.6, 0}, {"dielectric r 0.5", V3(0.8), 0, 0.5, 0.5},
-                                  {"metal r 0.3", V3(0.9, 0.6, 0.3), 1, 0.3, 0.5}, {"metal r 0.6", V3(0.9), 1, 0.6, 0.5}};
+    const Material materials[] = {{"Lambert", V3(0.8), 0, 0.6, 0},
+                                  {"dielectric r 0.5", V3(0.8), 0, 0.5, 0.5},
+                                  {"metal r 0.3", V3(0.9, 0.6, 0.3), 1, 0.3, 0.5},
+                                  {"metal r 0.6", V3(0.9), 1, 0.6, 0.5}};
     for (bool disk : {false, true}) {
         const AreaFrame<double> f = areaFrame<double>({0, 0, 0}, {0, 0, -1}, 0.0, {1, 1}, disk);
         const PatternTable tab = buildPatternTable(nullptr, 0, 0, disk);
         const double colour = ltcEmitterColour(tab, disk).x;
         const double alpha = fitRadiusFactor(f, tab, 1.0, 32);
         double beta = 0.0;
-        for (double m : BETA_FIT_EXPONENTS) beta += fitRadiusFactor(f, tab, m, 32) / 3.0;
+        for (double m : BETA_FIT_EXPONENTS)
+            beta += fitRadiusFactor(f, tab, m, 32) / 3.0;
         for (const Material& m : materials)
             for (double h : {0.5, 5.0}) {
                 Stats ltc, one;
@@ -251,18 +280,23 @@ TEST(Ltc, ShadingIsCloseToTheReferenceBesideOneShot) {
                     const V3 p(u(rng) * 1.5 * h, u(rng) * 1.5 * h, -h);
                     const V3 N(0, 0, 1);
                     const V3 V = glm::normalize(V3(0.6, 0.3, 1) * 4.0 - p);
-                    const V3 ref = referenceShading(f, tab, p, N, V, m.albedo, m.metallic, m.roughness, m.specular, 96);
-                    const V3 got = ltcShading(f, LTC_TABLE, p, N, V, m.albedo, m.metallic, m.roughness, m.specular) * colour;
-                    const V3 os = oneShotShading(f, tab, p, N, V, m.albedo, m.metallic, m.roughness, m.specular, alpha, beta);
+                    const V3 ref = referenceShading(f, tab, p, N, V, m.albedo, m.metallic,
+                                                    m.roughness, m.specular, 96);
+                    const V3 got = ltcShading(f, LTC_TABLE, p, N, V, m.albedo, m.metallic,
+                                              m.roughness, m.specular) *
+                                   colour;
+                    const V3 os = oneShotShading(f, tab, p, N, V, m.albedo, m.metallic, m.roughness,
+                                                 m.specular, alpha, beta);
                     ltc.add(got.x, ref.x);
                     one.add(os.x, ref.x);
                 }
                 const auto [lp95, lmax] = ltc.p95AndMax();
                 const auto [op95, omax] = one.p95AndMax();
-                std::printf("%s %s at %.1f sizes: LTC mean %.2f %% p95 %.2f %% max %.2f %%; one-shot mean %.2f %% p95 %.2f %% "
+                std::printf("%s %s at %.1f sizes: LTC mean %.2f %% p95 %.2f %% max %.2f %%; "
+                            "one-shot mean %.2f %% p95 %.2f %% "
                             "max %.2f %%\n",
-                            disk ? "disk" : "rect", m.name, h, 100 * ltc.mean(), 100 * lp95, 100 * lmax, 100 * one.mean(),
-                            100 * op95, 100 * omax);
+                            disk ? "disk" : "rect", m.name, h, 100 * ltc.mean(), 100 * lp95,
+                            100 * lmax, 100 * one.mean(), 100 * op95, 100 * omax);
                 // Measured (aggregate): Lambert and the dielectric below 0.3 %, the metals 0.3-9 %
                 // (the fitted lobe's error; docs/lighting.md); one-shot 5-180 %.
                 EXPECT_LT(ltc.mean(), m.metallic > 0 ? 0.12 : 0.01) << m.name << " " << h;

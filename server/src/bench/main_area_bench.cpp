@@ -83,6 +83,8 @@ int main(int argc, char** argv) {
     app.add_option("--map-size", mapSize, "each shadow map's side (shadowMapSize)")->check(CLI::IsMember({64, 128, 256, 512, 1024, 2048}));
     app.add_option("--filter", filter, "shadowFilter (default: the light's default)")->check(CLI::Range(0, 4));
     app.add_flag("--no-errors", skipErrors, "only the edit -> frame times");
+    bool uniformOnly = false;
+    app.add_flag("--uniform", uniformOnly, "errors of the uniform disk and rectangle only (one-shot and LTC)");
     app.add_option("--cells", cells, "the reference's cells per side")->check(CLI::Range(1, MAX_AREA_REFERENCE_CELLS));
     CLI11_PARSE(app, argc, argv);
     keepFreedMemoryForFrames();
@@ -149,6 +151,7 @@ int main(int argc, char** argv) {
                           {"tubes (4)", AreaShape::Rect, "tubes.png"}};
     for (const Case& c : cases) {
         if (skipErrors) break;
+        if (uniformOnly && c.pattern[0] != '\0') continue;
         for (float d : {0.5f, 5.f}) {
             auto [light, fitMs] = areaLight(c, d * size);
             Rig rig;
@@ -173,11 +176,13 @@ int main(int argc, char** argv) {
             // One-shot for every case; LTC for the uniform ones (with a pattern it would shade its mean).
             for (AreaShading mode : {AreaShading::OneShot, AreaShading::Ltc}) {
                 if (mode == AreaShading::Ltc && c.pattern[0] != '\0') continue;
+                rig.lights[0] = light; // where the reference was rendered
                 rig.lights[0].areaShading = mode;
                 std::vector<double> editMs;
                 ImageF got;
                 for (int i = 0; i < edits; ++i) {
-                    rig.lights[0].position[0] += (i % 2 ? -1.f : 1.f) * 1e-3f * size; // a move: maps and shading
+                    // A move (maps and shading), ending where it started: the last image is compared.
+                    rig.lights[0].position[0] = light.position[0] + (i % 2 || i + 1 == edits ? 0.f : 1e-3f * size);
                     const auto t0 = Clock::now();
                     auto img = engine.renderLightLinear(rig, "panel");
                     if (!img) return 3;

@@ -4,18 +4,19 @@
 // the layout). Runs at build time; deterministic (stratified samples, no random numbers).
 //
 // The method is Heitz, Dupuy, Hill and Neubelt, "Real-Time Polygonal-Light Shading with Linearly
-// Transformed Cosines", 2016, section 4 ("LTC 2016"):
+// Transformed Cosines", 2016 ("LTC 2016"), its fitting of a BRDF:
 // - per (roughness, theta_v) the lobe's magnitude (norm) and mean direction by importance
-//   sampling the GGX normals (section 4.2: the LTC's third axis is the lobe's mean direction);
+//   sampling the GGX normals (the LTC's third axis is the lobe's mean direction);
 // - M = [X Y Z] [[m11, 0, m13], [0, m22, 0], [0, 0, 1]], X, Y, Z the frame of the mean direction
 //   in the plane of V and N, fitted by Nelder-Mead (Nelder and Mead, "A Simplex Method for
 //   Function Minimization", 1965) on the cubed difference of the two distributions, each sample
 //   weighted by the sum of the two sampling densities (the balance heuristic over samples from
-//   both; section 4.2: the error metric of the paper's fitting code);
+//   both: the error metric of the paper's fitting code);
 // - at normal incidence the lobe is round (m22 = m11, m13 = 0); each cell starts from its
 //   neighbour: from rough to smooth at normal incidence, then towards grazing views.
 // Plus the Schlick weight's share fresnel = integral of f (N.l) (1 - v.h)^5 over the hemisphere
-// (section 4.3), so that F0 norm + (F90 - F0) fresnel is Brdf.h's Fresnel-weighted lobe exactly.
+// (the paper's Fresnel term), so that F0 norm + (F90 - F0) fresnel is Brdf.h's Fresnel-weighted
+// lobe exactly.
 
 #include <dfb/lightmath/Brdf.h>
 #include <dfb/lightmath/Ltc.h>
@@ -58,27 +59,32 @@ struct Lobe {
     double alpha, NdotV;
     dvec3 V;
     double eval(const dvec3& L) const {
-        if (L.z <= 0.0) return 0.0;
+        if (L.z <= 0.0)
+            return 0.0;
         const dvec3 H = glm::normalize(L + V);
-        return dfb::lightmath::distributionGGX(std::max(H.z, 0.0), alpha) * dfb::lightmath::visibilitySmithGGX(L.z, NdotV, alpha) * L.z;
+        return dfb::lightmath::distributionGGX(std::max(H.z, 0.0), alpha) *
+               dfb::lightmath::visibilitySmithGGX(L.z, NdotV, alpha) * L.z;
     }
     // The density of sample() (GGX normals, D(h)(n.h), reflected: / (4 v.h)).
     double pdf(const dvec3& L) const {
-        if (L.z <= 0.0) return 0.0;
+        if (L.z <= 0.0)
+            return 0.0;
         const dvec3 H = glm::normalize(L + V);
-        return dfb::lightmath::distributionGGX(std::max(H.z, 0.0), alpha) * H.z / (4.0 * std::max(glm::dot(V, H), 1e-12));
+        return dfb::lightmath::distributionGGX(std::max(H.z, 0.0), alpha) * H.z /
+               (4.0 * std::max(glm::dot(V, H), 1e-12));
     }
     // Walter et al. 2007 eqs. 35-36: tan^2 theta_h = alpha^2 u / (1 - u).
     dvec3 sample(double u1, double u2, dvec3* H = nullptr) const {
         const double phi = 2.0 * PI * u1;
         const double t = alpha * std::sqrt(u2 / (1.0 - u2));
         const dvec3 h = glm::normalize(dvec3(t * std::cos(phi), t * std::sin(phi), 1.0));
-        if (H) *H = h;
+        if (H)
+            *H = h;
         return 2.0 * glm::dot(V, h) * h - V;
     }
 };
 
-// The LTC of LTC 2016 eq. 1 with its magnitude.
+// The LTC (the paper's definition) with its magnitude.
 struct Distribution {
     dmat3 M{1.0}, invM{1.0};
     double detInv = 1.0, amplitude = 1.0;
@@ -96,7 +102,8 @@ struct Distribution {
     }
     dvec3 sample(double u1, double u2) const {
         const double r = std::sqrt(u1), phi = 2.0 * PI * u2;
-        return glm::normalize(M * dvec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(1.0 - u1, 0.0))));
+        return glm::normalize(
+            M * dvec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(1.0 - u1, 0.0))));
     }
 };
 
@@ -105,7 +112,8 @@ double fitError(const Distribution& d, const Lobe& b) {
     auto add = [&](const dvec3& L) {
         const double fb = b.eval(L), fd = d.eval(L);
         const double pb = b.pdf(L), pd = fd / d.amplitude;
-        if (pb + pd <= 0.0) return;
+        if (pb + pd <= 0.0)
+            return;
         const double e = std::abs(fb - fd);
         err += e * e * e / (pb + pd);
     };
@@ -126,24 +134,30 @@ int nelderMead(int n, std::array<double, 3>& x, const std::array<double, 3>& ste
     std::array<double, 4> v{};
     for (int k = 0; k <= n; ++k) {
         s[size_t(k)] = x;
-        if (k > 0) s[size_t(k)][size_t(k - 1)] += step[size_t(k - 1)];
+        if (k > 0)
+            s[size_t(k)][size_t(k - 1)] += step[size_t(k - 1)];
         v[size_t(k)] = f(s[size_t(k)]);
     }
     int evals = n + 1;
     auto at = [&](const std::array<double, 3>& c, const std::array<double, 3>& w, double t) {
         std::array<double, 3> r = c;
-        for (int i = 0; i < n; ++i) r[size_t(i)] = c[size_t(i)] + t * (w[size_t(i)] - c[size_t(i)]);
+        for (int i = 0; i < n; ++i)
+            r[size_t(i)] = c[size_t(i)] + t * (w[size_t(i)] - c[size_t(i)]);
         return r;
     };
     for (int it = 0; it < MAX_ITERATIONS; ++it) {
         std::array<int, 4> o{0, 1, 2, 3};
-        std::sort(o.begin(), o.begin() + n + 1, [&](int a, int b) { return v[size_t(a)] < v[size_t(b)]; });
-        const size_t best = size_t(o[0]), worst = size_t(o[size_t(n)]), second = size_t(o[size_t(n - 1)]);
-        if (std::abs(v[worst] - v[best]) <= 1e-5 * std::abs(v[best]) + 1e-300) break;
+        std::sort(o.begin(), o.begin() + n + 1,
+                  [&](int a, int b) { return v[size_t(a)] < v[size_t(b)]; });
+        const size_t best = size_t(o[0]), worst = size_t(o[size_t(n)]),
+                     second = size_t(o[size_t(n - 1)]);
+        if (std::abs(v[worst] - v[best]) <= 1e-5 * std::abs(v[best]) + 1e-300)
+            break;
         std::array<double, 3> c{};
         for (int k = 0; k <= n; ++k)
             if (size_t(k) != worst)
-                for (int i = 0; i < n; ++i) c[size_t(i)] += s[size_t(k)][size_t(i)] / n;
+                for (int i = 0; i < n; ++i)
+                    c[size_t(i)] += s[size_t(k)][size_t(i)] / n;
         const auto r = at(c, s[worst], -1.0);
         const double fr = f(r);
         ++evals;
@@ -151,8 +165,10 @@ int nelderMead(int n, std::array<double, 3>& x, const std::array<double, 3>& ste
             const auto e = at(c, s[worst], -2.0);
             const double fe = f(e);
             ++evals;
-            if (fe < fr) s[worst] = e, v[worst] = fe;
-            else s[worst] = r, v[worst] = fr;
+            if (fe < fr)
+                s[worst] = e, v[worst] = fe;
+            else
+                s[worst] = r, v[worst] = fr;
         } else if (fr < v[second]) {
             s[worst] = r, v[worst] = fr;
         } else {
@@ -164,7 +180,8 @@ int nelderMead(int n, std::array<double, 3>& x, const std::array<double, 3>& ste
                 s[worst] = k, v[worst] = fk;
             } else {
                 for (int q = 0; q <= n; ++q) {
-                    if (size_t(q) == best) continue;
+                    if (size_t(q) == best)
+                        continue;
                     s[size_t(q)] = at(s[best], s[size_t(q)], 0.5);
                     v[size_t(q)] = f(s[size_t(q)]);
                     ++evals;
@@ -174,7 +191,8 @@ int nelderMead(int n, std::array<double, 3>& x, const std::array<double, 3>& ste
     }
     size_t best = 0;
     for (int k = 1; k <= n; ++k)
-        if (v[size_t(k)] < v[best]) best = size_t(k);
+        if (v[size_t(k)] < v[best])
+            best = size_t(k);
     x = s[best];
     return evals;
 }
@@ -203,7 +221,7 @@ int main(int argc, char** argv) {
             b.alpha = std::max(roughness * roughness, dfb::lightmath::MIN_ALPHA);
             b.NdotV = std::max(1.0 - sv * sv, dfb::lightmath::MIN_NDOTV);
             b.V = dvec3(std::sqrt(1.0 - b.NdotV * b.NdotV), 0.0, b.NdotV);
-            // Magnitude, Schlick share and mean direction (LTC 2016 sections 4.2-4.3).
+            // Magnitude, Schlick share and mean direction (LTC 2016's fitting and Fresnel term).
             double norm = 0.0, fresnel = 0.0;
             dvec3 mean(0.0);
             for (int q = 0; q < MOMENT_SAMPLES; ++q)
@@ -211,11 +229,14 @@ int main(int argc, char** argv) {
                     const double sq = 1.0 - (q + 0.5) / MOMENT_SAMPLES;
                     dvec3 H;
                     const dvec3 L = b.sample((p + 0.5) / MOMENT_SAMPLES, 1.0 - sq * sq * sq, &H);
-                    if (L.z <= 0.0) continue;
-                    // f (N.l) / pdf = 4 Vis (N.l)(v.h) / (n.h) (D cancels), times du2/ds = 3 (1 - s)^2.
+                    if (L.z <= 0.0)
+                        continue;
+                    // f (N.l) / pdf = 4 Vis (N.l)(v.h) / (n.h) (D cancels), times du2/ds = 3 (1 -
+                    // s)^2.
                     const double VdotH = std::clamp(glm::dot(b.V, H), 0.0, 1.0);
-                    const double w =
-                        3.0 * sq * sq * 4.0 * dfb::lightmath::visibilitySmithGGX(L.z, b.NdotV, b.alpha) * L.z * VdotH / H.z;
+                    const double w = 3.0 * sq * sq * 4.0 *
+                                     dfb::lightmath::visibilitySmithGGX(L.z, b.NdotV, b.alpha) *
+                                     L.z * VdotH / H.z;
                     norm += w;
                     fresnel += w * std::pow(1.0 - VdotH, 5.0);
                     mean += w * L;
@@ -226,15 +247,20 @@ int main(int argc, char** argv) {
             mean.y = 0.0;
             mean = glm::length(mean) > 0.0 ? glm::normalize(mean) : dvec3(0, 0, 1);
             Cell& cell = cells[size_t(j) * N + size_t(i)];
-            // Seed: the neighbour towards normal incidence, or the rougher lobe at normal incidence.
-            const Cell seed = j > 0 ? cells[size_t(j - 1) * N + size_t(i)] : i < N - 1 ? cells[size_t(i + 1)] : Cell{};
+            // Seed: the neighbour towards normal incidence, or the rougher lobe at normal
+            // incidence.
+            const Cell seed = j > 0       ? cells[size_t(j - 1) * N + size_t(i)]
+                              : i < N - 1 ? cells[size_t(i + 1)]
+                                          : Cell{};
             Distribution d;
             d.amplitude = norm;
             const bool round = j == 0;
-            const dvec3 X = round ? dvec3(1, 0, 0) : dvec3(mean.z, 0, -mean.x), Y(0, 1, 0), Z = round ? dvec3(0, 0, 1) : mean;
+            const dvec3 X = round ? dvec3(1, 0, 0) : dvec3(mean.z, 0, -mean.x), Y(0, 1, 0),
+                        Z = round ? dvec3(0, 0, 1) : mean;
             auto params = [&](const std::array<double, 3>& x) {
                 const double m11 = std::max(x[0], MIN_SCALE);
-                if (round) return std::array<double, 3>{m11, m11, 0.0};
+                if (round)
+                    return std::array<double, 3>{m11, m11, 0.0};
                 return std::array<double, 3>{m11, std::max(x[1], MIN_SCALE), x[2]};
             };
             auto error = [&](const std::array<double, 3>& x) {
@@ -243,7 +269,8 @@ int main(int argc, char** argv) {
                 return fitError(d, b);
             };
             std::array<double, 3> x{seed.m11, seed.m22, seed.m13};
-            const std::array<double, 3> step{0.1 * x[0], 0.1 * x[1], 0.1 * std::max(std::abs(x[2]), x[0])};
+            const std::array<double, 3> step{0.1 * x[0], 0.1 * x[1],
+                                             0.1 * std::max(std::abs(x[2]), x[0])};
             evaluations += nelderMead(round ? 1 : 3, x, step, error);
             const auto m = params(x);
             d.set(X, Y, Z, m[0], m[1], m[2]);
@@ -256,28 +283,38 @@ int main(int argc, char** argv) {
             cell.inv = {float(inv[0][0]), float(inv[2][0]), float(inv[0][2]), float(inv[2][2])};
         }
     }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
     std::FILE* out = std::fopen(argv[1], "w");
     if (!out) {
         std::fprintf(stderr, "dfb-ltc-fit: cannot write %s\n", argv[1]);
         return 1;
     }
-    std::fprintf(out, "#pragma once\n// Generated by dfb-ltc-fit (server/src/tools/main_ltc_fit.cpp) at build time; do not edit.\n"
-                      "// The linearly transformed cosines of Brdf.h's GGX lobe, %d x %d (layout: dfb/lightmath/Ltc.h,\n"
-                      "// LtcTable). Fit: %.1f s, %ld error evaluations of %d samples.\n\n"
-                      "#include <dfb/lightmath/Ltc.h>\n\n"
-                      "namespace dfb::lightmath {\n\n",
+    std::fprintf(out,
+                 "#pragma once\n// Generated by dfb-ltc-fit (server/src/tools/main_ltc_fit.cpp) at "
+                 "build time; do not edit.\n"
+                 "// The linearly transformed cosines of Brdf.h's GGX lobe, %d x %d (layout: "
+                 "dfb/lightmath/Ltc.h,\n"
+                 "// LtcTable). Fit: %.1f s, %ld error evaluations of %d samples.\n\n"
+                 "#include <dfb/lightmath/Ltc.h>\n\n"
+                 "namespace dfb::lightmath {\n\n",
                  N, N, seconds, evaluations, 2 * ERROR_SAMPLES * ERROR_SAMPLES);
     std::fprintf(out, "inline constexpr float LTC_MATRIX[%d] = {\n", N * N * 4);
-    for (const Cell& c : cells) std::fprintf(out, "    %.9g, %.9g, %.9g, %.9g,\n", c.inv[0], c.inv[1], c.inv[2], c.inv[3]);
+    for (const Cell& c : cells)
+        std::fprintf(out, "    %.9g, %.9g, %.9g, %.9g,\n", c.inv[0], c.inv[1], c.inv[2], c.inv[3]);
     std::fprintf(out, "};\n\ninline constexpr float LTC_AMPLITUDE[%d] = {\n", N * N * 2);
-    for (const Cell& c : cells) std::fprintf(out, "    %.9g, %.9g,\n", float(c.norm), float(c.fresnel));
-    std::fprintf(out, "};\n\n/// The fit's cost, for the docs and the bench.\ninline constexpr double LTC_FIT_SECONDS = %.3f;\n"
-                      "inline constexpr long LTC_FIT_EVALUATIONS = %ld;\n\n"
-                      "inline constexpr LtcTable LTC_TABLE{LTC_MATRIX, LTC_AMPLITUDE};\n\n} // namespace dfb::lightmath\n",
+    for (const Cell& c : cells)
+        std::fprintf(out, "    %.9g, %.9g,\n", float(c.norm), float(c.fresnel));
+    std::fprintf(out,
+                 "};\n\n/// The fit's cost, for the docs and the bench.\ninline constexpr double "
+                 "LTC_FIT_SECONDS = %.3f;\n"
+                 "inline constexpr long LTC_FIT_EVALUATIONS = %ld;\n\n"
+                 "inline constexpr LtcTable LTC_TABLE{LTC_MATRIX, LTC_AMPLITUDE};\n\n} // "
+                 "namespace dfb::lightmath\n",
                  seconds, evaluations);
     std::fclose(out);
-    std::printf("dfb-ltc-fit: %d x %d cells in %.1f s (%ld error evaluations)\n", N, N, seconds, evaluations);
+    std::printf("dfb-ltc-fit: %d x %d cells in %.1f s (%ld error evaluations)\n", N, N, seconds,
+                evaluations);
     return 0;
 }

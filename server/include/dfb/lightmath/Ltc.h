@@ -8,20 +8,21 @@
 // agree) and tests/unit/lightmath_ltc_test.cpp checks it against AreaLight.h's referenceShading
 // (dense stratified integration of the same BRDF over the emitter).
 //
-// The distribution (LTC 2016 section 3.1): a clamped cosine D_o(w_o) = max(w_o.z, 0) / pi turned
-// by a 3 x 3 matrix M into D(w) = D_o(M^-1 w / |M^-1 w|) |det M^-1| / |M^-1 w|^3 (eq. 1), whose
-// integral over a polygon P is D_o's over the polygon M^-1 P (section 3.2, eq. 8), which is the
-// clamped cosine's closed form (the edge integral, section 3.3 / appendix) after clipping to the
-// horizon. The GGX lobe f(l, v) (N.l) of Brdf.h (D Vis (N.l) with F = 1) is fitted per
-// (roughness, N.v) by programs/main_ltc_fit.cpp at build time: D's M^-1 (4 numbers), the lobe's
-// magnitude (norm = integral of f (N.l) over the hemisphere) and the Schlick weight's share
-// (fresnel = integral of f (N.l) (1 - v.h)^5), so that with F = F0 + (F90 - F0)(1 - v.h)^5,
+// The distribution (LTC 2016, its definition): a clamped cosine D_o(w_o) = max(w_o.z, 0) / pi
+// turned by a 3 x 3 matrix M into D(w) = D_o(M^-1 w / |M^-1 w|) |det M^-1| / |M^-1 w|^3, whose
+// integral over a polygon P is D_o's over the polygon M^-1 P (its integration property), which is
+// the clamped cosine's closed form (the polygon's irradiance as a sum over its edges) after
+// clipping to the horizon. The GGX lobe f(l, v) (N.l) of Brdf.h (D Vis (N.l) with F = 1) is
+// fitted per (roughness, N.v) at build time by dfb-ltc-fit (server/src/tools/main_ltc_fit.cpp):
+// D's M^-1 (4 numbers), the lobe's magnitude (norm = integral of f (N.l) over the hemisphere) and
+// the Schlick weight's share (fresnel = integral of f (N.l) (1 - v.h)^5), so that with
+// F = F0 + (F90 - F0)(1 - v.h)^5,
 //   integral of F f (N.l) over the light ~ (F0 norm + (F90 - F0) fresnel) LTC integral
-// (LTC 2016 section 4.3, the split of Karis's "Real Shading in Unreal Engine 4" 2013), exact over
-// the whole hemisphere.
+// (LTC 2016's Fresnel term, the split of Karis's "Real Shading in Unreal Engine 4" 2013), exact
+// over the whole hemisphere.
 //
 // Frame: every integral is taken in the shading frame (T1, T2, N), T1 = the view vector's part
-// along the surface (LTC 2016 section 4.1: the fitted lobes are in the plane of V and N).
+// along the surface (LTC 2016's fitting: an isotropic lobe lies in the plane of V and N).
 
 #include <dfb/lightmath/AreaLight.h>
 #include <dfb/lightmath/Brdf.h>
@@ -74,8 +75,10 @@ template <typename T> LtcLobe<T> ltcLookup(const LtcTable& t, T roughness, T Ndo
         const float* m = t.amplitude + size_t((j + dj) * LTC_SIZE + i + di) * 2;
         return vec2<T>(T(m[0]), T(m[1]));
     };
-    const vec4<T> m = glm::mix(glm::mix(mat(0, 0), mat(1, 0), fx), glm::mix(mat(0, 1), mat(1, 1), fx), fy);
-    const vec2<T> a = glm::mix(glm::mix(amp(0, 0), amp(1, 0), fx), glm::mix(amp(0, 1), amp(1, 1), fx), fy);
+    const vec4<T> m =
+        glm::mix(glm::mix(mat(0, 0), mat(1, 0), fx), glm::mix(mat(0, 1), mat(1, 1), fx), fy);
+    const vec2<T> a =
+        glm::mix(glm::mix(amp(0, 0), amp(1, 0), fx), glm::mix(amp(0, 1), amp(1, 1), fx), fy);
     LtcLobe<T> l;
     l.a = m.x, l.b = m.y, l.c = m.z, l.d = m.w;
     l.norm = a.x, l.fresnel = a.y;
@@ -91,36 +94,41 @@ template <typename T> vec3<T> ltcApply(const LtcLobe<T>& l, const vec3<T>& w) {
 /// is along N (the lobe is then round).
 template <typename T> struct ShadingFrame {
     vec3<T> t1, t2, n;
-    vec3<T> toLocal(const vec3<T>& w) const { return vec3<T>(glm::dot(t1, w), glm::dot(t2, w), glm::dot(n, w)); }
+    vec3<T> toLocal(const vec3<T>& w) const {
+        return vec3<T>(glm::dot(t1, w), glm::dot(t2, w), glm::dot(n, w));
+    }
 };
 template <typename T> ShadingFrame<T> shadingFrame(const vec3<T>& N, const vec3<T>& V) {
     ShadingFrame<T> f;
     f.n = N;
     vec3<T> t = V - N * glm::dot(V, N);
-    if (glm::dot(t, t) < T(1e-10)) t = std::abs(N.x) < T(0.9) ? vec3<T>(T(1), T(0), T(0)) : vec3<T>(T(0), T(1), T(0)),
-                                    t = t - N * glm::dot(t, N);
+    if (glm::dot(t, t) < T(1e-10)) {
+        t = std::abs(N.x) < T(0.9) ? vec3<T>(T(1), T(0), T(0)) : vec3<T>(T(0), T(1), T(0));
+        t = t - N * glm::dot(t, N);
+    }
     f.t1 = glm::normalize(t);
     f.t2 = glm::cross(N, f.t1);
     return f;
 }
 
 /// The edge integral's vector for the great arc from v1 to v2 (any lengths, neither zero):
-/// theta n with theta the arc's angle and n = normalize(v1 x v2) (LTC 2016 section 3.3 and its
-/// appendix; Arvo, "Applications of Irradiance Tensors to the Simulation of Non-Lambertian
-/// Phenomena", 1995). theta = atan2(|v1 x v2|, v1.v2) keeps its precision for short arcs (far
-/// lights), where acos(v1.v2) loses half the digits.
+/// theta n with theta the arc's angle and n = normalize(v1 x v2) (LTC 2016's polygon integral;
+/// Lambert's formula as written by Arvo, "Applications of Irradiance Tensors to the Simulation of
+/// Non-Lambertian Phenomena", 1995). theta = atan2(|v1 x v2|, v1.v2) keeps its precision for short
+/// arcs (far lights), where acos(v1.v2) loses half the digits.
 template <typename T> vec3<T> ltcEdge(const vec3<T>& v1, const vec3<T>& v2) {
     const vec3<T> c = glm::cross(v1, v2);
     const T s = glm::length(c);
-    if (!(s > T(0))) return vec3<T>(T(0));
+    if (!(s > T(0)))
+        return vec3<T>(T(0));
     return c * (std::atan2(s, glm::dot(v1, v2)) / s);
 }
 
 /// The vector form factor of the polygon q[0..3] (directions from the shading point, not
 /// normalised, in the cosine's space) clipped to the upper hemisphere z >= 0: F = (1 / 2 pi) sum
-/// of the edges' vectors (LTC 2016 eq. 11 with the clamped cosine's irradiance: F.z is the
+/// of the edges' vectors (LTC 2016's polygon integral of the clamped cosine: F.z is the
 /// integral of D_o over the clipped polygon; F's direction is the polygon's mean light
-/// direction). Clipping (LTC 2016 section 3.3, "horizon clipping") walks the edges: an edge
+/// direction). Clipping (LTC 2016's horizon clipping) walks the edges: an edge
 /// leaving the hemisphere ends where it crosses z = 0 (the exit), one entering starts there (the
 /// entry), and the clipped polygon runs along the horizon from the exit to the entry. A convex
 /// polygon crosses the horizon at most twice. The crossing of a (z > 0) and b (z <= 0) is
@@ -143,7 +151,8 @@ template <typename T> vec3<T> ltcPolygonFormFactor(const vec3<T> q[4]) {
             sum += ltcEdge(entryPoint, b);
         }
     }
-    if (exits) sum += ltcEdge(exitPoint, entryPoint);
+    if (exits)
+        sum += ltcEdge(exitPoint, entryPoint);
     return sum * T(1.0 / (2.0 * PI));
 }
 
@@ -158,7 +167,8 @@ template <typename T> vec3<T> ltcPolygonFormFactor(const vec3<T> q[4]) {
 template <typename T> T clippedCapFormFactor(T cosW, T s2) {
     s2 = saturate(s2);
     cosW = std::clamp(cosW, T(-1), T(1));
-    if (cosW * cosW >= s2) return cosW > T(0) ? s2 * cosW : T(0);
+    if (cosW * cosW >= s2)
+        return cosW > T(0) ? s2 * cosW : T(0);
     const T sinW = std::sqrt(std::max(T(1) - cosW * cosW, T(0)));
     const T x = std::sqrt(std::max(T(1) / std::max(s2, T(1e-30)) - T(1), T(0)));
     const T y = std::clamp(-x * cosW / std::max(sinW, T(1e-30)), T(-1), T(1));
@@ -191,12 +201,14 @@ constexpr int LTC_DISK_NEWTON_STEPS = 6;
 /// b^2 y0^2 / (b - e)^2)), since (e1 - e)(e2 - e) is the characteristic polynomial's derivative
 /// at e. Returns the form factor; `dir` receives the axis (unit, in the cosine's space).
 template <typename T>
-T ltcDiskFormFactor(const vec3<T>& C, const vec3<T>& V1, const vec3<T>& V2, vec3<T>* dir, int steps = LTC_DISK_NEWTON_STEPS) {
+T ltcDiskFormFactor(const vec3<T>& C, const vec3<T>& V1, const vec3<T>& V2, vec3<T>* dir,
+                    int steps = LTC_DISK_NEWTON_STEPS) {
     // Principal axes of the ellipse from its Gram matrix [[d11, d12], [d12, d22]].
     const T d11 = glm::dot(V1, V1), d22 = glm::dot(V2, V2), d12 = glm::dot(V1, V2);
     const T tr = d11 + d22, det = std::max(d11 * d22 - d12 * d12, T(0));
     const T disc = std::sqrt(std::max(T(0.25) * tr * tr - det, T(0)));
-    const T eMax = T(0.5) * tr + disc, eMin = std::max(det / std::max(eMax, T(1e-30)), T(0)); // the squared half lengths
+    const T eMax = T(0.5) * tr + disc,
+            eMin = std::max(det / std::max(eMax, T(1e-30)), T(0)); // the squared half lengths
     vec3<T> u1, u2;
     if (std::abs(d12) > T(1e-7) * std::sqrt(d11 * d22)) {
         u1 = glm::normalize(d12 * V1 + (eMax - d11) * V2);
@@ -207,9 +219,11 @@ T ltcDiskFormFactor(const vec3<T>& C, const vec3<T>& V1, const vec3<T>& V2, vec3
     }
     vec3<T> u3 = glm::cross(u1, u2);
     T h = glm::dot(u3, C);
-    if (h < T(0)) u3 = -u3, h = -h;
+    if (h < T(0))
+        u3 = -u3, h = -h;
     if (!(h > T(0)) || !(eMin > T(0))) {
-        if (dir) *dir = vec3<T>(T(0), T(0), T(1));
+        if (dir)
+            *dir = vec3<T>(T(0), T(0), T(1));
         return T(0); // seen edge-on
     }
     const T x0 = glm::dot(u1, C) / h, y0 = glm::dot(u2, C) / h;
@@ -219,46 +233,52 @@ T ltcDiskFormFactor(const vec3<T>& C, const vec3<T>& V1, const vec3<T>& V2, vec3
     for (int it = 0; it < steps; ++it) {
         const T ia = T(1) / (a - e), ib = T(1) / (b - e);
         const T g = -T(1) - e * (T(1) + ka * ia + kb * ib);
-        const T dg = -T(1) - a * ka * ia * ia - b * kb * ib * ib; // g's derivative, every term negative
+        const T dg =
+            -T(1) - a * ka * ia * ia - b * kb * ib * ib; // g's derivative, every term negative
         e = std::min(e - g / dg, T(0));
     }
     const T ia = T(1) / (a - e), ib = T(1) / (b - e);
     const T f2 = e * e * ia * ib / (T(1) + a * ka * ia * ia + b * kb * ib * ib);
     const vec3<T> axis = glm::normalize(u1 * (a * x0 * ia) + u2 * (b * y0 * ib) + u3);
-    if (dir) *dir = axis;
+    if (dir)
+        *dir = axis;
     return clippedCapFormFactor(axis.z, std::sqrt(f2));
 }
 
 /// The clamped cosine's integral over the emitter seen from p through M^-1 (identity for the
 /// diffuse lobe): the rectangle's corners (counter-clockwise seen from its lit side) or the disk's
-/// centre and half axes, in the shading frame, turned by M^-1 (LTC 2016 section 3.2: the integral
-/// of D over P is D_o's over M^-1 P). `dir` (may be null) receives the light's mean direction in
-/// the shading frame for the identity: the vector form factor's (rectangle) or the cone's axis
-/// (disk). p must be in front of the emitter.
+/// centre and half axes, in the shading frame, turned by M^-1 (LTC 2016's integration property: the
+/// integral of D over P is D_o's over M^-1 P). `dir` (may be null) receives the light's mean
+/// direction in the shading frame for the identity: the vector form factor's (rectangle) or the
+/// cone's axis (disk). p must be in front of the emitter.
 template <typename T>
-T ltcEmitterIntegral(const AreaFrame<T>& f, const ShadingFrame<T>& s, const vec3<T>& p, std::type_identity_t<const LtcLobe<T>*> lobe,
+T ltcEmitterIntegral(const AreaFrame<T>& f, const ShadingFrame<T>& s, const vec3<T>& p,
+                     std::type_identity_t<const LtcLobe<T>*> lobe,
                      std::type_identity_t<vec3<T>*> dir) {
     auto local = [&](const vec3<T>& w) {
         const vec3<T> l = s.toLocal(w);
         return lobe ? ltcApply(*lobe, l) : l;
     };
-    const vec3<T> c = local(f.centre - p), r = local(f.right * (T(0.5) * f.width)), u = local(f.up * (T(0.5) * f.height));
+    const vec3<T> c = local(f.centre - p), r = local(f.right * (T(0.5) * f.width)),
+                  u = local(f.up * (T(0.5) * f.height));
     if (f.disk) {
         vec3<T> axis;
         const T ff = ltcDiskFormFactor(c, r, u, &axis);
-        if (dir) *dir = axis;
+        if (dir)
+            *dir = axis;
         return ff;
     }
     // right x up = -normal (areaFrame): c - r - u, c + r - u, c + r + u, c - r + u turns about
     // -normal, i.e. counter-clockwise seen from the emitting side, where the shading point is.
     const vec3<T> q[4] = {c - r - u, c + r - u, c + r + u, c - r + u};
     const vec3<T> F = ltcPolygonFormFactor(q);
-    if (dir) *dir = glm::dot(F, F) > T(0) ? glm::normalize(F) : vec3<T>(T(0), T(0), T(1));
+    if (dir)
+        *dir = glm::dot(F, F) > T(0) ? glm::normalize(F) : vec3<T>(T(0), T(0), T(1));
     return std::max(F.z, T(0));
 }
 
 /// The base layer (Brdf.h evaluateBaseLobes) lit by a uniform emitter of unit radiance, by LTC:
-///   specular = (F0 norm + (F90 - F0) fresnel) E_spec   (LTC 2016 section 4.3), with
+///   specular = (F0 norm + (F90 - F0) fresnel) E_spec   (LTC 2016's Fresnel term), with
 ///     F0 = mix(F0_d, albedo, metallic), F90 = mix(F90_d, 1, metallic): Brdf.h's
 ///     mix(F_dielectric, F_metal, metallic) = F0 + (F90 - F0)(1 - v.h)^5 exactly;
 ///   diffuse = (1 - metallic)(1 - max F_d(l_d)) albedo E_diff: Lambert's integral is the form
@@ -267,9 +287,10 @@ T ltcEmitterIntegral(const AreaFrame<T>& f, const ShadingFrame<T>& s, const vec3
 ///     lights, and (1 - v.h)^5 is small but at grazing angles).
 /// E = the form factors (ltcEmitterIntegral); p must be in front of the emitter (0 otherwise).
 template <typename T>
-vec3<T> ltcShading(const AreaFrame<T>& f, const LtcTable& table, const vec3<T>& p, const vec3<T>& N, const vec3<T>& V,
-                   const vec3<T>& albedo, T metallic, T roughness, T specular) {
-    if (glm::dot(p - f.centre, f.normal) <= T(0)) return vec3<T>(T(0)); // one-sided
+vec3<T> ltcShading(const AreaFrame<T>& f, const LtcTable& table, const vec3<T>& p, const vec3<T>& N,
+                   const vec3<T>& V, const vec3<T>& albedo, T metallic, T roughness, T specular) {
+    if (glm::dot(p - f.centre, f.normal) <= T(0))
+        return vec3<T>(T(0)); // one-sided
     const ShadingFrame<T> s = shadingFrame(N, V);
     const T NdotV = std::max(glm::dot(N, V), T(MIN_NDOTV));
     vec3<T> ld;
@@ -293,6 +314,8 @@ vec3<T> ltcShading(const AreaFrame<T>& f, const LtcTable& table, const vec3<T>& 
 /// The colour an LTC-shaded emitter multiplies by: the pattern's mean over the emitter (LTC 2016
 /// integrates a uniform polygon; a pattern is averaged, docs/lighting.md). The table's mean is
 /// over the unit square, of which a disk covers pi / 4.
-inline glm::dvec3 ltcEmitterColour(const PatternTable& t, bool disk) { return disk ? t.mean / (PI / 4.0) : t.mean; }
+inline glm::dvec3 ltcEmitterColour(const PatternTable& t, bool disk) {
+    return disk ? t.mean / (PI / 4.0) : t.mean;
+}
 
 } // namespace dfb::lightmath
