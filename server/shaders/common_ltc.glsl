@@ -52,22 +52,15 @@ vec3 ltcEdge(vec3 v1, vec3 v2) {
 // Ltc.h ltcPolygonFormFactor: the clipped polygon's vector form factor.
 vec3 ltcPolygonFormFactor(vec3 q[4]) {
     vec3 sum = vec3(0.0), exitPoint = vec3(0.0), entryPoint = vec3(0.0);
-    bool exits = false;
     for (int k = 0; k < 4; ++k) {
         vec3 a = q[k], b = q[(k + 1) & 3];
         bool aUp = a.z > 0.0, bUp = b.z > 0.0;
-        if (aUp && bUp) {
-            sum += ltcEdge(a, b);
-        } else if (aUp) {
-            exitPoint = a.z * b - b.z * a;
-            exits = true;
-            sum += ltcEdge(a, exitPoint);
-        } else if (bUp) {
-            entryPoint = b.z * a - a.z * b;
-            sum += ltcEdge(entryPoint, b);
-        }
+        vec3 x = aUp ? a.z * b - b.z * a : b.z * a - a.z * b;
+        exitPoint = aUp && !bUp ? x : exitPoint;
+        entryPoint = bUp && !aUp ? x : entryPoint;
+        sum += ltcEdge(aUp ? a : x, bUp ? b : x);
     }
-    if (exits) sum += ltcEdge(exitPoint, entryPoint);
+    sum += ltcEdge(exitPoint, entryPoint);
     return sum * (1.0 / (2.0 * PI));
 }
 
@@ -133,9 +126,16 @@ float ltcEmitterIntegral(mat3 R, vec3 P, bool transformed, vec4 m, out vec3 dir)
         r = ltcApply(m, r);
         u = ltcApply(m, u);
     }
+    // AREA_LTC 1: a rectangle, 2: a disk (LightShading.cpp), so that a variant runs one of the two.
+#if defined(AREA_LTC) && AREA_LTC == 2
+    return ltcDiskFormFactor(c, r, u, dir);
+#else
+#ifndef AREA_LTC
     if (uLight.lightDoors.z > 0.5) return ltcDiskFormFactor(c, r, u, dir);
+#endif
     vec3 q[4] = vec3[4](c - r - u, c + r - u, c + r + u, c - r + u);
     vec3 F = ltcPolygonFormFactor(q);
     dir = dot(F, F) > 0.0 ? normalize(F) : vec3(0.0, 0.0, 1.0);
     return max(F.z, 0.0);
+#endif
 }

@@ -10,8 +10,8 @@
 // mean visibility of the grid of shadow maps over the emitter. AREA_REFERENCE g: the reference
 // instead, g x g cells of the emitter each with the exact pattern integral over the cell (the
 // table) at its centre and the full BRDF (AreaLight.h referenceShading), same visibility.
-// AREA_LTC (the light's `shading` is LTC; LightShading::shadeDefines): linearly transformed
-// cosines instead of one-shot (Heitz, Dupuy, Hill and Neubelt 2016; Heitz and Hill 2017;
+// AREA_LTC (the light's `shading` is LTC, LightShading::shade; 1 a rectangle, 2 a disk): linearly
+// transformed cosines instead of one-shot (Heitz, Dupuy, Hill and Neubelt 2016; Heitz and Hill 2017;
 // common_ltc.glsl, Ltc.h), the uniform emitter of the pattern's mean colour, same visibility.
 #include "common_uniforms.glsl"
 #include "common_brdf.glsl"

@@ -252,7 +252,10 @@ Status LightShading::shade(LightCache& c, int output, bool preview, int referenc
         (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "") +
         (area && referenceCells > 0 ? "#define AREA_REFERENCE " + std::to_string(referenceCells) + "\n" : "") +
         // Which shading the light asks for is not a specialisation: generic shaders need it too.
-        (area && referenceCells == 0 && shadesWithLtc(l) ? "#define AREA_LTC 1\n" : "");
+        // 1: a rectangle, 2: a disk (common_ltc.glsl runs only that one's integral).
+        (area && referenceCells == 0 && shadesWithLtc(l)
+             ? std::string("#define AREA_LTC ") + (l.areaShape == AreaShape::Disk ? "2" : "1") + "\n"
+             : std::string());
     auto shader = mShaders.variant(
         {"common_fullscreen.vert", bendy ? "relight_bendy.frag" : area ? "relight_area.frag" : "relight_spot.frag"}, defines);
     if (!shader) return shader.error();

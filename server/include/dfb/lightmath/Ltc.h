@@ -135,24 +135,20 @@ template <typename T> vec3<T> ltcEdge(const vec3<T>& v1, const vec3<T>& v2) {
 /// a.z b - b.z a, whose z is 0 exactly. Returns F for a counter-clockwise polygon seen from the
 /// shading point (its F.z > 0).
 template <typename T> vec3<T> ltcPolygonFormFactor(const vec3<T> q[4]) {
+    // Branch-free (the GLSL mirror runs every path of a branch on llvmpipe): each edge's ends are
+    // moved to its horizon crossing x where they lie below, an edge wholly below becomes the
+    // point x (its arc is 0), and the horizon's arc from the exit to the entry is 0 when the
+    // polygon does not cross it (both points stay 0).
     vec3<T> sum(T(0)), exitPoint(T(0)), entryPoint(T(0));
-    bool exits = false;
     for (int k = 0; k < 4; ++k) {
         const vec3<T> a = q[k], b = q[(k + 1) & 3];
         const bool aUp = a.z > T(0), bUp = b.z > T(0);
-        if (aUp && bUp) {
-            sum += ltcEdge(a, b);
-        } else if (aUp) {
-            exitPoint = a.z * b - b.z * a;
-            exits = true;
-            sum += ltcEdge(a, exitPoint);
-        } else if (bUp) {
-            entryPoint = b.z * a - a.z * b;
-            sum += ltcEdge(entryPoint, b);
-        }
+        const vec3<T> x = aUp ? a.z * b - b.z * a : b.z * a - a.z * b;
+        if (aUp && !bUp) exitPoint = x;
+        if (bUp && !aUp) entryPoint = x;
+        sum += ltcEdge(aUp ? a : x, bUp ? b : x);
     }
-    if (exits)
-        sum += ltcEdge(exitPoint, entryPoint);
+    sum += ltcEdge(exitPoint, entryPoint);
     return sum * T(1.0 / (2.0 * PI));
 }
 
