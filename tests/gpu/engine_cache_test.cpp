@@ -211,7 +211,9 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
     test::SchemaEditOptions opt;
     opt.objectCount = uint32_t(shot.objectNames.size());
     opt.cookies = {"", "checks.png", "coarse.png"};
-    std::mt19937 rng(2024);
+    // Seed 2024 left point lights 3 edits after the `shading` row joined the schema (the sequence
+    // shifts with the rows); 2025-2028 all cover every type more than 10 times.
+    std::mt19937 rng(2025);
     std::map<std::string, int> edited; // schema row -> edits applied
     std::map<LightType, int> byType;
     const auto& rows = protocol::lightProperties();
