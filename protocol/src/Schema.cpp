@@ -211,6 +211,18 @@ Status setPattern(const Property&, Light& l, const json& v, const std::string& p
     return ok();
 }
 
+Status setAreaShading(const Property&, Light& l, const json& v, const std::string& path, int) {
+    const std::string name = v.is_string() ? v.get<std::string>() : "";
+    if (name == "auto") l.areaShading = AreaShading::Auto;
+    else if (name == "oneShot") l.areaShading = AreaShading::OneShot;
+    else if (name == "ltc") l.areaShading = AreaShading::Ltc;
+    else return invalid(path + ": unknown area light shading " + excerpt(v) + " (\"auto\", \"oneShot\" or \"ltc\")");
+    return ok();
+}
+json getAreaShading(const Light& l) {
+    return l.areaShading == AreaShading::OneShot ? "oneShot" : l.areaShading == AreaShading::Ltc ? "ltc" : "auto";
+}
+
 Status setAlphaBeta(const Property&, Light&, const json& v, const std::string& path, int) {
     // Server-computed (the fit of the light's shape and pattern): accepted in a whole rig (round
     // trips) but not meaningful to set.
@@ -556,6 +568,13 @@ const std::vector<Property> LIGHT_PROPERTIES = {
             "at most 255 characters; an edit naming a file that is not a readable image is refused (`invalid_value`)",
      .set = setPattern, .same = sameField<&Light::pattern>, .present = [](const Light& l) { return !l.pattern.empty(); },
      .get = getField<&Light::pattern>},
+    {.path = "shading", .label = "Shading", .type = Enum, .unit = "", .invalidates = Shade, .appliesTo = APPLIES_AREA,
+     .values = "auto,oneShot,ltc", .valueDoc = "string",
+     .doc = "area lights: `\"oneShot\"` (one-shot approximate local shading, Wang et al. 2008: any pattern at the cost of two "
+            "point lights), `\"ltc\"` (linearly transformed cosines, Heitz et al. 2016 and 2017: the uniform emitter integrated "
+            "under the fitted GGX lobe, accurate; with a pattern it uses the pattern's mean colour) or `\"auto\"` (the default: "
+            "`oneShot` when the light has a `pattern`, `ltc` otherwise); docs/lighting.md",
+     .set = setAreaShading, .same = sameField<&Light::areaShading>, .present = isArea, .get = getAreaShading},
     {.path = "shadowGrid", .label = "Shadow grid", .type = Numbers, .unit = "shadow maps", .min = 1,
      .max = MAX_AREA_SHADOW_GRID, .uiMin = 1, .uiMax = 8, .step = 1, .invalidates = Shadow, .appliesTo = AREA_LIKE,
      .size = 2, .valueDoc = "[m, n]",
@@ -566,7 +585,8 @@ const std::vector<Property> LIGHT_PROPERTIES = {
     {.path = "alphaBeta", .label = "One-shot fit", .type = Numbers, .unit = "", .appliesTo = APPLIES_AREA, .size = 2,
      .readOnly = true, .valueDoc = "[alpha, beta]",
      .doc = "written by the server: the one-shot radius factors fitted for the area light's shape and pattern (Wang et al. "
-            "2008, section 3; docs/lighting.md); [0.30, 0.57] before a fit; clients cannot set it",
+            "2008, section 3; docs/lighting.md), fitted while the light shades one-shot (a light shading with LTC costs no "
+            "fit); [0.30, 0.57] before a fit; clients cannot set it",
      .set = setAlphaBeta, .present = isArea, .get = getField<&Light::alphaBeta>},
     {.path = "include", .label = "Lights only", .type = IdList, .unit = "object ids", .invalidates = Shade, .valueDoc = "[ids]",
      .doc = "light linking: when not empty, the light lights only these objects (1-based ids of the shot's manifest, "

@@ -10,9 +10,13 @@
 // mean visibility of the grid of shadow maps over the emitter. AREA_REFERENCE g: the reference
 // instead, g x g cells of the emitter each with the exact pattern integral over the cell (the
 // table) at its centre and the full BRDF (AreaLight.h referenceShading), same visibility.
+// AREA_LTC (the light's `shading` is LTC, LightShading::shade; 1 a rectangle, 2 a disk): linearly
+// transformed cosines instead of one-shot (Heitz, Dupuy, Hill and Neubelt 2016; Heitz and Hill 2017;
+// common_ltc.glsl, Ltc.h), the uniform emitter of the pattern's mean colour, same visibility.
 #include "common_uniforms.glsl"
 #include "common_brdf.glsl"
 #include "common_area.glsl"
+#include "common_ltc.glsl" // always, so that the build's validation compiles the LTC path too
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
@@ -129,6 +133,52 @@ void layeredParts(vec3 N, vec3 L, vec3 V, vec3 albedo, vec4 brdf, vec4 sheen, ve
     }
 }
 
+// The layered BRDF (common_brdf.glsl evaluateLayeredBrdfCos) integrated over the uniform emitter
+// of unit radiance by LTC: the base layer as Ltc.h ltcShading (specular (F0 norm + (F90 - F0)
+// fresnel) E_spec, LTC 2016's Fresnel term; Lambert's form factor E_diff dimmed by the dielectric
+// Fresnel at the light's mean direction), the coat exactly as a second lobe (its Fresnel is of
+// N.v alone: coat F_c norm_c E_coat, the table at the coat's roughness), the sheen evaluated at
+// the mean direction times the cosine's integral pi E_diff (an approximation: no LTC is fitted to
+// the Charlie lobe). Both under the coat's and the sheen's attenuation of the base, as
+// layeredParts.
+vec3 ltcLayered(vec3 P, vec3 N, vec3 V, vec3 albedo, vec4 brdf, vec4 sheen, vec2 coat) {
+    mat3 R = ltcShadingFrame(N, V);
+    float NdotV = max(dot(N, V), 1e-4);
+    vec3 ld, unused;
+    float ed = ltcEmitterIntegral(R, P, false, vec4(0.0), ld);
+    LtcLobe lobe = ltcLookup(brdf.y, NdotV);
+    float es = ltcEmitterIntegral(R, P, true, lobe.m, unused);
+    float metallic = brdf.x, specular = brdf.z;
+    float f0d = 0.08 * specular, f90d = min(2.0 * specular, 1.0);
+    vec3 F0 = mix(vec3(f0d), albedo, metallic);
+    float F90 = mix(f90d, 1.0, metallic);
+    vec3 spec = (F0 * lobe.amp.x + (vec3(F90) - F0) * lobe.amp.y) * es;
+    vec3 Vl = R * V;
+    float VdotH = clamp(dot(Vl, normalize(ld + Vl)), 0.0, 1.0);
+    float maxFd = f0d + (f90d - f0d) * pow(1.0 - VdotH, 5.0);
+    vec3 diffuse = ((1.0 - metallic) * (1.0 - maxFd) * ed) * albedo;
+    if (SHADE_SHEEN && any(greaterThan(sheen.rgb, vec3(0.0)))) {
+        vec3 L = transpose(R) * ld; // the shading frame's rows: its transpose turns back to world
+        float NdotH = max(dot(N, normalize(L + V)), 0.0);
+        float sheenAlpha = max(sheen.a * sheen.a, 1e-3);
+        float scaling = 1.0 - max(max(sheen.r, sheen.g), sheen.b);
+        vec3 fs = sheen.rgb * distributionCharlie(NdotH, sheenAlpha) * visibilityNeubelt(max(ld.z, 0.0), NdotV);
+        diffuse = diffuse * scaling + fs * (PI * ed);
+        spec *= scaling;
+    }
+    if (SHADE_COAT && coat.x > 0.0) {
+        float Fc = 0.04 + 0.96 * pow(1.0 - clamp(NdotV, 0.0, 1.0), 5.0);
+        LtcLobe cl = ltcLookup(coat.y, NdotV);
+        float ec = ltcEmitterIntegral(R, P, true, cl.m, unused);
+        diffuse *= 1.0 - coat.x * Fc;
+        spec = spec * (1.0 - coat.x * Fc) + vec3(coat.x * Fc * cl.amp.x * ec);
+    }
+    // The pattern's mean over the emitter (Ltc.h ltcEmitterColour): the table's mean is over the
+    // unit square, of which a disk covers pi / 4.
+    vec3 colour = uLight.lightCube.xyz / (uLight.lightDoors.z > 0.5 ? 0.25 * PI : 1.0);
+    return (diffuse + spec) * colour;
+}
+
 // (-l.n) / d^2 of the emitter point t seen from p, and l; 0 behind the emitter.
 float emitterFactor(vec3 p, vec3 t, out vec3 l) {
     vec3 d = t - p;
@@ -175,6 +225,8 @@ vec3 shadeSample(ivec2 t) {
             sum += (fd + fs) * k * I;
         }
     }
+#elif defined(AREA_LTC)
+    sum = ltcLayered(P, N, V, albedo, brdf, sheen, coat);
 #else
     float m = phongExponent(brdf.y);
     vec3 t1 = clampToEmitter(representativePoint(P, N, 1.0)), t2 = clampToEmitter(representativePoint(P, reflect(-V, N), m));

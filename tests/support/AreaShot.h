@@ -42,10 +42,10 @@ inline void finishShot(Shot& s, BakeOptions o) {
     s.rays.commit();
 }
 
-inline void makeShot(Shot& s, bool withBox) {
-    s.scene.materials.push_back(Material{});
-    s.scene.materials[0].metallic = 0.f;
-    s.scene.materials[0].roughness = 0.5f;
+inline void makeShot(Shot& s, bool withBox, float metallic = 0.f, float roughness = 0.5f) {
+    if (s.scene.materials.empty()) s.scene.materials.push_back(Material{});
+    s.scene.materials[0].metallic = metallic;
+    s.scene.materials[0].roughness = roughness;
     s.scene.materials[0].baseColor = glm::vec4(0.8f, 0.8f, 0.8f, 1.f);
     s.scene.objectNames = {"ground", "box"};
     std::vector<glm::vec3> g;

@@ -44,9 +44,14 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
     switch (p.type) {
     case PropType::Boolean: return std::pair{path, json(!jsonOf(p.path).get<bool>())};
     case PropType::Enum: {
-        if (path == "shape") return std::pair{path, json(rng() % 2 ? "rect" : "disk")};
-        static const char* types[] = {"spot", "point", "directional", "bendy", "area", "bentArea"};
-        return std::pair{path, json(types[rng() % 6])};
+        // Any of the row's choices (type, an area light's shape and shading, ...).
+        std::vector<std::string> choices;
+        for (std::string rest = p.values; !rest.empty();) {
+            const size_t comma = rest.find(',');
+            choices.push_back(rest.substr(0, comma));
+            rest = comma == std::string::npos ? "" : rest.substr(comma + 1);
+        }
+        return std::pair{path, json(choices[rng() % choices.size()])};
     }
     case PropType::String: // cookie, pattern: images
         return std::pair{path, json(o.cookies[rng() % o.cookies.size()])};

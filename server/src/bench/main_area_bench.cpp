@@ -4,7 +4,9 @@
 // far (5 sizes), the error of one-shot against the stratified reference (Engine::renderAreaReference,
 // 32 x 32 cells): mean and 95th percentile of the per-pixel relative error over the pixels the
 // reference lights (above 1 % of its 99th percentile), and the aggregate mean |one-shot - reference|
-// / mean reference; the time of a one-shot edit and of the reference; the pattern tables' build
+// / mean reference; for the uniform disk and rectangle the same for linearly transformed cosines
+// (shading "ltc"; Heitz et al. 2016, 2017) beside one-shot's; the time of an edit of each mode and
+// of the reference; the pattern tables' build
 // time and memory and the alpha/beta fits' time. Then edit -> frame for an area light in the
 // default rig: move with 1x1, 2x2, 4x4 and 8x8 shadow grids (full quality, and preview frames as
 // during a drag), pattern change; a bent area light's corner control-point edit with 2x2 and 4x4
@@ -82,6 +84,8 @@ int main(int argc, char** argv) {
     app.add_option("--map-size", mapSize, "each shadow map's side (shadowMapSize)")->check(CLI::IsMember({64, 128, 256, 512, 1024, 2048}));
     app.add_option("--filter", filter, "shadowFilter (default: the light's default)")->check(CLI::Range(0, 4));
     app.add_flag("--no-errors", skipErrors, "only the edit -> frame times");
+    bool uniformOnly = false;
+    app.add_flag("--uniform", uniformOnly, "errors of the uniform disk and rectangle only (one-shot and LTC)");
     app.add_option("--cells", cells, "the reference's cells per side")->check(CLI::Range(1, MAX_AREA_REFERENCE_CELLS));
     CLI11_PARSE(app, argc, argv);
     keepFreedMemoryForFrames();
@@ -122,6 +126,7 @@ int main(int argc, char** argv) {
         l.areaShape = c.shape;
         l.areaSize = {size, c.shape == AreaShape::Disk ? size : 0.6f * size};
         l.pattern = c.pattern;
+        l.areaShading = AreaShading::OneShot; // the error table measures each mode by name
         const glm::vec3 p = centre - dir * distance;
         l.position = {p.x, p.y, p.z};
         l.direction = key.direction;
@@ -138,8 +143,8 @@ int main(int argc, char** argv) {
     std::printf("shot:     %s, %dx%d; light size %.3f (a quarter of the scene's diagonal), aimed as the default key\n",
                 shotPath.c_str(), opened.shot.width, opened.shot.height, size);
     std::printf("error:    one-shot vs the reference (%d x %d cells), the light alone, shadows on (the same in both)\n\n", cells, cells);
-    std::printf("%-18s %-5s %6s %6s | %9s %9s %9s | %10s %10s | %8s %8s %8s\n", "pattern", "dist", "alpha", "beta", "mean rel",
-                "p95 rel", "aggregate", "one-shot", "reference", "table", "KiB", "fit");
+    std::printf("%-18s %-5s %6s %6s | %-6s %9s %9s %9s | %10s %10s | %8s %8s %8s\n", "pattern", "dist", "alpha", "beta", "mode",
+                "mean rel", "p95 rel", "aggregate", "per edit", "reference", "table", "KiB", "fit");
     const Case cases[] = {{"uniform disk", AreaShape::Disk, ""},
                           {"uniform rectangle", AreaShape::Rect, ""},
                           {"checkerboard", AreaShape::Rect, "checker.png"},
@@ -147,6 +152,7 @@ int main(int argc, char** argv) {
                           {"tubes (4)", AreaShape::Rect, "tubes.png"}};
     for (const Case& c : cases) {
         if (skipErrors) break;
+        if (uniformOnly && c.pattern[0] != '\0') continue;
         for (float d : {0.5f, 5.f}) {
             auto [light, fitMs] = areaLight(c, d * size);
             Rig rig;
@@ -157,16 +163,6 @@ int main(int argc, char** argv) {
                 return 3;
             }
             if (!engine.render(rig)) return 3; // shadow maps and caches, outside the timing
-            std::vector<double> oneMs;
-            ImageF one;
-            for (int i = 0; i < edits; ++i) {
-                rig.lights[0].position[0] += (i % 2 ? -1.f : 1.f) * 1e-3f * size; // a move: maps and shading
-                const auto t0 = Clock::now();
-                auto img = engine.renderLightLinear(rig, "panel");
-                if (!img) return 3;
-                oneMs.push_back(msSince(t0));
-                if (i + 1 == edits) one = std::move(img.value());
-            }
             const auto t1 = Clock::now();
             auto ref = engine.renderAreaReference(rig, "panel", cells);
             const double refMs = msSince(t1);
@@ -177,19 +173,36 @@ int main(int argc, char** argv) {
             std::vector<double> lum;
             for (size_t i = 0; i < ref->rgba.size(); i += 4) lum.push_back(ref->rgba[i] + ref->rgba[i + 1] + ref->rgba[i + 2]);
             const double floor = 0.01 * percentile(lum, 99);
-            std::vector<double> rel;
-            double sumAbs = 0.0, sumRef = 0.0;
-            for (size_t i = 0; i < ref->rgba.size(); i += 4) {
-                const double r = ref->rgba[i] + ref->rgba[i + 1] + ref->rgba[i + 2], o = one.rgba[i] + one.rgba[i + 1] + one.rgba[i + 2];
-                sumAbs += std::abs(o - r);
-                sumRef += r;
-                if (r > floor && floor > 0) rel.push_back(std::abs(o - r) / r);
-            }
             const lightmath::PatternTable& t = table.value()->table;
-            std::printf("%-18s %4.1fx %6.3f %6.3f | %8.1f%% %8.1f%% %8.1f%% | %8.1fms %8.0fms | %6.2fms %8.0f %6.0fms\n", c.name, d,
-                        light.alphaBeta[0], light.alphaBeta[1], 100 * mean(rel),
-                        100 * percentile(rel, 95), 100 * sumAbs / std::max(sumRef, 1e-30), percentile(oneMs, 50), refMs,
-                        table.value()->buildMs, double(t.w + 1) * double(t.h + 1) * 16.0 / 1024.0, fitMs);
+            // One-shot for every case; LTC for the uniform ones (with a pattern it would shade its mean).
+            for (AreaShading mode : {AreaShading::OneShot, AreaShading::Ltc}) {
+                if (mode == AreaShading::Ltc && c.pattern[0] != '\0') continue;
+                rig.lights[0] = light; // where the reference was rendered
+                rig.lights[0].areaShading = mode;
+                std::vector<double> editMs;
+                ImageF got;
+                for (int i = 0; i < edits; ++i) {
+                    // A move (maps and shading), ending where it started: the last image is compared.
+                    rig.lights[0].position[0] = light.position[0] + (i % 2 || i + 1 == edits ? 0.f : 1e-3f * size);
+                    const auto t0 = Clock::now();
+                    auto img = engine.renderLightLinear(rig, "panel");
+                    if (!img) return 3;
+                    editMs.push_back(msSince(t0));
+                    if (i + 1 == edits) got = std::move(img.value());
+                }
+                std::vector<double> rel;
+                double sumAbs = 0.0, sumRef = 0.0;
+                for (size_t i = 0; i < ref->rgba.size(); i += 4) {
+                    const double r = ref->rgba[i] + ref->rgba[i + 1] + ref->rgba[i + 2], o = got.rgba[i] + got.rgba[i + 1] + got.rgba[i + 2];
+                    sumAbs += std::abs(o - r);
+                    sumRef += r;
+                    if (r > floor && floor > 0) rel.push_back(std::abs(o - r) / r);
+                }
+                std::printf("%-18s %4.1fx %6.3f %6.3f | %-6s %8.1f%% %8.1f%% %8.1f%% | %8.1fms %8.0fms | %6.2fms %8.0f %6.0fms\n", c.name, d,
+                            light.alphaBeta[0], light.alphaBeta[1], mode == AreaShading::Ltc ? "LTC" : "1-shot", 100 * mean(rel),
+                            100 * percentile(rel, 95), 100 * sumAbs / std::max(sumRef, 1e-30), percentile(editMs, 50), refMs,
+                            table.value()->buildMs, double(t.w + 1) * double(t.h + 1) * 16.0 / 1024.0, fitMs);
+            }
         }
     }
 
@@ -222,14 +235,19 @@ int main(int argc, char** argv) {
     auto move = [&](Light& l, int i) { l.position[0] += (i % 2 ? -1.f : 1.f) * 0.01f * size; };
     for (bool preview : {false, true}) {
         for (int g : {1, 2, 4, 8}) {
-            Rig rig = base;
-            auto [light, fitMs] = areaLight(cases[1], size);
-            (void)fitMs;
-            light.shadowGrid = {g, g};
-            rig.lights.push_back(light);
-            char what[64];
-            std::snprintf(what, sizeof what, "move, %dx%d shadows%s", g, g, preview ? " (preview)" : "");
-            if (!timeEdits(what, rig, preview, move)) return 3;
+            for (AreaShading mode : {AreaShading::OneShot, AreaShading::Ltc}) {
+                if (g != 4 && mode == AreaShading::Ltc) continue;
+                Rig rig = base;
+                auto [light, fitMs] = areaLight(cases[1], size);
+                (void)fitMs;
+                light.shadowGrid = {g, g};
+                light.areaShading = mode;
+                rig.lights.push_back(light);
+                char what[64];
+                std::snprintf(what, sizeof what, "move, %dx%d shadows%s%s", g, g, mode == AreaShading::Ltc ? ", LTC" : "",
+                              preview ? " (preview)" : "");
+                if (!timeEdits(what, rig, preview, move)) return 3;
+            }
         }
     }
     {

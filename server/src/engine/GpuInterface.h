@@ -13,6 +13,7 @@
 // `#define NAME value // what`. This header includes no GL (the generator is a plain program).
 
 #include <dfb/lightmath/BendyLight.h>
+#include <dfb/lightmath/Ltc.h>
 
 #include <glm/glm.hpp>
 
@@ -42,7 +43,9 @@
     X(TEX_DEFORMED, 15, "buffer texture RGBA32F: bendy_deform.comp's output, 2 texels per caster vertex") \
     X(TEX_CASTER_INDICES, 16, "buffer texture R32UI: the caster triangles' vertex indices")              \
     X(TEX_AREA_PATTERN, 17, "RGBA32F: an area light's pattern as a summed-area table, mean removed")      \
-    X(TEX_SHADOW_ARRAY, 18, "DEPTH32F 2D array, raw depths: an area light's grid of shadow maps")
+    X(TEX_SHADOW_ARRAY, 18, "DEPTH32F 2D array, raw depths: an area light's grid of shadow maps")        \
+    X(TEX_LTC_MATRIX, 19, "RGBA32F LTC_SIZE^2: the fitted LTC's M^-1 (a, b, c, d) per (roughness, sqrt(1 - N.v)) (Ltc.h)") \
+    X(TEX_LTC_AMPLITUDE, 20, "RG32F LTC_SIZE^2: the fitted lobe's norm and Schlick share (Ltc.h)")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).
 #define DFB_GPU_STORAGE_BINDINGS(X)                                                                    \
@@ -89,6 +92,8 @@
     X(BENDY_MAX_POINTS, dfb::lightmath::MAX_CONTROL_POINTS, "a chain's control points (BendyLight.h)") \
     X(COMPUTE_GROUP_SIZE, 64, "local_size_x of the compute passes (the engine dispatches by it)")  \
     X(FOOTPRINT_MAX_TAPS, 16, "edge taps per sample over its pixel footprint (ViewBlock.footprintTaps)") \
+    X(LTC_SIZE, dfb::lightmath::LTC_SIZE, "rows and columns of the LTC tables (Ltc.h)")                    \
+    X(LTC_DISK_NEWTON_STEPS, dfb::lightmath::LTC_DISK_NEWTON_STEPS, "Newton steps of the disk's ellipse (Ltc.h)") \
     X(AREA_MAX_LAYERS, 256, "an area light's shadow maps: MAX_AREA_SHADOW_GRID squared (Rig.h; ShadowMaps.cpp asserts it)") \
     X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands") \
     X(BENDY_TESS_WORK_WORD, offsetof(dfb::engine::BendyDrawCommands, tessWork) / 4, "BendyDrawCommands.tessWork's uint")

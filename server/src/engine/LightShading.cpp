@@ -4,6 +4,7 @@
 
 #include "ShadowMaps.h"
 
+#include <dfb/lightmath/LtcTableData.h>
 #include <dfb/server/AreaPattern.h>
 #include <dfb/server/BentArea.h>
 
@@ -92,6 +93,15 @@ Status LightShading::init() {
     GLuint vao = 0;
     glCreateVertexArrays(1, &vao);
     mEmptyVao = gl::VertexArray(vao);
+    // The LTC tables (dfb-ltc-fit, generated at build time; Ltc.h's layout: texel (i, j) =
+    // (roughness, sqrt(1 - N.v)) at k = j LTC_SIZE + i, which is GL's row-major upload). Read by
+    // texelFetch and interpolated by hand in common_ltc.glsl: 64 KiB + 32 KiB, made once.
+    static_assert(sizeof(lightmath::LTC_MATRIX) == size_t(LTC_SIZE) * LTC_SIZE * 4 * sizeof(float));
+    static_assert(sizeof(lightmath::LTC_AMPLITUDE) == size_t(LTC_SIZE) * LTC_SIZE * 2 * sizeof(float));
+    mLtcMatrix = gl::makeTexture2D(GL_RGBA32F, LTC_SIZE, LTC_SIZE);
+    glTextureSubImage2D(mLtcMatrix.id(), 0, 0, 0, LTC_SIZE, LTC_SIZE, GL_RGBA, GL_FLOAT, lightmath::LTC_MATRIX);
+    mLtcAmplitude = gl::makeTexture2D(GL_RG32F, LTC_SIZE, LTC_SIZE);
+    glTextureSubImage2D(mLtcAmplitude.id(), 0, 0, 0, LTC_SIZE, LTC_SIZE, GL_RG, GL_FLOAT, lightmath::LTC_AMPLITUDE);
     return okStatus();
 }
 
@@ -248,6 +258,8 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         if (!p) return p.error();
         pattern = p.value();
         glBindTextureUnit(TEX_AREA_PATTERN, pattern.texture);
+        glBindTextureUnit(TEX_LTC_MATRIX, mLtcMatrix.id());
+        glBindTextureUnit(TEX_LTC_AMPLITUDE, mLtcAmplitude.id());
         if (!c.areaLayers) {
             const glm::vec4 none(0.f);
             c.areaLayers = gl::makeBuffer(&none, sizeof none);
@@ -276,7 +288,12 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         shadeDefines(c, output, cookie != 0, linked) +
         (mShaders.generic() ? "" : "#define SHADE_FOOTPRINT_TAPS " + std::to_string(taps) + "\n") +
         (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "") +
-        (area && referenceCells > 0 ? "#define AREA_REFERENCE " + std::to_string(referenceCells) + "\n" : "");
+        (area && referenceCells > 0 ? "#define AREA_REFERENCE " + std::to_string(referenceCells) + "\n" : "") +
+        // Which shading the light asks for is not a specialisation: generic shaders need it too.
+        // 1: a rectangle, 2: a disk (common_ltc.glsl runs only that one's integral).
+        (area && referenceCells == 0 && shadesWithLtc(l)
+             ? std::string("#define AREA_LTC ") + (l.areaShape == AreaShape::Disk ? "2" : "1") + "\n"
+             : std::string());
     auto shader = mShaders.variant(
         {"common_fullscreen.vert", bendy ? "relight_bendy.frag" : area ? "relight_area.frag" : "relight_spot.frag"}, defines);
     if (!shader) return shader.error();

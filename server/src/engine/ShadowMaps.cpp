@@ -117,6 +117,7 @@ Status ShadowMaps::render(LightCache& c, bool preview, int subdivisionLimit) {
     const Light& l = c.params;
     c.previewShadow = preview && shadowSizeFor(l, true) != l.shadowMapSize;
     const int size = shadowSizeFor(l, preview);
+    if (l.type != LightType::BentArea) c.interior.clear(); // a light that was a bent area light
     if (l.type == LightType::Area || l.type == LightType::BentArea) {
         c.previewShadow = preview && areaGridFor(l, true) != areaGridFor(l, false);
         if (auto s = l.type == LightType::Area ? renderArea(c, size, preview) : renderBentArea(c, preview, subdivisionLimit); !s) return s;
@@ -130,8 +131,10 @@ Status ShadowMaps::render(LightCache& c, bool preview, int subdivisionLimit) {
 
 Status ShadowMaps::renderPlanar(LightCache& c, int size, int subdivisionLimit) {
     const Light& l = c.params;
-    if (!c.shadowMap || c.shadowIsCube || c.shadowSize != size) {
+    if (!c.shadowMap || c.shadowTarget != GL_TEXTURE_2D || c.shadowSize != size) {
         c.shadowIsCube = false;
+        c.shadowTarget = GL_TEXTURE_2D;
+        c.shadowLayers = 0;
         c.shadowSize = size;
         c.shadowMap = gl::makeTexture2D(GL_DEPTH_COMPONENT32F, c.shadowSize, c.shadowSize);
         rawDepth(c.shadowMap.id());
@@ -177,8 +180,10 @@ Status ShadowMaps::renderBentArea(LightCache& c, bool preview, int subdivisionLi
 // Six faces into one depth cube texture, each face a 90-degree perspective.
 Status ShadowMaps::renderCube(LightCache& c, int size) {
     const Light& l = c.params;
-    if (!c.shadowMap || !c.shadowIsCube || c.shadowSize != size) {
+    if (!c.shadowMap || c.shadowTarget != GL_TEXTURE_CUBE_MAP || c.shadowSize != size) {
         c.shadowIsCube = true;
+        c.shadowTarget = GL_TEXTURE_CUBE_MAP;
+        c.shadowLayers = 0;
         c.shadowSize = size;
         makeLayeredDepth(c, GL_TEXTURE_CUBE_MAP, size, 6);
     }
@@ -216,8 +221,9 @@ Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
     const Light& l = c.params;
     const glm::ivec2 grid = areaGridFor(l, preview);
     const int layers = grid.x * grid.y;
-    if (!c.shadowMap || c.shadowSize != size || c.shadowLayers != layers) {
+    if (!c.shadowMap || c.shadowTarget != GL_TEXTURE_2D_ARRAY || c.shadowSize != size || c.shadowLayers != layers) {
         c.shadowIsCube = false;
+        c.shadowTarget = GL_TEXTURE_2D_ARRAY;
         c.shadowSize = size;
         c.shadowLayers = layers;
         makeLayeredDepth(c, GL_TEXTURE_2D_ARRAY, size, layers);

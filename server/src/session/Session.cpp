@@ -289,7 +289,9 @@ void Session::snapshotIfDue() {
 
 void Session::updateFits(Rig& rig) const {
     for (Light& l : rig.lights) {
-        if (l.type != LightType::Area) continue;
+        // Only one-shot uses (alpha, beta): a light shading with LTC (a uniform one, by default)
+        // costs no fit, so resizing a soft box does not stall the session's thread on refits.
+        if (l.type != LightType::Area || shadesWithLtc(l)) continue;
         auto ab = fitAreaAlphaBeta(l, mAssetDir);
         l.alphaBeta = ab ? ab.value() : Light{}.alphaBeta;
     }

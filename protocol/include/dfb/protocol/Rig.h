@@ -33,6 +33,12 @@ constexpr int BENT_AREA_CORNERS = 4;
 /// An area light's outline: a rectangle `size[0]` x `size[1]`, or a disk of diameter `size[0]`.
 enum class AreaShape { Rect, Disk };
 
+/// How an area light is shaded (docs/lighting.md): one-shot approximate local shading (Wang et al.
+/// 2008: any pattern, two lobes' point lights), or linearly transformed cosines (Heitz et al. 2016,
+/// 2017: exact integration of a uniform emitter under the fitted GGX lobe; a pattern contributes
+/// its mean colour). Auto: one-shot when the light has a pattern, LTC otherwise.
+enum class AreaShading { Auto, OneShot, Ltc };
+
 /// Most rows or columns of an area light's grid of shadow maps.
 constexpr int MAX_AREA_SHADOW_GRID = 16;
 
@@ -101,6 +107,7 @@ struct Light {
     /// colour; a file in the asset folder like `cookie`; empty = uniform.
     std::string pattern;
     std::array<int, 2> shadowGrid{4, 4}; ///< m x n shadow maps over the emitter, each in [1, MAX_AREA_SHADOW_GRID]
+    AreaShading areaShading = AreaShading::Auto; ///< see AreaShading; shadesWithLtc decides Auto
     /// Set by the server: the one-shot radius factors (alpha, beta) fitted for the shape and
     /// pattern (Wang et al. 2008, section 3); (0.30, 0.57) before a fit.
     std::array<float, 2> alphaBeta{0.30f, 0.57f};
@@ -124,6 +131,12 @@ struct Light {
     int segments() const { return int(controlPoints.size() / 2); }
     int cornerSegments() const { return int(cornerPoints.size() / (2 * BENT_AREA_CORNERS)); }
 };
+
+/// Whether an area light shades with linearly transformed cosines: `shading` "ltc", or "auto"
+/// without a pattern.
+inline bool shadesWithLtc(const Light& l) {
+    return l.areaShading == AreaShading::Ltc || (l.areaShading == AreaShading::Auto && l.pattern.empty());
+}
 
 /// Makes `light` a BendyLight whose chain is straight along its axis, `length` long, in
 /// `segments` segments, with radii matching its cone: it renders exactly like the spot light.
