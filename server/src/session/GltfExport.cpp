@@ -228,7 +228,7 @@ tinygltf::Node lightNode(const Light& raw, const Light& now) {
     n.rotation = {q.x, q.y, q.z, q.w};
     Value::Object extras{{"dfb_light", toValue(protocol::toJson(raw))}};
     if (raw.type == LightType::Area || raw.type == LightType::BentArea) {
-        // The documented area-light convention (docs/gbuffer-format.md, "Area lights in glTF"),
+        // The documented area-light convention (docs/gbuffer-format.md, "Lights in glTF"),
         // for readers that know it but not dfb_light; a bent area light as its straight emitter.
         Value::Object a{{"shape", Value(std::string(now.areaShape == AreaShape::Disk ? "disk" : "rect"))},
                         {"size", numbers({now.areaSize[0], now.areaSize[1]})},
