@@ -143,7 +143,9 @@ inline Rig everyLightRig(bool patterns = false) {
     off.enabled = false;
     off.keys.clear();
     rig.lights.push_back(off);
-    return rig;
+    // Through the codec, as a client's rig arrives (directions normalised on set).
+    auto parsed = protocol::rigFromJson(protocol::toJson(rig));
+    return parsed ? parsed.value() : rig;
 }
 
 /// The JSON chunk of a GLB (glTF 2.0 section 4.4: 12-byte header "glTF", version 2, length; then

@@ -53,8 +53,6 @@ Rig roundTrip(const Rig& rig, const std::string& path, std::vector<std::string>*
     return back;
 }
 
-double length(const json& v) { return std::sqrt(double(v[0]) * double(v[0]) + double(v[1]) * double(v[1]) + double(v[2]) * double(v[2])); }
-
 } // namespace
 
 TEST(GltfExport, ImportGivesTheSameRigForEveryLightType) {
@@ -152,7 +150,9 @@ TEST(GltfExport, PunctualLightsFollowTheExtensionSchema) {
             EXPECT_GT(outer, 0.0);
             EXPECT_LE(outer, HALF_PI);
         }
-        if (l.contains("name")) EXPECT_TRUE(l["name"].is_string());
+        if (l.contains("name")) {
+            EXPECT_TRUE(l["name"].is_string());
+        }
     }
     // One node per rig light, named after it, at the root of the default scene; the enabled spot,
     // point, directional and BendyLight ones reference a punctual light.
@@ -177,7 +177,7 @@ TEST(GltfExport, PunctualLightsFollowTheExtensionSchema) {
         EXPECT_FALSE(node->contains("scale"));
         ASSERT_TRUE(node->contains("rotation") && node->contains("translation"));
         const json& r = (*node)["rotation"];
-        const glm::dquat q(double(r[3]), double(r[0]), double(r[1]), double(r[2]));
+        const glm::dquat q(r[3].get<double>(), r[0].get<double>(), r[1].get<double>(), r[2].get<double>());
         EXPECT_NEAR(glm::length(q), 1.0, 1e-12);
         for (int k = 0; k < 3; ++k) EXPECT_NEAR(double((*node)["translation"][size_t(k)]), double(l.position[size_t(k)]), 1e-6);
         // The node's -Z is where the light points (area lights: the emitting side).
@@ -202,8 +202,12 @@ TEST(GltfExport, PunctualLightsFollowTheExtensionSchema) {
         for (int c = 0; c < 3; ++c) {
             EXPECT_NEAR(double(pl["color"][size_t(c)]) * double(pl["intensity"]), double(l.color[size_t(c)]) * double(l.intensityCd), 1e-5);
         }
-        if (l.type == LightType::Directional) EXPECT_EQ(pl["type"], "directional");
-        if (l.type == LightType::Point) EXPECT_EQ(pl["type"], "point");
+        if (l.type == LightType::Directional) {
+            EXPECT_EQ(pl["type"], "directional");
+        }
+        if (l.type == LightType::Point) {
+            EXPECT_EQ(pl["type"], "point");
+        }
         if (l.type == LightType::Spot || l.type == LightType::Bendy) {
             EXPECT_EQ(pl["type"], "spot");
             EXPECT_NEAR(double(pl["spot"]["outerConeAngle"]), glm::radians(double(l.coneAngleDeg)), 1e-9);
