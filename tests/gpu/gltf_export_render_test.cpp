@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -55,12 +56,17 @@ TEST(GltfExportRender, ExportThenImportRendersTheSameFrame) {
     double peak = 0;
     for (float v : want->rgba) peak = std::max(peak, double(v));
     EXPECT_GT(peak, 0.01) << "the rig lights the scene";
-    EXPECT_LE(maxAbsDifference(want.value(), got.value()), 1e-6);
+    const double diff = maxAbsDifference(want.value(), got.value());
+    std::printf("beauty (linear): peak %.4g, max |difference| %.3g over %zu values\n", peak, diff, want->rgba.size());
+    EXPECT_LE(diff, 1e-6);
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
         auto a = t->engine->renderLightLinear(rig, l.name);
         auto b = fresh.value()->renderLightLinear(back, l.name);
         ASSERT_TRUE(a.ok() && b.ok()) << l.name;
+        double lightPeak = 0;
+        for (float v : a->rgba) lightPeak = std::max(lightPeak, double(v));
+        EXPECT_GT(lightPeak, 0.0) << l.name << " reaches the scene";
         EXPECT_LE(maxAbsDifference(a.value(), b.value()), 1e-6) << l.name;
     }
     std::filesystem::remove(path);

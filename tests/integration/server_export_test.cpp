@@ -78,7 +78,16 @@ TEST_F(ServerExport, EndpointAndClientWriteTheRigIntoTheScene) {
     auto back = importRig(viaHttp);
     ASSERT_TRUE(back.ok()) << back.error().toString();
     ASSERT_EQ(back->lights.size(), want["lights"].size());
-    for (size_t i = 0; i < back->lights.size(); ++i) EXPECT_EQ(dfb::protocol::toJson(back->lights[i]), want["lights"][i]);
+    // What the server derives (area lights' fitted alphaBeta, a chain's warning) is written but
+    // not read back: a session derives it again from the rest.
+    auto authored = [](json l) {
+        l.erase("alphaBeta");
+        l.erase("warning");
+        return l;
+    };
+    for (size_t i = 0; i < back->lights.size(); ++i) {
+        EXPECT_EQ(authored(dfb::protocol::toJson(back->lights[i])), authored(want["lights"][i]));
+    }
     EXPECT_EQ(back->exposureStops, want["exposure"].get<float>());
 
     // dfb-client export: a file that loads, with the same lights.
