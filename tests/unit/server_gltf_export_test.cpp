@@ -5,6 +5,7 @@
 // a re-export replaces the scene's lights instead of adding to them; bad input is refused.
 
 #include "support/EveryLightRig.h"
+#include "support/GltfBuilder.h"
 
 #include <dfb/gbuffer/Scene.h>
 #include <dfb/lightmath/Falloff.h>
@@ -367,4 +368,61 @@ TEST(GltfExport, ARefusedRigJsonFallsBackToTheStandIn) {
     EXPECT_EQ(back.lights[0].type, LightType::Spot);
     EXPECT_NEAR(back.lights[0].coneAngleDeg, 30.f, 1e-4f);
     std::filesystem::remove(path);
+}
+
+// A .gltf with an external buffer and an external image becomes one self-contained GLB: one
+// buffer (the binary chunk, no URI), the image in a buffer view of it with its mime type, and
+// the same decoded texture when loaded.
+TEST(GltfExport, ExternalBuffersAndImagesArePackedIntoTheGlb) {
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "dfb_export_gltf";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    test::GltfBuilder b;
+    tinygltf::Material m;
+    m.pbrMetallicRoughness.baseColorTexture.index = b.addTexture(2, 2, {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255});
+    b.addQuad("floor", -1, -1, 1, 1, 0, b.addMaterial(m));
+    ASSERT_TRUE(b.write((dir / "first.glb").string())); // fills the builder's buffer
+    tinygltf::TinyGLTF w;
+    ASSERT_TRUE(w.WriteGltfSceneToFile(&b.model, (dir / "scene.gltf").string(), false, false, true, false));
+    ASSERT_TRUE(std::filesystem::exists(dir / "scene.bin"));
+    // tinygltf names the image 0.png in scene.gltf but leaves writing it to us: the PNG bytes the
+    // builder embedded in first.glb (a data URI), as tinygltf hands them to its image loader.
+    {
+        tinygltf::Model glbModel;
+        tinygltf::TinyGLTF r;
+        std::string png, err, warn;
+        r.SetImageLoader(
+            [](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char* bytes, int size, void* user) {
+                static_cast<std::string*>(user)->assign(reinterpret_cast<const char*>(bytes), size_t(size));
+                return true;
+            },
+            &png);
+        ASSERT_TRUE(r.LoadBinaryFromFile(&glbModel, &err, &warn, (dir / "first.glb").string())) << err;
+        ASSERT_EQ(png.compare(1, 3, "PNG"), 0);
+        writeBytes((dir / "0.png").string(), png);
+    }
+    Rig rig;
+    rig.lights = {test::everyLightRig().lights[0]};
+    auto glb = exportGltf((dir / "scene.gltf").string(), rig);
+    ASSERT_TRUE(glb.ok()) << glb.error().toString();
+    const auto j = test::glbJson(glb.value());
+    ASSERT_TRUE(j.has_value());
+    ASSERT_EQ((*j)["buffers"].size(), 1u);
+    EXPECT_FALSE((*j)["buffers"][0].contains("uri"));
+    ASSERT_EQ((*j)["images"].size(), 1u);
+    EXPECT_FALSE((*j)["images"][0].contains("uri"));
+    EXPECT_TRUE((*j)["images"][0].contains("bufferView"));
+    EXPECT_EQ((*j)["images"][0].value("mimeType", ""), "image/png");
+    const std::string out = (dir / "exported.glb").string();
+    writeBytes(out, glb.value());
+    std::filesystem::remove(dir / "scene.bin"); // nothing outside the GLB is needed
+    std::filesystem::remove(dir / "0.png");
+    auto scene = loadScene(out);
+    ASSERT_TRUE(scene.ok()) << scene.error().toString();
+    ASSERT_EQ(scene->images.size(), 1u);
+    EXPECT_EQ(scene->images[0].width, 2);
+    EXPECT_EQ(scene->images[0].rgba[4], 0);
+    EXPECT_EQ(scene->images[0].rgba[5], 255);
+    EXPECT_EQ(scene->lights.size(), 1u);
+    std::filesystem::remove_all(dir);
 }
