@@ -1,6 +1,7 @@
 // dfb-client: command-line client of dfb-server (protocol v1, docs/protocol.md).
 //
-//   dfb-client sessions | info | rig get|put | set | apply | frame | watch | pick | drag | undo | redo | bench | properties
+//   dfb-client sessions | info | rig get|put | set | apply | frame | export | watch | pick | drag | undo | redo | bench |
+//              properties
 //
 // Every subcommand takes --server URL (the links dfb-server prints carry the session and the
 // token), --session ID, --token T and --timeout S; DFB_SERVER, DFB_SESSION and DFB_TOKEN are the
@@ -166,6 +167,10 @@ int main(int argc, char** argv) {
     ViewArgs frameView;
     cFrame->add_option("file", frameOut, "output file (.jpg, .png or .exr picks the format)")->required();
     frameView.add(cFrame);
+    auto* cExport = app.add_subcommand("export", "save the session's scene with the rig's lights as glTF (GLB: KHR_lights_punctual, "
+                                                 "every light exact in extras.dfb_light)");
+    std::string exportOut;
+    cExport->add_option("file", exportOut, "output file (.glb)")->required();
     auto* cWatch = app.add_subcommand("watch", "receive streamed frames and changes; count or save them");
     int watchCount = 0;
     double watchSeconds = 0;
@@ -254,6 +259,13 @@ int main(int argc, char** argv) {
             auto r = cl.request("GET", cl.base() + "/frame" + q);
             writeFile(frameOut, r.body.data(), r.body.size());
             std::cout << "saved " << frameOut << " (rig version " << r.rigVersion << ")" << std::endl;
+        } else if (cExport->parsed()) {
+            auto r = cl.request("GET", cl.base() + "/export.glb");
+            if (r.body.size() < 12 || r.body.compare(0, 4, "glTF") != 0) die(EXIT_BROKEN, "GET export.glb: the answer is not a GLB file");
+            writeFile(exportOut, r.body.data(), r.body.size());
+            std::string version = r.etag; // "V"
+            version.erase(std::remove(version.begin(), version.end(), '"'), version.end());
+            std::cout << "saved " << exportOut << " (" << r.body.size() << " bytes, rig version " << version << ")" << std::endl;
         } else if (cWatch->parsed()) {
             json welcome;
             auto conn = cl.connect(&welcome);

@@ -4,6 +4,8 @@
 
 #include <tiny_gltf.h>
 
+#include <nlohmann/json.hpp>
+
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
@@ -157,6 +159,39 @@ Result<Scene> loadFromBytesGuarded(const std::string& path, const std::string& b
 
 } // namespace
 
+// A glTF extras value as JSON (extras.dfb_light, docs/gbuffer-format.md "Lights in glTF"): the
+// exporter's numbers come back as written (integers as integers, doubles exactly). Deeper than a
+// rig light's JSON can be is refused before the recursion could matter.
+static Result<nlohmann::json> valueToJson(const tinygltf::Value& v, int depth) {
+    if (depth > 16) return makeError(ErrorCode::InvalidFile, "is nested too deeply for a light");
+    switch (v.Type()) {
+    case tinygltf::NULL_TYPE: return nlohmann::json(nullptr);
+    case tinygltf::BOOL_TYPE: return nlohmann::json(v.Get<bool>());
+    case tinygltf::INT_TYPE: return nlohmann::json(v.Get<int>());
+    case tinygltf::REAL_TYPE: return nlohmann::json(v.Get<double>());
+    case tinygltf::STRING_TYPE: return nlohmann::json(v.Get<std::string>());
+    case tinygltf::ARRAY_TYPE: {
+        nlohmann::json a = nlohmann::json::array();
+        for (size_t i = 0; i < v.ArrayLen(); ++i) {
+            auto x = valueToJson(v.Get(int(i)), depth + 1);
+            if (!x) return x.error();
+            a.push_back(std::move(x.value()));
+        }
+        return a;
+    }
+    case tinygltf::OBJECT_TYPE: {
+        nlohmann::json o = nlohmann::json::object();
+        for (const auto& [key, x] : v.Get<tinygltf::Value::Object>()) {
+            auto y = valueToJson(x, depth + 1);
+            if (!y) return y.error();
+            o[key] = std::move(y.value());
+        }
+        return o;
+    }
+    default: return makeError(ErrorCode::InvalidFile, "holds a value JSON cannot (binary)");
+    }
+}
+
 // An area light under a node's extras.dfb_area_light (KHR_lights_punctual has none;
 // docs/gbuffer-format.md, "Area lights in glTF"): placed and turned by the node, its -Z the
 // emitting side and +X the width axis. A bad field is an error naming the node and the field,
@@ -306,6 +341,19 @@ Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir,
             scene.cameras.push_back(cam);
         }
 
+        // A node written by dfb's export carries its light's rig JSON (extras.dfb_light); its
+        // KHR light or dfb_area_light is then a stand-in for other tools, read into the same
+        // SceneLight (the import prefers the JSON) instead of a second light.
+        const size_t lightsBefore = scene.lights.size();
+        std::string rigJson;
+        if (node.extras.IsObject() && node.extras.Has("dfb_light")) {
+            auto j = valueToJson(node.extras.Get("dfb_light"), 0);
+            if (!j) {
+                failure = "node '" + nodeName + "': extras.dfb_light " + j.error().message;
+                return;
+            }
+            rigJson = j->dump();
+        }
         if (auto lit = node.extensions.find("KHR_lights_punctual"); lit != node.extensions.end() && lit->second.Has("light")) {
             const int index = lit->second.Get("light").GetNumberAsInt();
             if (index >= 0 && size_t(index) < model.lights.size()) {
@@ -323,13 +371,25 @@ Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir,
             }
         }
 
-        if (node.extras.IsObject() && node.extras.Has("dfb_area_light")) {
+        if (node.extras.IsObject() && node.extras.Has("dfb_area_light") && (rigJson.empty() || scene.lights.size() == lightsBefore)) {
             auto area = readAreaLight(node.extras.Get("dfb_area_light"), world, nodeName);
             if (!area) {
                 failure = area.error().message;
                 return;
             }
             scene.lights.push_back(area.value());
+        }
+        if (!rigJson.empty()) {
+            if (scene.lights.size() == lightsBefore) {
+                SceneLight l; // no stand-in: the placement only
+                l.name = nodeName;
+                l.type.clear();
+                l.position = glm::vec3(world[3]);
+                l.direction = glm::normalize(-glm::vec3(world[2]));
+                scene.lights.push_back(l);
+            }
+            scene.lights.resize(lightsBefore + 1); // one light per node
+            scene.lights.back().rigJson = std::move(rigJson);
         }
 
         if (node.mesh >= 0) {
@@ -351,6 +411,11 @@ Result<Scene> loadFromBytes(const std::string& path, const std::string& baseDir,
         for (int child : node.children) visit(child, world);
         visiting.pop_back();
     };
+    if (const tinygltf::Value& extras = model.scenes[size_t(sceneIndex)].extras; extras.IsObject() && extras.Has("dfb_rig")) {
+        auto j = valueToJson(extras.Get("dfb_rig"), 0);
+        if (!j) return makeError(ErrorCode::InvalidFile, path + ": scene extras.dfb_rig " + j.error().message);
+        scene.rigSettingsJson = j->dump();
+    }
     for (int root : model.scenes[size_t(sceneIndex)].nodes) visit(root, glm::mat4(1.f));
     if (!failure.empty()) return makeError(ErrorCode::InvalidFile, failure.rfind(path, 0) == 0 ? failure : path + ": " + failure);
     if (scene.parts.empty()) return makeError(ErrorCode::MissingData, path + ": the scene has no triangles");

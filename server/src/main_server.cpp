@@ -290,7 +290,9 @@ int main(int argc, char** argv) {
             continue;
         }
         bool imported = false;
-        dfb::Rig rig = dfb::initialRig(loaded.value(), &imported);
+        std::vector<std::string> importWarnings;
+        dfb::Rig rig = dfb::initialRig(loaded.value(), &imported, &importWarnings);
+        for (const std::string& w : importWarnings) std::fprintf(stderr, "dfb-server: session %s: %s\n", spec.name.c_str(), w.c_str());
         auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, rig, dir, snapshotEvery);
         if (!session) {
             // The journal's own message names the line and the reason; clients get it without
@@ -299,6 +301,10 @@ int main(int argc, char** argv) {
             continue;
         }
         session.value()->setLimits(rigLimits);
+        std::error_code absoluteError; // on failure the path as given
+        const fs::path sceneAbsolute = fs::absolute(scene, absoluteError);
+        session.value()->setScenePath(absoluteError ? scene : sceneAbsolute.string());
+        state->addPrivateDirectory(fs::path(scene).parent_path().string()); // export errors name the scene
         if (!session.value()->recoveryReport().empty()) {
             std::fprintf(stderr, "dfb-server: session %s: journal repaired: %s\n",
                          spec.name.c_str(), session.value()->recoveryReport().c_str());

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <dfb/lightmath/Falloff.h>
+#include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Json.h>
 #include <dfb/protocol/Schema.h>
 
 #include <cmath>
@@ -10,10 +12,44 @@
 
 namespace dfb {
 
-Rig initialRig(const Scene& scene, bool* imported) {
+namespace {
+
+// Node extras are a file's text: bounded like any JSON the server reads (a light is a few KB;
+// a long BendyLight chain with keys stays far below).
+constexpr size_t MAX_LIGHT_JSON_BYTES = 1 << 20;
+
+// The rig light of a node's extras.dfb_light, through the rig's own codec (every check a client's
+// rig gets).
+Result<Light> rigLightOf(const SceneLight& sl) {
+    const std::string where = "node '" + sl.name + "': extras.dfb_light";
+    auto j = protocol::parseJson(sl.rigJson, MAX_LIGHT_JSON_BYTES, where);
+    if (!j) return j.error();
+    auto rig = protocol::rigFromJson(nlohmann::json{{"lights", nlohmann::json::array({j.value()})}});
+    if (!rig) return makeError(rig.error().code, where + ": " + rig.error().message);
+    return rig->lights[0];
+}
+
+} // namespace
+
+Rig initialRig(const Scene& scene, bool* imported, std::vector<std::string>* warnings) {
     Rig rig;
     rig.version = 1;
+    auto warn = [&](const std::string& w) {
+        if (warnings) warnings->push_back(w);
+    };
     for (const SceneLight& sl : scene.lights) {
+        if (!sl.rigJson.empty()) {
+            auto exact = rigLightOf(sl);
+            if (exact) {
+                Light l = std::move(exact.value());
+                const std::string base = l.name.substr(0, 56); // room for "_N" within the 64 characters a name may have
+                for (int k = 2; rig.find(l.name); ++k) l.name = base + "_" + std::to_string(k);
+                rig.lights.push_back(std::move(l));
+                continue;
+            }
+            warn(exact.error().message + (sl.type.empty() ? " (the light is left out)" : " (read from its stand-in instead)"));
+            if (sl.type.empty()) continue;
+        }
         Light l;
         std::string name;
         for (char ch : sl.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-') ? ch : '_';
@@ -43,6 +79,20 @@ Rig initialRig(const Scene& scene, bool* imported) {
         rig.lights.push_back(l);
     }
     if (imported) *imported = !rig.lights.empty();
+    if (!rig.lights.empty() && !scene.rigSettingsJson.empty()) {
+        // {"exposure", "viewTransform", "time"}: rig-level properties, checked by the codec.
+        auto j = protocol::parseJson(scene.rigSettingsJson, MAX_LIGHT_JSON_BYTES, "scene extras.dfb_rig");
+        Result<Rig> settings = makeError(ErrorCode::InvalidValue, "expected an object");
+        if (!j) settings = j.error();
+        else if (j->is_object() && !j->contains("version") && !j->contains("lights")) settings = protocol::rigFromJson(j.value());
+        if (settings) {
+            rig.exposureStops = settings->exposureStops;
+            rig.viewTransform = settings->viewTransform;
+            rig.time = settings->time;
+        } else {
+            warn("scene extras.dfb_rig is not {\"exposure\", \"viewTransform\", \"time\"}: " + settings.error().message + " (ignored)");
+        }
+    }
     if (!rig.lights.empty()) return rig;
     const Bounds& b = scene.bounds;
     return defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});

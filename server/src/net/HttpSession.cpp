@@ -6,6 +6,7 @@
 #include <dfb/protocol/Messages.h>
 #include <dfb/protocol/Schema.h>
 #include <dfb/server/Drag.h>
+#include <dfb/server/GltfExport.h>
 
 #include <cctype>
 #include <cstdlib>
@@ -511,6 +512,37 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
                 res.set(http::field::etag, etag(rigVersion));
                 self->send(std::move(res));
             });
+        });
+        return;
+    }
+    if (resource == "export.glb") {
+        // The scene with the rig's lights (dfb/server/GltfExport.h; docs/protocol.md "Export"):
+        // read like the rig, by any role. Built on the render thread's job queue (reading and
+        // writing a scene takes ~0.1-1 s; the I/O thread serves every session meanwhile).
+        if (!get) return notAllowed("GET, HEAD");
+        const Rig rig = session.rig();
+        if (rig.lights.empty()) {
+            return refuse(makeError(ErrorCode::MissingData, "session '" + hub->id() + "': the rig has no lights, so there is nothing to "
+                                                                                      "export (add a light first)"),
+                          http::status::conflict);
+        }
+        const std::string scene = session.scenePath();
+        hub->render().requestPickerJob([self = shared_from_this(), hub, rig, scene, version, keepAlive](const Picker&, const DeepBuffer&) {
+            auto glb = scene.empty() ? Result<std::string>(makeError(ErrorCode::FileNotFound, "the session has no scene file"))
+                                     : exportGltf(scene, rig);
+            Response res;
+            if (!glb) {
+                // The scene is the server's: a file that went missing or broke is its failure,
+                // reported without its folders.
+                const Error e = makeError(glb.error().code, "session '" + hub->id() + "': cannot export the scene: " +
+                                                                self->mState->redact(glb.error().message));
+                res = errorResponse(version, keepAlive, e, http::status::internal_server_error);
+            } else {
+                res = makeResponse(version, keepAlive, http::status::ok, "model/gltf-binary", std::move(glb.value()));
+                res.set(http::field::etag, etag(rig.version));
+                res.set(http::field::content_disposition, "attachment; filename=\"" + hub->id() + ".glb\"");
+            }
+            asio::post(self->mStream.get_executor(), [self, res = std::move(res)]() mutable { self->send(std::move(res)); });
         });
         return;
     }

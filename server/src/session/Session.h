@@ -99,6 +99,16 @@ public:
         std::lock_guard lock(mMutex);
         return mAssetDir;
     }
+    /// The glTF scene the session's shadow casters came from (the shot's source or --scene),
+    /// which GET .../export.glb writes the rig into (dfb/server/GltfExport.h); empty: none.
+    void setScenePath(std::string path) {
+        std::lock_guard lock(mMutex);
+        mScenePath = std::move(path);
+    }
+    std::string scenePath() const {
+        std::lock_guard lock(mMutex);
+        return mScenePath;
+    }
     /// The limits every new edit and rig is checked against (LimitExceeded, nothing applied or
     /// journaled). A replayed journal is not: it was accepted under the limits of its time.
     /// `imagePixels` is the shot's and is kept.
@@ -163,6 +173,7 @@ private:
     /// The client whose edit is the newest undo step and may take merged edits; 0: none.
     uint64_t mMergeableBy = 0;
     std::string mAssetDir = ".";
+    std::string mScenePath;
     protocol::RigLimits mLimits;
     size_t mSnapshotEvery = SNAPSHOT_EVERY;
     bool mRigSaveDue = false;

@@ -110,6 +110,11 @@ struct SceneLight {
     glm::vec3 right{1, 0, 0};        ///< world space, unit: the node's +X
     std::string pattern;             ///< an image file relative to the asset folder, or empty
     glm::ivec2 shadowGrid{4, 4};
+    /// The node's extras.dfb_light as JSON text (docs/gbuffer-format.md, "Lights in glTF"): the
+    /// light's exact rig JSON, written by dfb's export; empty when the node has none. With it, the
+    /// fields above are the node's stand-in for other tools (its KHR_lights_punctual light or
+    /// dfb_area_light), or only its placement (`type` empty) when it has neither.
+    std::string rigJson;
 };
 
 struct Bounds {
@@ -132,7 +137,10 @@ struct Scene {
     std::vector<SceneTexture> textures;
     std::vector<std::string> objectNames;   ///< objectNames[id - 1]
     std::vector<SceneCamera> cameras;
-    std::vector<SceneLight> lights; ///< KHR_lights_punctual, in node order
+    std::vector<SceneLight> lights; ///< KHR_lights_punctual, dfb_area_light and dfb_light nodes, in node order
+    /// The default scene's extras.dfb_rig as JSON text (the exported rig's exposure, view
+    /// transform and time; docs/gbuffer-format.md, "Lights in glTF"), or empty.
+    std::string rigSettingsJson;
     Bounds bounds;
 
     size_t triangleCount() const;
