@@ -304,3 +304,36 @@ TEST(Ltc, ShadingIsCloseToTheReferenceBesideOneShot) {
             }
     }
 }
+
+// How close the fitted distribution is to the lobe it stands for, over the upper hemisphere
+// (1000^2 directions): L1 = integral |f cos - norm D| / integral f cos, and the share of D above
+// the horizon (what a light filling the hemisphere receives of the Fresnel split's promise).
+TEST(Ltc, FittedLobeShapeAgainstGgx) {
+    for (double r : {0.3, 0.6, 0.9})
+        for (double nv : {1.0, 0.8, 0.5, 0.2}) {
+            const LtcLobe<double> l = ltcLookup(LTC_TABLE, r, nv);
+            const V3 V(std::sqrt(1 - nv * nv), 0, nv);
+            const double alpha = std::max(r * r, MIN_ALPHA);
+            const glm::dmat3 inv(V3(l.a, 0, l.c), V3(0, 1, 0), V3(l.b, 0, l.d)); // columns
+            const double det = std::abs(glm::determinant(inv));
+            const int g = 1000;
+            double diff = 0, sumF = 0, sumD = 0;
+            for (int q = 0; q < g; ++q)
+                for (int p = 0; p < g; ++p) {
+                    const double cz = (q + 0.5) / g, ph = 2 * PI * (p + 0.5) / g, st = std::sqrt(1 - cz * cz);
+                    const V3 L(st * std::cos(ph), st * std::sin(ph), cz);
+                    const V3 H = glm::normalize(L + V);
+                    const double f = distributionGGX(H.z, alpha) * visibilitySmithGGX(cz, nv, alpha) * cz;
+                    const V3 o = inv * L;
+                    const double len = glm::length(o);
+                    const double d = o.z > 0 ? l.norm * (o.z / len) / PI * det / (len * len * len) : 0.0;
+                    diff += std::abs(f - d), sumF += f, sumD += d;
+                }
+            const double above = sumD * 2 * PI / (double(g) * g) / l.norm;
+            std::printf("roughness %.1f N.v %.1f: L1 %.3f, D above the horizon %.3f\n", r, nv, diff / sumF, above);
+            // Measured: L1 0.01-0.04 at normal incidence, up to 0.40 at N.v 0.2; D above the
+            // horizon 0.91-1.0.
+            EXPECT_LT(diff / sumF, 0.45);
+            EXPECT_GT(above, 0.9);
+        }
+}
