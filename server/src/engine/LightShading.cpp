@@ -15,6 +15,9 @@
 namespace dfb::engine {
 namespace {
 
+// The longest one band of an area light's reference may take (the engine's GPU watchdog's).
+constexpr GLuint64 REFERENCE_BAND_TIMEOUT_NS = 20'000'000'000ull;
+
 // The light as the relight shaders see it (common_uniforms.glsl's LightBlock).
 LightBlock lightBlock(const LightCache& c, bool cookie, const glm::vec3& patternMean) {
     const Light& l = c.params;
@@ -331,6 +334,28 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         glDepthRange(0.25, 0.25);
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glDepthRange(0.0, 1.0);
+    } else if (referenceCells > 0) {
+        // The stratified reference is hundreds of lookups per pixel (seconds a frame on llvmpipe):
+        // drawn in bands, each waited for, so that no single submission runs into the engine's
+        // GPU watchdog (waitForGpu: 20 s means a hung GPU) on a slow or loaded machine.
+        GLint vp[4];
+        glGetIntegerv(GL_VIEWPORT, vp);
+        constexpr int BANDS = 32;
+        glEnable(GL_SCISSOR_TEST);
+        for (int b = 0; b < BANDS; ++b) {
+            const int y0 = vp[1] + vp[3] * b / BANDS, y1 = vp[1] + vp[3] * (b + 1) / BANDS;
+            if (y1 <= y0) continue;
+            glScissor(vp[0], y0, vp[2], y1 - y0);
+            glDrawArrays(GL_TRIANGLES, 0, 3);
+            GLsync band = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+            const GLenum r = band ? glClientWaitSync(band, GL_SYNC_FLUSH_COMMANDS_BIT, REFERENCE_BAND_TIMEOUT_NS) : GLenum(GL_WAIT_FAILED);
+            if (band) glDeleteSync(band);
+            if (r == GL_TIMEOUT_EXPIRED || r == GL_WAIT_FAILED) {
+                glDisable(GL_SCISSOR_TEST);
+                return makeError(ErrorCode::GpuError, "light '" + l.name + "': a band of the area light reference took over 20 s");
+            }
+        }
+        glDisable(GL_SCISSOR_TEST);
     } else {
         glDrawArrays(GL_TRIANGLES, 0, 3);
     }
