@@ -45,15 +45,8 @@ Errors compareWithCpu(Shot& shot, const Light& l, Mode mode) {
     auto table = areaPatternTable(l, ".");
     EXPECT_TRUE(table.ok());
     const auto f = areaFrameOf<double>(l);
-    const glm::dvec3 eye(shot.g.camera.position());
     forEachSample(shot.g, [&](size_t p, size_t s) {
-        // The engine's G-buffer textures hold normals, albedo and BRDF terms as half floats.
-        auto half = [](float v) { return double(glm::unpackHalf1x16(glm::packHalf1x16(v))); };
-        const glm::dvec3 P(shot.g.position(s));
-        const glm::dvec3 N = glm::normalize(glm::dvec3(half(shot.g.N[s * 3]), half(shot.g.N[s * 3 + 1]), half(shot.g.N[s * 3 + 2])));
-        const glm::dvec3 V = glm::normalize(eye - P);
-        const glm::dvec3 albedo(half(shot.g.albedo[s * 3]), half(shot.g.albedo[s * 3 + 1]), half(shot.g.albedo[s * 3 + 2]));
-        const double metallic = half(shot.g.brdf[s * 4]), roughness = half(shot.g.brdf[s * 4 + 1]), specular = half(shot.g.brdf[s * 4 + 2]);
+        const auto [P, N, V, albedo, metallic, roughness, specular] = sampleInputs(shot.g, s);
         const glm::dvec3 want =
             mode == Mode::Reference
                 ? lightmath::referenceShading(f, table.value()->table, P, N, V, albedo, metallic, roughness, specular, 32)

@@ -74,14 +74,9 @@ TEST(BentAreaLight, InteriorLightsSumTheEmittersCells) {
                                                 {l.direction[0], l.direction[1], l.direction[2]}, double(l.rollDeg),
                                                 {l.areaSize[0], l.areaSize[1]}, false);
     const double cell = double(bentAreaCellArea(l, {3, 2}));
-    const glm::dvec3 eye(shot.g.camera.position());
     Errors e;
     forEachSample(shot.g, [&](size_t p, size_t s) {
-        auto half = [](float v) { return double(glm::unpackHalf1x16(glm::packHalf1x16(v))); };
-        const glm::dvec3 P(shot.g.position(s));
-        const glm::dvec3 N = glm::normalize(glm::dvec3(half(shot.g.N[s * 3]), half(shot.g.N[s * 3 + 1]), half(shot.g.N[s * 3 + 2])));
-        const glm::dvec3 V = glm::normalize(eye - P);
-        const glm::dvec3 albedo(half(shot.g.albedo[s * 3]), half(shot.g.albedo[s * 3 + 1]), half(shot.g.albedo[s * 3 + 2]));
+        const auto [P, N, V, albedo, metallic, roughness, specular] = sampleInputs(shot.g, s);
         double want = 0.0;
         for (int j = 0; j < 2; ++j)
             for (int i = 0; i < 3; ++i) {
@@ -91,8 +86,7 @@ TEST(BentAreaLight, InteriorLightsSumTheEmittersCells) {
                 const glm::dvec3 L = d / std::sqrt(d2);
                 const double emit = std::max(-glm::dot(L, f.normal), 0.0);
                 want += cell * emit / d2 *
-                        lightmath::evaluateBrdfCos(N, L, V, albedo, half(shot.g.brdf[s * 4]), half(shot.g.brdf[s * 4 + 1]),
-                                                   half(shot.g.brdf[s * 4 + 2])).x;
+                        lightmath::evaluateBrdfCos(N, L, V, albedo, metallic, roughness, specular).x;
             }
         e.add(img.rgba[p * 4], want);
     });

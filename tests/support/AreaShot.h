@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include <glm/gtc/packing.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -107,5 +109,24 @@ struct Errors {
     }
     double meanRel() const { return sumRef > 0 ? sumAbs / sumRef : 0; }
 };
+
+/// What the engine shades sample `s` with, as the C++ mirrors need it: the engine's G-buffer
+/// textures hold normals, albedo and BRDF terms as half floats (rounded here the same way).
+struct SampleInputs {
+    glm::dvec3 P, N, V, albedo;
+    double metallic = 0, roughness = 0, specular = 0;
+};
+inline SampleInputs sampleInputs(const DeepBuffer& g, size_t s) {
+    auto half = [](float v) { return double(glm::unpackHalf1x16(glm::packHalf1x16(v))); };
+    SampleInputs in;
+    in.P = glm::dvec3(g.position(s));
+    in.N = glm::normalize(glm::dvec3(half(g.N[s * 3]), half(g.N[s * 3 + 1]), half(g.N[s * 3 + 2])));
+    in.V = glm::normalize(glm::dvec3(g.camera.position()) - in.P);
+    in.albedo = glm::dvec3(half(g.albedo[s * 3]), half(g.albedo[s * 3 + 1]), half(g.albedo[s * 3 + 2]));
+    in.metallic = half(g.brdf[s * 4]);
+    in.roughness = half(g.brdf[s * 4 + 1]);
+    in.specular = half(g.brdf[s * 4 + 2]);
+    return in;
+}
 
 } // namespace dfb::test
