@@ -32,7 +32,10 @@ inline Result<float> getNumber(const json& v, const std::string& path, double lo
     if (!v.is_number()) return invalid(path + ": expected a number, got " + std::string(v.type_name()));
     const double d = v.get<double>();
     if (!std::isfinite(d)) return invalid(path + ": not a finite number");
-    if (d < lo || d > hi) {
+    // Compared as stored (32-bit float): a value at a bound that float cannot hold exactly (1e-4
+    // is kept as 9.9999997e-5) must come back in range when the rig is read back and PUT again.
+    const float f = float(d);
+    if (!(f >= float(lo) && f <= float(hi))) {
         return invalid(path + ": " + excerpt(v) + " is out of range [" + json(lo).dump() + ", " + json(hi).dump() + "]");
     }
     return float(d);

@@ -120,7 +120,9 @@ TEST(Schema, EveryRowRefusesWrongTypesAndOutOfRangeValuesNamingThePath) {
             std::string path = std::string("l.") + p.path;
             if (*p.indexOf) path.replace(path.find("[]"), 2, "[1]");
             std::vector<json> bad = {json("x"), json::object()};
-            if (p.type == PropType::Number || p.type == PropType::Integer) bad.insert(bad.end(), {p.min - 1, p.max + 1, json()});
+            // Beyond a bound by more than a float's rounding (1e12 + 1 is stored as 1e12: in range).
+            const double over = std::max(1.0, 1e-3 * std::abs(p.max));
+            if (p.type == PropType::Number || p.type == PropType::Integer) bad.insert(bad.end(), {p.min - 1, p.max + over, json()});
             if (p.type == PropType::Vec3 || p.type == PropType::Color) bad.push_back(json{p.min - 1, 0, 0});
             for (const json& v : bad) {
                 const Rig before = rig;
@@ -131,6 +133,33 @@ TEST(Schema, EveryRowRefusesWrongTypesAndOutOfRangeValuesNamingThePath) {
             }
         }
     }
+}
+
+// A value at a row's bound is stored as a 32-bit float; the rig written back must be accepted again
+// (a size of 1e-4 is kept as 9.9999997e-5: compared as double it fell below its own minimum).
+TEST(Schema, ValuesAtTheBoundsSurviveARoundTripOfTheRig) {
+    for (const Property& p : lightProperties()) {
+        if (!editable(p) || p.type != PropType::Number || *p.indexOf || (p.min == 0 && p.max == 0)) continue;
+        for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area,
+                            LightType::BentArea}) {
+            if (!(p.appliesTo & (1u << unsigned(t)))) continue;
+            for (double bound : {p.min, p.max}) {
+                SCOPED_TRACE(std::string(p.path) + " = " + json(bound).dump() + " on " + lightTypeName(t));
+                Rig rig;
+                rig.lights = {lightOfType(t)};
+                if (std::string(p.path) == "penumbra") rig.lights[0].coneAngleDeg = 85.f;
+                if (!applyChange(rig, {std::string("l.") + p.path, bound}).ok()) continue; // e.g. penumbra above the cone
+                auto back = rigFromJson(toJson(rig));
+                ASSERT_TRUE(back.ok()) << back.error().toString();
+                EXPECT_EQ(toJson(back.value()), toJson(rig));
+            }
+        }
+    }
+    Rig rig;
+    rig.lights = {lightOfType(LightType::Area)};
+    ASSERT_TRUE(applyChange(rig, {"l.size", json{1e-4, 1e-4}}).ok());
+    auto back = rigFromJson(toJson(rig));
+    ASSERT_TRUE(back.ok()) << back.error().toString();
 }
 
 TEST(Schema, KeyframableRowsTakeKeysAndTheOthersRefuseThem) {
