@@ -24,6 +24,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 using namespace dfb;
 using json = nlohmann::json;
@@ -425,4 +426,27 @@ TEST(GltfExport, ExternalBuffersAndImagesArePackedIntoTheGlb) {
     EXPECT_EQ(scene->images[0].rgba[5], 255);
     EXPECT_EQ(scene->lights.size(), 1u);
     std::filesystem::remove_all(dir);
+}
+
+// Scene lights with the same name (many exporters call them all "Light") get distinct names that
+// stay valid rig names (at most 64 characters) however many there are.
+TEST(GltfImport, ClashingLightNamesStayValid) {
+    Scene scene;
+    for (int i = 0; i < 120; ++i) {
+        SceneLight sl;
+        sl.name = std::string(70, 'L'); // longer than a rig name may be, too
+        sl.type = "point";
+        sl.position = glm::vec3(float(i), 1.f, 0.f);
+        scene.lights.push_back(sl);
+    }
+    const Rig rig = initialRig(scene);
+    ASSERT_EQ(rig.lights.size(), 120u);
+    std::set<std::string> names;
+    for (const Light& l : rig.lights) {
+        EXPECT_LE(l.name.size(), 64u) << l.name;
+        names.insert(l.name);
+    }
+    EXPECT_EQ(names.size(), 120u);
+    auto back = protocol::rigFromJson(protocol::toJson(rig));
+    EXPECT_TRUE(back.ok()) << back.error().toString();
 }

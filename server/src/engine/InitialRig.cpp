@@ -53,8 +53,9 @@ Rig initialRig(const Scene& scene, bool* imported, std::vector<std::string>* war
         Light l;
         std::string name;
         for (char ch : sl.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-') ? ch : '_';
-        l.name = name.empty() ? sl.type : name.substr(0, 60);
-        while (rig.find(l.name)) l.name += "_";
+        l.name = name.empty() ? sl.type : name.substr(0, 56); // room for "_N" within the 64 characters a name may have
+        const std::string base = l.name;
+        for (int k = 2; rig.find(l.name); ++k) l.name = base + "_" + std::to_string(k);
         l.type = sl.type == "directional" ? LightType::Directional
                  : sl.type == "point"     ? LightType::Point
                  : sl.type == "area"      ? LightType::Area
