@@ -12,6 +12,8 @@
 // atomic counters while the run lasts and reads the per-client records after the io threads have
 // been joined.
 
+#include <dfb/core/Version.h>
+#include <dfb/protocol/Messages.h>
 #include <dfb/core/Stats.h>
 #include <dfb/protocol/Codec.h>
 #include <dfb/protocol/Json.h>
@@ -567,6 +569,9 @@ int main(int argc, char** argv) {
                  "everything; reports acks, errors, ack and edit-to-frame latency, frames per "
                  "client, lost connections "
                  "and the server's memory"};
+    app.set_version_flag("--version",
+                         dfb::versionText("dfb-load-bench") +
+                             " (protocol " + std::to_string(dfb::protocol::PROTOCOL_VERSION) + ")");
     app.footer("The session must have no other editor during the run: 'applied but unacknowledged' "
                "is the rig version "
                "at the end (GET .../rig) minus the version in the first welcome, minus the acks "

@@ -13,6 +13,7 @@
 #include "Client.h"
 #include "Connection.h"
 
+#include <dfb/core/Version.h>
 #include <dfb/core/Stats.h>
 #include <dfb/protocol/DragModes.h>
 #include <dfb/protocol/Messages.h>
@@ -122,6 +123,9 @@ void printProperties(bool asJson) {
 
 int main(int argc, char** argv) {
     CLI::App app{"dfb-client: talk to a dfb-server session (protocol v1): rig, edits, frames, picks, history, benchmark"};
+    app.set_version_flag("--version",
+                         dfb::versionText("dfb-client") +
+                             " (protocol " + std::to_string(dfb::protocol::PROTOCOL_VERSION) + ")");
     app.footer("Exit codes: 0 ok, 1 bad command line, 2 server unreachable, 3 the server refused (its error is printed "
                "verbatim), 4 timed out or connection lost, 5 cannot read or write a local file.\n"
                "Example: dfb-client set key.position=1,4,2 --server 'http://127.0.0.1:8080/?session=shot&token=...'");

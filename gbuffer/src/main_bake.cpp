@@ -8,6 +8,8 @@
 // Exit codes: 0 success; 1 bad command line; 2 bad input (scene, shot or camera); 3 GPU/EGL
 // failure; 4 the output could not be written.
 
+#include <dfb/core/Version.h>
+#include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/ExrIO.h>
 #include <dfb/gbuffer/LayerImage.h>
@@ -113,6 +115,9 @@ void showProgress(size_t done, size_t total) {
 
 int main(int argc, char** argv) {
     CLI::App app{"dfb-bake: bake a glTF scene into a deep framebuffer (OpenEXR) from a fixed camera"};
+    app.set_version_flag("--version",
+                         dfb::versionText("dfb-bake") +
+                             " (G-buffer format " + std::to_string(dfb::GBUFFER_FORMAT_VERSION) + ")");
     app.footer("Exit codes: 0 ok, 1 bad command line, 2 bad scene/shot/camera, 3 GPU/EGL failure, 4 cannot write.");
     std::string scenePath, outPath, infoPath, layer;
     dfb::BakeOptions opts;

@@ -10,6 +10,9 @@
 #include "session/RenderService.h"
 #include "session/Session.h"
 
+#include <dfb/core/Version.h>
+#include <dfb/protocol/Messages.h>
+#include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/gbuffer/ExrIO.h>
 #include <dfb/gbuffer/Scene.h>
 #include <dfb/server/InitialRig.h>
@@ -135,6 +138,10 @@ dfb::net::SessionTokens persistentTokens(const fs::path& dir) {
 int main(int argc, char** argv) {
     dfb::keepFreedMemoryForFrames();
     CLI::App app{"dfb-server: relight deep framebuffers interactively over HTTP and WebSocket (protocol v1)"};
+    app.set_version_flag("--version",
+                         dfb::versionText("dfb-server") +
+                             " (G-buffer format " + std::to_string(dfb::GBUFFER_FORMAT_VERSION) + ", protocol " +
+                             std::to_string(dfb::protocol::PROTOCOL_VERSION) + ")");
     app.footer("Each session is one shot with its own rig, history, tokens and clients. The server prints, per session, "
                "an editor and a viewer URL carrying the token.\n"
                "Exit codes: 0 clean stop, 1 bad command line or token file, 2 bad shot/scene/journal, 3 GPU/EGL, 5 cannot bind.");

@@ -18,6 +18,7 @@
 //   error (tests/support/EdgeAliasing.h, whose 160x90 figures tests/gpu/engine_edge_aa_test.cpp
 //   asserts on; always at 160x90 whatever --width and --height say).
 
+#include <dfb/core/Version.h>
 #include <dfb/core/Stats.h>
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/Scene.h>
@@ -260,6 +261,7 @@ int benchScene(const std::string& path, int width, int height, int spp) {
 
 int main(int argc, char** argv) {
     CLI::App app{"dfb-fidelity-bench: relight fidelity against references (issue 16)"};
+    app.set_version_flag("--version", dfb::versionText("dfb-fidelity-bench"));
     std::vector<std::string> scenes;
     int width = 480, height = 270, spp = 1;
     app.add_option("scenes", scenes, "glTF scenes (default: the bundled tabletop and the Stanford dragon)");

@@ -5,6 +5,8 @@
 //
 // Each scene is baked in a child process, so that its peak resident memory is its own.
 
+#include <dfb/core/Version.h>
+#include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/ExrIO.h>
 
@@ -35,6 +37,9 @@ double ms(Clock::time_point a, Clock::time_point b) { return std::chrono::durati
 
 int main(int argc, char** argv) {
     CLI::App app{"dfb-bake-bench: bake time and file size per scene"};
+    app.set_version_flag("--version",
+                         dfb::versionText("dfb-bake-bench") +
+                             " (G-buffer format " + std::to_string(dfb::GBUFFER_FORMAT_VERSION) + ")");
     std::string dir = std::string(DFB_DEFAULT_ASSETS);
     dfb::BakeOptions o;
     o.width = 480;

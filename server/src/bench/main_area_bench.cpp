@@ -14,6 +14,7 @@
 //
 //   dfb-area-bench SHOT.exr [--scene SCENE] [--edits N] [--cells G]
 
+#include <dfb/core/Version.h>
 #include <dfb/core/Stats.h>
 #include <dfb/protocol/Schema.h>
 #include <dfb/server/AreaPattern.h>
@@ -74,6 +75,7 @@ struct Case {
 
 int main(int argc, char** argv) {
     CLI::App app{"dfb-area-bench: one-shot area lights against the stratified reference, and edit -> frame times"};
+    app.set_version_flag("--version", dfb::versionText("dfb-area-bench"));
     std::string shotPath, scenePath;
     int edits = 10, cells = 32;
     app.add_option("shot", shotPath, "deep framebuffer EXR")->required();

@@ -3,6 +3,7 @@
 //
 //   dfb-bench SHOT.exr [--scene SCENE] [--edits N] [--quality Q]
 
+#include <dfb/core/Version.h>
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/ExrIO.h>
 #include <dfb/gbuffer/Scene.h>
@@ -84,6 +85,7 @@ ScalingRow measureScene(const Scene& scene, int width, int height, int edits, in
 int main(int argc, char** argv) {
     dfb::keepFreedMemoryForFrames();
     CLI::App app{"dfb-bench: edit-to-frame time of the relight engine"};
+    app.set_version_flag("--version", dfb::versionText("dfb-bench"));
     std::string shotPath, scenePath;
     int edits = 100, quality = 85;
     app.add_option("shot", shotPath, "deep framebuffer EXR")->required();

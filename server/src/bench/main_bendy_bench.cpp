@@ -8,6 +8,7 @@
 
 #include "engine/GpuInterface.h"
 
+#include <dfb/core/Version.h>
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/ExrIO.h>
 #include <dfb/gl/Context.h>
@@ -61,6 +62,7 @@ Light bentLight(const Bounds& b, int mapSize) {
 int main(int argc, char** argv) {
     dfb::keepFreedMemoryForFrames();
     CLI::App app{"dfb-bendy-bench: the cost of BendyLights"};
+    app.set_version_flag("--version", dfb::versionText("dfb-bendy-bench"));
     std::string shotPath, assets = DFB_DEFAULT_ASSETS;
     int edits = 50;
     app.add_option("--shot", shotPath, "shot for the edit -> frame timing (default: bake the bundled scene at 960x540)");

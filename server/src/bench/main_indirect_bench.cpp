@@ -6,6 +6,7 @@
 //
 //   dfb-indirect-bench SHOT.exr [--scene SCENE] [--updates N] [--quality Q]
 
+#include <dfb/core/Version.h>
 #include <dfb/core/Stats.h>
 #include <dfb/gbuffer/ExrIO.h>
 #include <dfb/gbuffer/Scene.h>
@@ -67,6 +68,7 @@ std::optional<DragGrab> findGrab(const Picker& picker, const DeepBuffer& shot, c
 
 int main(int argc, char** argv) {
     CLI::App app{"dfb-indirect-bench: pick + solve and update -> frame time of each indirect-editing mode"};
+    app.set_version_flag("--version", dfb::versionText("dfb-indirect-bench"));
     std::string shotPath, scenePath;
     int updates = 30, quality = 85;
     app.add_option("shot", shotPath, "deep framebuffer EXR")->required();

@@ -11,6 +11,7 @@
 //   dfb-local-shadow-bench [--updates N] [--drag METRES] [--paper-iterations N] [--paper-alpha A]
 //                          [--paper-step D]
 
+#include <dfb/core/Version.h>
 #include <dfb/core/Stats.h>
 #include <dfb/server/LocalShadowEdit.h>
 
@@ -45,6 +46,7 @@ int main(int argc, char** argv) {
     int updates = 40, paperIterations = paper::Options{}.maxIterations;
     double drag = 0.3, alpha = paper::Options{}.alphaL2, step = paper::Options{}.stepD;
     CLI::App app{"dfb-local-shadow-bench: local shadow move / scale, Levenberg-Marquardt against the paper's descent"};
+    app.set_version_flag("--version", dfb::versionText("dfb-local-shadow-bench"));
     app.add_option("--updates", updates, "drag updates per mode")->check(CLI::Range(1, 100000));
     app.add_option("--drag", drag, "the last update's pointer offset, metres on the ground (scale: relative)")
         ->check(CLI::Range(1e-6, 10.0));
