@@ -7,6 +7,7 @@
 #include "support/RayCaster.h"
 
 #include <dfb/gbuffer/Baker.h>
+#include <dfb/protocol/Codec.h>
 #include <dfb/server/Engine.h>
 
 #include <gtest/gtest.h>
@@ -127,6 +128,15 @@ inline SampleInputs sampleInputs(const DeepBuffer& g, size_t s) {
     in.roughness = half(g.brdf[s * 4 + 1]);
     in.specular = half(g.brdf[s * 4 + 2]);
     return in;
+}
+
+/// `path` = `v` is refused on `rig` with a message holding `words`, and the rig is unchanged.
+inline void expectRefused(const Rig& rig, const char* path, const nlohmann::json& v, const char* words) {
+    Rig r = rig;
+    Status s = protocol::applyChanges(r, {{path, v}});
+    ASSERT_FALSE(s.ok()) << path;
+    EXPECT_NE(s.error().message.find(words), std::string::npos) << s.error().message;
+    EXPECT_EQ(protocol::toJson(r), protocol::toJson(rig)); // nothing changed
 }
 
 } // namespace dfb::test

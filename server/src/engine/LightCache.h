@@ -19,10 +19,10 @@ struct LightCache {
     Light params;
     bool hasShadow = false;
     bool hasContribution = false;
-    bool shadowIsCube = false;     // a point light's cube map (GL_TEXTURE_CUBE_MAP)
-    // What shadowMap is: GL_TEXTURE_2D, GL_TEXTURE_CUBE_MAP or an area light's GL_TEXTURE_2D_ARRAY.
-    // A light whose type changes gets a map of its new kind even at the same size.
+    // What shadowMap is: GL_TEXTURE_2D, a point light's GL_TEXTURE_CUBE_MAP or an area light's
+    // GL_TEXTURE_2D_ARRAY. A light whose type changes gets a map of its new kind even at the same size.
     GLenum shadowTarget = GL_NONE;
+    bool shadowIsCube() const { return shadowTarget == GL_TEXTURE_CUBE_MAP; }
     bool previewShadow = false;    // rendered at preview size: re-render at full size when refining
     bool previewShading = false;   // contribution shaded at half resolution (top-left quarter)
     glm::vec2 cubeNearFar{0.f};    // the cube faces' projection planes

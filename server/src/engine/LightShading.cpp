@@ -59,7 +59,7 @@ LightBlock lightBlock(const LightCache& c, bool cookie, const glm::vec3& pattern
     block.lightCone = glm::vec4(std::cos(outer), std::max(std::cos(inner), std::cos(outer) + 1e-5f),
                                 l.shadow ? 1.f : 0.f, RECEIVER_LIFT_TEXELS * texel);
     block.lightShadow = glm::vec4(1.f / float(std::max(mapSize, 1)), float(l.shadowFilter),
-                                  c.shadowIsCube ? 1.f : 0.f, l.shadowBias * texel);
+                                  c.shadowIsCube() ? 1.f : 0.f, l.shadowBias * texel);
     // The spot's frame, as its shadow frustum's (lightViewProj): barn doors and cookie.
     const glm::vec3 right = glm::normalize(glm::cross(axis, frustumUp(axis)));
     block.lightRight = glm::vec4(right, cookie ? 1.f : 0.f);
@@ -318,8 +318,8 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
     bindLinkMask(c, linked);
     mGBuffer.bindForShading();
     // An unshadowed light still needs a complete texture on the shadow unit: reuse its own or any.
-    glBindTextureUnit(TEX_SHADOW_MAP, c.shadowMap && !c.shadowIsCube && !area ? c.shadowMap.id() : 0);
-    glBindTextureUnit(TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube ? c.shadowMap.id() : 0);
+    glBindTextureUnit(TEX_SHADOW_MAP, c.shadowMap && c.shadowTarget == GL_TEXTURE_2D ? c.shadowMap.id() : 0);
+    glBindTextureUnit(TEX_SHADOW_CUBE, c.shadowMap && c.shadowIsCube() ? c.shadowMap.id() : 0);
     glBindTextureUnit(TEX_SHADOW_ARRAY, c.shadowMap && area ? c.shadowMap.id() : 0);
     glBindVertexArray(mEmptyVao.id());
     if (footprint && bendy) {

@@ -132,7 +132,6 @@ Status ShadowMaps::render(LightCache& c, bool preview, int subdivisionLimit) {
 Status ShadowMaps::renderPlanar(LightCache& c, int size, int subdivisionLimit) {
     const Light& l = c.params;
     if (!c.shadowMap || c.shadowTarget != GL_TEXTURE_2D || c.shadowSize != size) {
-        c.shadowIsCube = false;
         c.shadowTarget = GL_TEXTURE_2D;
         c.shadowLayers = 0;
         c.shadowSize = size;
@@ -181,7 +180,6 @@ Status ShadowMaps::renderBentArea(LightCache& c, bool preview, int subdivisionLi
 Status ShadowMaps::renderCube(LightCache& c, int size) {
     const Light& l = c.params;
     if (!c.shadowMap || c.shadowTarget != GL_TEXTURE_CUBE_MAP || c.shadowSize != size) {
-        c.shadowIsCube = true;
         c.shadowTarget = GL_TEXTURE_CUBE_MAP;
         c.shadowLayers = 0;
         c.shadowSize = size;
@@ -222,7 +220,6 @@ Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
     const glm::ivec2 grid = areaGridFor(l, preview);
     const int layers = grid.x * grid.y;
     if (!c.shadowMap || c.shadowTarget != GL_TEXTURE_2D_ARRAY || c.shadowSize != size || c.shadowLayers != layers) {
-        c.shadowIsCube = false;
         c.shadowTarget = GL_TEXTURE_2D_ARRAY;
         c.shadowSize = size;
         c.shadowLayers = layers;
