@@ -12,7 +12,8 @@
 // - light cache: intensity edits from 1e-6 to 1e12 on the key light against a fresh engine;
 // - shadows: the engine's shadow mask (lit where visibility >= 0.5) against Embree rays from each
 //   fully reached pixel's sample to the light, per light type: agreement and shadowed-area ratio
-//   (as tests/gpu/engine_shadow_bias_test.cpp measures them);
+//   (as tests/gpu/engine_shadow_bias_test.cpp measures them), over all of them and over the
+//   receivers facing the light (test::FACING_COSINE);
 // - edges: shadow, cone, barn-door, cookie and BendyLight shadow edges at 1, 4 and 16 spp against
 //   the engine's relight of a 4x4-times-resolution bake, box-filtered, beside the silhouettes'
 //   error (tests/support/EdgeAliasing.h, whose 160x90 figures tests/gpu/engine_edge_aa_test.cpp
@@ -232,8 +233,10 @@ int benchScene(const std::string& path, int width, int height, int spp) {
                     return 1;
                 }
                 const char* names[] = {"spot", "", "directional", "point"};
-                std::printf("  %-12s r=%d agreement %7.3f%% of %zu reached pixels, shadowed area %.3f of the reference's\n",
-                            names[int(t)], filter, 100.0 * n->agreement(), n->reached, n->areaRatio());
+                std::printf("  %-12s r=%d agreement %7.3f%% of %zu reached pixels, shadowed area %.3f of the reference's;"
+                            " facing (N_g.L >= %.1f): %7.3f%%, %.3f\n",
+                            names[int(t)], filter, 100.0 * n->agreement(), n->reached, n->areaRatio(), test::FACING_COSINE,
+                            100.0 * n->facing.agreement(), n->facing.areaRatio());
             }
     }
 
