@@ -7,6 +7,11 @@ namespace dfb::protocol {
 uint64_t lightMemoryBytes(const Light& l, const RigLimits& limits) {
     if (!l.enabled) return 0;
     uint64_t bytes = limits.imagePixels * 16; // its contribution image, RGBA32F
+    if (l.type == LightType::Environment) {
+        // No shadow map (its visibility is baked in the shot): the prefiltered map and its mips.
+        const uint64_t w = ENV_PREFILTER_WIDTH;
+        return bytes + w * (w / 2) * 16 * 4 / 3;
+    }
     if (l.shadow) {
         const uint64_t side = uint64_t(l.shadowMapSize);
         const uint64_t maps = l.type == LightType::Point ? 6

@@ -78,7 +78,7 @@ Status setType(const Property&, Light& l, const json& v, const std::string& path
     const auto t = v.is_string() ? lightTypeFromName(v.get<std::string>()) : std::nullopt;
     if (!t) {
         return invalid(path + ": unknown light type " + excerpt(v) +
-                       " (\"spot\", \"point\", \"bendy\", \"directional\", \"area\" or \"bentArea\")");
+                       " (\"spot\", \"point\", \"bendy\", \"directional\", \"area\", \"bentArea\" or \"environment\")");
     }
     // A new chain starts straight along the axis, matching the cone: it looks like the spot.
     if (*t == LightType::Bendy && l.controlPoints.empty()) makeStraightChain(l, 4.f);
@@ -161,6 +161,15 @@ Status setBarnDoors(const Property& p, Light& l, const json& v, const std::strin
     l.barnDoorsDeg = doors;
     return ok();
 }
+
+Status setEnvMap(const Property&, Light& l, const json& v, const std::string& path, int) {
+    auto c = assetFileName(v, path, "map");
+    if (!c) return c.error();
+    l.envMap = c.value();
+    return ok();
+}
+
+bool isEnvironment(const Light& l) { return l.type == LightType::Environment; }
 
 Status setWarning(const Property&, Light&, const json& v, const std::string& path, int) {
     // Server-computed: accepted in a whole rig (round trips) but not meaningful to set.
@@ -482,7 +491,7 @@ const std::vector<Property> LIGHT_PROPERTIES = {
     {.path = "name", .label = "Name", .type = String, .unit = "", .invalidates = Shadow, .valueDoc = "string",
      .doc = "1-64 of `[A-Za-z0-9_-]`, unique in the rig", .set = setName, .same = sameField<&Light::name>,
      .get = getField<&Light::name>},
-    {.path = "type", .label = "Type", .type = Enum, .unit = "", .invalidates = Shadow, .values = "spot,point,directional,bendy,area,bentArea",
+    {.path = "type", .label = "Type", .type = Enum, .unit = "", .invalidates = Shadow, .values = "spot,point,directional,bendy,area,bentArea,environment",
      .valueDoc = "string",
      .doc = "`\"spot\"`, `\"point\"` (every direction from `position`, candela, cube-map shadows; `direction` and the cone "
             "unused), `\"directional\"` (parallel light along `direction`, `intensity` in lux, no cone; `position` unused) or "
@@ -492,7 +501,9 @@ const std::vector<Property> LIGHT_PROPERTIES = {
             "`shadowGrid`, and sets `shadowFilter` to 0: the grid's average softens), or `\"bentArea\"` (an area light's "
             "rectangle whose light travels along four corner BendyLight chains, `cornerPoints`; each of its `shadowGrid` "
             "interior BendyLights has the cone `coneAngle`; switching gives it straight 4-unit corner chains, and caps the map "
-            "size and sets the filter as for `area`)",
+            "size and sets the filter as for `area`), or `\"environment\"` (radiance from every direction: the HDR image "
+            "`map` turned by `rotation`, or the constant `color`; `intensity` a unitless multiplier; `shadow`: the shot's "
+            "baked visibility; no position or direction)",
      .set = setType, .same = sameField<&Light::type>, .get = getType},
     {.path = "enabled", .label = "Enabled", .type = Boolean, .unit = "", .invalidates = Composite, .valueDoc = "bool",
      .doc = "", .set = setBool<&Light::enabled>, .same = sameField<&Light::enabled>, .get = getField<&Light::enabled>},
@@ -588,6 +599,20 @@ const std::vector<Property> LIGHT_PROPERTIES = {
             "2008, section 3; docs/lighting.md), fitted while the light shades one-shot (a light shading with LTC costs no "
             "fit); [0.30, 0.57] before a fit; clients cannot set it",
      .set = setAlphaBeta, .present = isArea, .get = getField<&Light::alphaBeta>},
+    {.path = "map", .label = "Map", .type = String, .unit = "", .invalidates = Shade, .appliesTo = APPLIES_ENVIRONMENT,
+     .valueDoc = "string",
+     .doc = "environment lights: an HDR latitude-longitude image in the asset folder (OpenEXR or Radiance HDR: float data; "
+            "8- and 16-bit integer images such as PNG are refused), its values radiance in cd/m² before `intensity` and "
+            "`color`; at most 8192 x 4096 texels; `\"\"` = the constant `color`. Relative, no `..`, at most 255 characters",
+     .set = setEnvMap, .same = sameField<&Light::envMap>, .present = [](const Light& l) { return !l.envMap.empty(); },
+     .get = getField<&Light::envMap>},
+    {.path = "rotation", .label = "Rotation", .type = Numbers, .unit = "degrees", .min = -360, .max = 360, .uiMin = -180,
+     .uiMax = 180, .step = 1, .keyframable = true, .invalidates = Shade, .appliesTo = APPLIES_ENVIRONMENT, .size = 3,
+     .valueDoc = "[yaw, pitch, roll]",
+     .doc = "environment lights: the map's turn, degrees, each in [-360, 360]: yaw about +Y, then pitch about +X, then roll "
+            "about +Z (docs/lighting.md, \"Environment light\")",
+     .set = setVec3<&Light::envRotationDeg>, .same = sameField<&Light::envRotationDeg>, .present = isEnvironment,
+     .get = getField<&Light::envRotationDeg>},
     {.path = "include", .label = "Lights only", .type = IdList, .unit = "object ids", .invalidates = Shade, .valueDoc = "[ids]",
      .doc = "light linking: when not empty, the light lights only these objects (1-based ids of the shot's manifest, "
             "`welcome.session.objects[id-1]`)",
@@ -703,7 +728,7 @@ json rowJson(const Property& p, bool rigLevel) {
     if (!rigLevel) {
         json types = json::array();
         for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area,
-                            LightType::BentArea}) {
+                            LightType::BentArea, LightType::Environment}) {
             if (p.appliesTo & (1u << unsigned(t))) types.push_back(lightTypeName(t));
         }
         j["appliesTo"] = types;
@@ -800,6 +825,7 @@ std::string lightTypeName(LightType t) {
     case LightType::Point: return "point";
     case LightType::Area: return "area";
     case LightType::BentArea: return "bentArea";
+    case LightType::Environment: return "environment";
     case LightType::Spot: break;
     }
     return "spot";
@@ -812,6 +838,7 @@ std::optional<LightType> lightTypeFromName(std::string_view n) {
     if (n == "bendy") return LightType::Bendy;
     if (n == "area") return LightType::Area;
     if (n == "bentArea") return LightType::BentArea;
+    if (n == "environment") return LightType::Environment;
     return std::nullopt;
 }
 
@@ -820,7 +847,7 @@ json schemaJson() {
     for (const Property& p : RIG_PROPERTIES) rig.push_back(rowJson(p, true));
     for (const Property& p : LIGHT_PROPERTIES) light.push_back(rowJson(p, false));
     return json{{"schema", 1},
-                {"lightTypes", {"spot", "point", "bendy", "directional", "area", "bentArea"}},
+                {"lightTypes", {"spot", "point", "bendy", "directional", "area", "bentArea", "environment"}},
                 {"rig", rig},
                 {"light", light},
                 {"dragModes", dragModesJson()}};

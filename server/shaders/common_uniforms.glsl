@@ -12,7 +12,7 @@ bool objectLinked(uint id) {
 
 layout(std140, binding = UBO_LIGHT) uniform LightBlock {
     mat4 worldToLightClip;  // spot light's view-projection (shadow map space)
-    vec4 lightPosition;     // xyz world position, w = kind: 0 directional, 1 spot, 2 point, 3 area
+    vec4 lightPosition;     // xyz world position, w = kind: 0 directional, 1 spot, 2 point, 3 area, 4 environment
     vec4 lightAxis;         // xyz unit axis the light points along
     vec4 lightCone;         // x = cos(outer half-angle), y = cos(inner half-angle),
                             // z = 1 if shadowed, w = the receiver's lift towards the light
@@ -45,7 +45,7 @@ layout(std140, binding = UBO_VIEW) uniform ViewBlock {
 // them (tests that build a shader directly) the shaders decide from the uniforms at run time,
 // with the same results.
 #ifndef SHADE_KIND
-#define SHADE_KIND int(uLight.lightPosition.w + 0.5) // 0 directional, 1 spot, 2 point, 3 area
+#define SHADE_KIND int(uLight.lightPosition.w + 0.5) // 0 directional, 1 spot, 2 point, 3 area, 4 environment
 #endif
 #ifndef SHADE_SHADOWED
 #define SHADE_SHADOWED (uLight.lightCone.z > 0.5)

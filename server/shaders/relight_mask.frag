@@ -57,6 +57,8 @@ bool reachable(vec3 P, vec3 N) {
     float R = (p.w + E.w * max(t, 0.0)) * 1.01 + 1e-3;
     return t >= -1e-3 && dot(d, d) <= R * R;
 #else
+    // Environment light: every sample.
+    if (SHADE_KIND == 4) return true;
     // Area light: the side of its plane it emits to (one-sided).
     if (SHADE_KIND == 3) return dot(P - uLight.lightPosition.xyz, uLight.lightAxis.xyz) > 0.0;
     vec3 toLight = SHADE_KIND == 0 ? -uLight.lightAxis.xyz : uLight.lightPosition.xyz - P;

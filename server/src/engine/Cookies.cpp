@@ -1,5 +1,8 @@
 #include "Cookies.h"
 
+#include "EnvironmentMap.h"
+#include "GpuInterface.h"
+
 #include <dfb/server/AreaPattern.h>
 #include <dfb/server/ImageCodec.h>
 
@@ -63,6 +66,46 @@ Result<Cookies::Pattern> Cookies::pattern(const Light& l) {
         it = mPatterns.emplace(key, std::make_pair(std::move(tex), glm::vec3(t.mean))).first;
     }
     return Pattern{it->second.first.id(), it->second.second};
+}
+
+Result<Cookies::Environment> Cookies::environment(const Light& l) {
+    auto it = mEnvironments.find(l.envMap);
+    if (it == mEnvironments.end()) {
+        ImageF src;
+        if (l.envMap.empty()) {
+            src.width = 2;
+            src.height = 1;
+            src.rgba.assign(8, 1.f);
+        } else {
+            auto img = readHdrImage((std::filesystem::path(mDirectory) / l.envMap).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+            if (!img) return makeError(img.error().code, "light '" + l.name + "': map '" + l.envMap + "': " + img.error().message);
+            src = std::move(img.value());
+        }
+        const EnvLevels levels = prefilterEnvironment(src, int(ENV_LEVELS), ENV_PREFILTER_WIDTH);
+        // A few maps are kept (swapping back and forth costs no reload); the others go.
+        constexpr size_t KEPT = 4;
+        if (mEnvironments.size() >= KEPT) mEnvironments.clear();
+        EnvEntry e;
+        GLuint id = 0;
+        glCreateTextures(GL_TEXTURE_2D, 1, &id);
+        e.texture = gl::Texture(id);
+        glTextureStorage2D(id, GLsizei(ENV_LEVELS), GL_RGBA32F, levels.widths[0], levels.widths[0] / 2);
+        for (int k = 0; k < int(ENV_LEVELS); ++k) {
+            // Row 0 (the top, +Y) at t = 0: common_env.glsl's envLatLong reads v as t.
+            glTextureSubImage2D(id, k, 0, 0, levels.widths[size_t(k)], levels.widths[size_t(k)] / 2, GL_RGBA, GL_FLOAT,
+                                levels.rgba[size_t(k)].data());
+        }
+        glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+        glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_REPEAT); // across the seam at u = 0 / 1
+        glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(id, GL_TEXTURE_MAX_LEVEL, GLint(ENV_LEVELS) - 1);
+        e.sh = levels.sh;
+        e.shWidth = levels.shWidth;
+        e.shHeight = levels.shHeight;
+        it = mEnvironments.emplace(l.envMap, std::move(e)).first;
+    }
+    return Environment{it->second.texture.id(), &it->second.sh, it->second.shWidth, it->second.shHeight};
 }
 
 } // namespace dfb::engine

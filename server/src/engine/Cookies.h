@@ -1,6 +1,7 @@
 #pragma once
 // Images from the asset folder, read on first use and kept per file name: spot lights' cookies
-// as mipmapped textures, area lights' patterns as summed-area tables (dfb/server/AreaPattern.h).
+// as mipmapped textures, area lights' patterns as summed-area tables (dfb/server/AreaPattern.h),
+// environment lights' maps prefiltered by roughness (EnvironmentMap.h).
 
 #include <dfb/core/Result.h>
 #include <dfb/gl/Objects.h>
@@ -10,6 +11,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 namespace dfb::engine {
 
@@ -32,7 +34,25 @@ public:
     /// and the pattern.
     Result<Pattern> pattern(const Light& l);
 
+    /// An environment light's map on the GPU (TEX_ENV_PREFILTERED: ENV_LEVELS mips prefiltered by
+    /// roughness, EnvironmentMap.h) and the small copy its spherical harmonics are projected from
+    /// (RGBA, shWidth x shHeight). l.envMap empty: a constant environment of radiance 1. Kept per
+    /// file name (the last few). Errors name the light and the map. GL thread; the pointers stay
+    /// valid until the next call.
+    struct Environment {
+        GLuint texture = 0;
+        const std::vector<float>* sh = nullptr;
+        int shWidth = 0, shHeight = 0;
+    };
+    Result<Environment> environment(const Light& l);
+
 private:
+    struct EnvEntry {
+        gl::Texture texture;
+        std::vector<float> sh;
+        int shWidth = 0, shHeight = 0;
+    };
+    std::map<std::string, EnvEntry> mEnvironments; // by file name ("" = constant)
     std::string mDirectory = ".";
     std::map<std::string, gl::Texture> mTextures; // by file name
     std::map<std::pair<std::string, bool>, std::pair<gl::Texture, glm::vec3>> mPatterns; // by (file, disk)

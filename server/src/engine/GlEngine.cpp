@@ -57,6 +57,16 @@ Status GlEngine::updateShadows(const Rig& rig, FrameStats& st) {
     for (const Light& l : rig.lights) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
+        // An environment light has no shadow map: its visibility is the shot's (relight_env.frag).
+        if (l.type == LightType::Environment) {
+            if (c.hasShadow || !sameShadowInputs(c.params, l)) {
+                c.shadowMap = {};
+                c.hasShadow = false;
+                c.shadowTarget = GL_NONE;
+                c.hasContribution = false;
+            }
+            continue;
+        }
         const bool shadowValid = c.hasShadow && sameShadowInputs(c.params, l) && (mPreview || !c.previewShadow) &&
                                  ((l.type != LightType::Bendy && l.type != LightType::BentArea) ||
                                   c.subdivisionLimit == mSubdivisionLimit);

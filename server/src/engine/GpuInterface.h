@@ -45,7 +45,12 @@
     X(TEX_AREA_PATTERN, 17, "RGBA32F: an area light's pattern as a summed-area table, mean removed")      \
     X(TEX_SHADOW_ARRAY, 18, "DEPTH32F 2D array, raw depths: an area light's grid of shadow maps")        \
     X(TEX_LTC_MATRIX, 19, "RGBA32F LTC_SIZE^2: the fitted LTC's M^-1 (a, b, c, d) per (roughness, sqrt(1 - N.v)) (Ltc.h)") \
-    X(TEX_LTC_AMPLITUDE, 20, "RG32F LTC_SIZE^2: the fitted lobe's norm and Schlick share (Ltc.h)")
+    X(TEX_LTC_AMPLITUDE, 20, "RG32F LTC_SIZE^2: the fitted lobe's norm and Schlick share (Ltc.h)")   \
+    X(TEX_ENV_PREFILTERED, 21, "RGBA32F lat-long, ENV_LEVELS mips: an environment light's map prefiltered by GGX roughness level / (ENV_LEVELS - 1)") \
+    X(TEX_ENV_DFG, 22, "RG32F ENV_DFG_SIZE^2: the split sum's (A, B) by (N.v, roughness) (Environment.h dfgTable)") \
+    X(TEX_GBUFFER_ENV0, 23, "RGBA16F: the baked environment transfer T_0..T_3 (DeepBuffer::envTransfer)") \
+    X(TEX_GBUFFER_ENV1, 24, "RGBA16F: T_4..T_7")                                                         \
+    X(TEX_GBUFFER_ENV2, 25, "R16F: T_8")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).
 #define DFB_GPU_STORAGE_BINDINGS(X)                                                                    \
@@ -55,7 +60,8 @@
     X(SSBO_TESS_INDICES, 4, "bendy_classify.comp's triangles for the tessellated draws")              \
     X(SSBO_DRAW_COMMANDS, 5, "BendyDrawCommands: the deformed map's four indirect draws")             \
     X(SSBO_LINK_MASK, 6, "per light: bit (id % 32) of word (id / 32) set = the object is lit")    \
-    X(SSBO_AREA_LAYERS, 7, "an area light's shadow layers: vec4(clip-space x, y offset of the layer's eye, its emitter coordinates along right, up)")
+    X(SSBO_AREA_LAYERS, 7, "an area light's shadow layers: vec4(clip-space x, y offset of the layer's eye, its emitter coordinates along right, up)") \
+    X(SSBO_ENV_SH, 8, "an environment light's radiance as 9 vec4 (rgb L_i of the turned map; SphericalHarmonics.h)")
 
 // Uniform blocks (glBindBufferBase(GL_UNIFORM_BUFFER); layout(std140, binding)).
 #define DFB_GPU_UNIFORM_BLOCKS(X)                                                  \
@@ -94,6 +100,8 @@
     X(FOOTPRINT_MAX_TAPS, 16, "edge taps per sample over its pixel footprint (ViewBlock.footprintTaps)") \
     X(LTC_SIZE, dfb::lightmath::LTC_SIZE, "rows and columns of the LTC tables (Ltc.h)")                    \
     X(LTC_DISK_NEWTON_STEPS, dfb::lightmath::LTC_DISK_NEWTON_STEPS, "Newton steps of the disk's ellipse (Ltc.h)") \
+    X(ENV_LEVELS, 6, "mip levels of the prefiltered environment, roughness 0 .. 1 (EnvironmentMap.cpp)") \
+    X(ENV_DFG_SIZE, 32, "rows and columns of the DFG table")                                      \
     X(AREA_MAX_LAYERS, 256, "an area light's shadow maps: MAX_AREA_SHADOW_GRID squared (Rig.h; ShadowMaps.cpp asserts it)") \
     X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands") \
     X(BENDY_TESS_WORK_WORD, offsetof(dfb::engine::BendyDrawCommands, tessWork) / 4, "BendyDrawCommands.tessWork's uint")

@@ -221,4 +221,62 @@ Result<ImageF> readLinearImage(const std::string& path) {
     return img;
 }
 
+namespace {
+
+// The header checks of an environment map: float data within the size limit.
+Result<std::unique_ptr<OIIO::ImageInput>> openHdrImage(const std::string& path, int maxWidth, int maxHeight) {
+    auto opened = openImage(path);
+    if (!opened) return opened.error();
+    const OIIO::ImageSpec& spec = opened.value()->spec();
+    const auto base = spec.format.basetype;
+    if (base != OIIO::TypeDesc::HALF && base != OIIO::TypeDesc::FLOAT && base != OIIO::TypeDesc::DOUBLE) {
+        return makeError(ErrorCode::InvalidValue, "image '" + path + "' holds " + std::string(spec.format.c_str()) +
+                                                      " data, not float: an environment map must be HDR (OpenEXR or Radiance .hdr)");
+    }
+    if (spec.width > maxWidth || spec.height > maxHeight) {
+        return makeError(ErrorCode::InvalidValue, "image '" + path + "' is " + std::to_string(spec.width) + "x" +
+                                                      std::to_string(spec.height) + " texels; an environment map may have at most " +
+                                                      std::to_string(maxWidth) + "x" + std::to_string(maxHeight));
+    }
+    return opened;
+}
+
+} // namespace
+
+Status checkHdrImageFile(const std::string& path, int maxWidth, int maxHeight) {
+    auto in = openHdrImage(path, maxWidth, maxHeight);
+    return in ? okStatus() : Status(in.error());
+}
+
+Result<ImageF> readHdrImage(const std::string& path, int maxWidth, int maxHeight) {
+    auto opened = openHdrImage(path, maxWidth, maxHeight);
+    if (!opened) return opened.error();
+    auto& in = opened.value();
+    const OIIO::ImageSpec spec = in->spec();
+    const size_t n = size_t(spec.nchannels), texels = size_t(spec.width) * size_t(spec.height);
+    std::vector<float> src(texels * n);
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, src.data())) {
+        return makeError(ErrorCode::IoError, "cannot read image '" + path + "': " + in->geterror());
+    }
+    ImageF img;
+    img.width = spec.width;
+    img.height = spec.height;
+    img.rgba.resize(texels * 4);
+    for (size_t p = 0; p < texels; ++p) {
+        const float* s = &src[p * n];
+        const float rgb[3] = {s[0], n >= 3 ? s[1] : s[0], n >= 3 ? s[2] : s[0]};
+        for (int c = 0; c < 3; ++c) {
+            if (!std::isfinite(rgb[c]) || rgb[c] < 0.f) {
+                return makeError(ErrorCode::InvalidValue, "image '" + path + "': texel (" + std::to_string(p % size_t(spec.width)) +
+                                                              ", " + std::to_string(p / size_t(spec.width)) + ") channel " +
+                                                              std::to_string(c) + " is " + std::to_string(rgb[c]) +
+                                                              ": radiance must be finite and >= 0");
+            }
+            img.rgba[p * 4 + size_t(c)] = rgb[c];
+        }
+        img.rgba[p * 4 + 3] = 1.f;
+    }
+    return img;
+}
+
 } // namespace dfb

@@ -4,6 +4,7 @@
 
 #include "ShadowMaps.h"
 
+#include <dfb/lightmath/Environment.h>
 #include <dfb/lightmath/LtcTableData.h>
 #include <dfb/server/AreaPattern.h>
 #include <dfb/server/BentArea.h>
@@ -24,10 +25,17 @@ LightBlock lightBlock(const LightCache& c, bool cookie, const glm::vec3& pattern
     LightBlock block{};
     block.worldToLightClip = c.worldToLightClip;
     // w = 0 marks a directional light: parallel rays, no distance or cone falloff.
-    block.lightPosition = glm::vec4(toGlm(l.position), l.type == LightType::Directional ? 0.f
-                                                       : l.type == LightType::Point     ? 2.f
-                                                       : l.type == LightType::Area      ? 3.f
-                                                                                        : 1.f);
+    block.lightPosition = glm::vec4(toGlm(l.position), l.type == LightType::Directional   ? 0.f
+                                                       : l.type == LightType::Point       ? 2.f
+                                                       : l.type == LightType::Area        ? 3.f
+                                                       : l.type == LightType::Environment ? 4.f
+                                                                                          : 1.f);
+    if (l.type == LightType::Environment) {
+        // relight_env.frag: the world-to-map rotation (R^T of envRotation) and the shadow flag.
+        block.worldToLightClip = glm::mat4(glm::transpose(glm::mat3(lightmath::envRotation(l.envRotationDeg))));
+        block.lightCone = glm::vec4(0.f, 0.f, l.shadow ? 1.f : 0.f, 0.f);
+        return block;
+    }
     const glm::vec3 axis = glm::normalize(toGlm(l.direction));
     block.lightAxis = glm::vec4(axis, 0.f);
     const float outer = glm::radians(l.coneAngleDeg);
@@ -105,6 +113,16 @@ Status LightShading::init() {
     glTextureSubImage2D(mLtcMatrix.id(), 0, 0, 0, LTC_SIZE, LTC_SIZE, GL_RGBA, GL_FLOAT, lightmath::LTC_MATRIX);
     mLtcAmplitude = gl::makeTexture2D(GL_RG32F, LTC_SIZE, LTC_SIZE);
     glTextureSubImage2D(mLtcAmplitude.id(), 0, 0, 0, LTC_SIZE, LTC_SIZE, GL_RG, GL_FLOAT, lightmath::LTC_AMPLITUDE);
+    // The split sum's DFG table (Environment.h dfgTable), generated here rather than copied:
+    // 32 x 32 entries of 512 GGX samples, a few milliseconds once per engine. Read bilinearly
+    // at (N.v, roughness), the entries at texel centres.
+    const std::vector<float> dfg = lightmath::dfgTable(ENV_DFG_SIZE, 512);
+    mEnvDfg = gl::makeTexture2D(GL_RG32F, ENV_DFG_SIZE, ENV_DFG_SIZE);
+    glTextureSubImage2D(mEnvDfg.id(), 0, 0, 0, ENV_DFG_SIZE, ENV_DFG_SIZE, GL_RG, GL_FLOAT, dfg.data());
+    glTextureParameteri(mEnvDfg.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(mEnvDfg.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(mEnvDfg.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(mEnvDfg.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     return okStatus();
 }
 
@@ -117,7 +135,11 @@ std::string LightShading::shadeDefines(const LightCache& c, int output, bool coo
     std::string d;
     auto def = [&d](const char* name, const std::string& value) { d += std::string("#define ") + name + " " + value + "\n"; };
     auto flag = [&def](const char* name, bool on) { def(name, on ? "true" : "false"); };
-    def("SHADE_KIND", l.type == LightType::Directional ? "0" : l.type == LightType::Point ? "2" : l.type == LightType::Area ? "3" : "1");
+    def("SHADE_KIND", l.type == LightType::Directional   ? "0"
+                      : l.type == LightType::Point       ? "2"
+                      : l.type == LightType::Area        ? "3"
+                      : l.type == LightType::Environment ? "4"
+                                                         : "1");
     flag("SHADE_SHADOWED", l.shadow);
     def("SHADE_PCF_RADIUS", std::to_string(l.shadowFilter));
     flag("SHADE_COOKIE", cookie);
@@ -269,6 +291,21 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         }
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_AREA_LAYERS, c.areaLayers.id());
     }
+    const bool environment = l.type == LightType::Environment;
+    if (environment) {
+        // The map's spherical harmonics, turned by the light's rotation: projected here from the
+        // map's small copy (well under a millisecond), so a rotation re-shades one pass.
+        auto env = mCookies.environment(l);
+        if (!env) return env.error();
+        const auto L = lightmath::envProjectSh(env->sh->data(), env->shWidth, env->shHeight, 4,
+                                               lightmath::envRotation(l.envRotationDeg));
+        glm::vec4 sh[lightmath::SH_COEFFICIENTS];
+        for (int i = 0; i < lightmath::SH_COEFFICIENTS; ++i) sh[i] = glm::vec4(glm::vec3(L[size_t(i)]), 0.f);
+        c.envSh = gl::makeBuffer(sh, sizeof sh);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_ENV_SH, c.envSh.id());
+        glBindTextureUnit(TEX_ENV_PREFILTERED, env->texture);
+        glBindTextureUnit(TEX_ENV_DFG, mEnvDfg.id());
+    }
     mLight.upload(lightBlock(c, cookie != 0, pattern.mean));
 
     // Preview frames shade every second pixel into a half-size image (progressive refinement);
@@ -297,8 +334,11 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         (area && referenceCells == 0 && shadesWithLtc(l)
              ? std::string("#define AREA_LTC ") + (l.areaShape == AreaShape::Disk ? "2" : "1") + "\n"
              : std::string());
-    auto shader = mShaders.variant(
-        {"common_fullscreen.vert", bendy ? "relight_bendy.frag" : area ? "relight_area.frag" : "relight_spot.frag"}, defines);
+    auto shader = mShaders.variant({"common_fullscreen.vert", bendy         ? "relight_bendy.frag"
+                                                              : area        ? "relight_area.frag"
+                                                              : environment ? "relight_env.frag"
+                                                                            : "relight_spot.frag"},
+                                   defines);
     if (!shader) return shader.error();
     const bool footprint = !mShaders.generic();
     if (footprint) {

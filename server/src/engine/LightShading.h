@@ -55,6 +55,7 @@ private:
     GLuint mResolveProgram = 0; // owned by mShaders
     gl::VertexArray mEmptyVao;
     gl::Texture mLtcMatrix, mLtcAmplitude; // the LTC tables (TEX_LTC_MATRIX, TEX_LTC_AMPLITUDE; Ltc.h)
+    gl::Texture mEnvDfg; // the split sum's DFG table (TEX_ENV_DFG)
     gl::Buffer mNoLink; // bound when a light has no linking (the shader declares the buffer)
     gl::Texture mMaskDepth; // every contribution target's depth: the light's footprint (relight_mask.frag)
     // Deep buffers: the relight passes run once per sample over the sample textures' layout into

@@ -334,7 +334,8 @@ PunctualLight punctualLight(const Light& l) {
     case LightType::Point: p.type = "point"; break;
     case LightType::Directional: p.type = "directional"; break;
     case LightType::Area:
-    case LightType::BentArea: return p;
+    case LightType::BentArea:
+    case LightType::Environment: return p;
     }
     // KHR_lights_punctual's colour is in [0, 1] (its schema); ours may exceed 1. The excess goes
     // into the intensity, so colour x intensity is the rig's. The rig's units are the extension's

@@ -312,6 +312,16 @@ Status Session::checkImages(const Rig& next) const {
             }
         }
     }
+    // An environment light's map: float data within the size limit (header only).
+    for (const Light& l : next.lights) {
+        const Light* before = mRig.find(l.name);
+        if (l.envMap.empty() || (before && before->envMap == l.envMap)) continue;
+        if (auto img = checkHdrImageFile((std::filesystem::path(mAssetDir) / l.envMap).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+            !img) {
+            return makeError(ErrorCode::InvalidValue, l.name + ".map: '" + l.envMap + "' is not an environment map in the asset folder (" +
+                                                          img.error().message + ")");
+        }
+    }
     return okStatus();
 }
 

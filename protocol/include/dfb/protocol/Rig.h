@@ -24,7 +24,7 @@ using Vec3 = std::array<float, 3>;
 /// BentArea: a rectangular area light whose light travels along four corner BendyLight chains
 /// (paper 003 section 4.1): an m x n grid of interior BendyLights blended from the corners, each
 /// with its deformed shadow map (docs/lighting.md, "Bent area lights").
-enum class LightType { Spot, Bendy, Directional, Point, Area, BentArea };
+enum class LightType { Spot, Bendy, Directional, Point, Area, BentArea, Environment };
 
 /// A bent area light's corners: 0 = (-w/2, -h/2), 1 = (+w/2, -h/2), 2 = (-w/2, +h/2), 3 = (+w/2, +h/2)
 /// in the emitter's (right, up) coordinates.
@@ -41,6 +41,12 @@ enum class AreaShading { Auto, OneShot, Ltc };
 
 /// Most rows or columns of an area light's grid of shadow maps.
 constexpr int MAX_AREA_SHADOW_GRID = 16;
+
+/// The largest environment map a light may name, texels (a 32-bit float RGBA copy is 512 MiB).
+constexpr int MAX_ENV_MAP_WIDTH = 8192, MAX_ENV_MAP_HEIGHT = 4096;
+/// The prefiltered environment's top level, texels wide (twice its height), RGBA32F with its
+/// mip chain: what an environment light holds on the GPU besides its contribution.
+constexpr int ENV_PREFILTER_WIDTH = 512;
 
 /// Most Bezier segments a BendyLight chain may have (lightmath::MAX_SEGMENTS).
 constexpr int MAX_BENDY_SEGMENTS = 8;
@@ -120,6 +126,17 @@ struct Light {
     // penumbra each one's cone.
     std::vector<Vec3> cornerPoints;   ///< 4 x 2K points, scene units
     std::vector<float> cornerRadii;   ///< 4 x (2K + 1) radii, scene units, >= 0
+
+    // Environment light (type Environment): radiance arriving from every direction around the
+    // scene, from an HDR latitude-longitude image (its values are radiance in cd/m² per unit
+    // `intensity`) or, without one, the constant `color`. Intensity is a unitless multiplier.
+    /// An EXR or Radiance HDR file in the asset folder like `cookie` (float data only); empty =
+    /// the constant colour.
+    std::string envMap;
+    /// The map's turn, degrees, each in [-360, 360]: yaw about +Y, then pitch about +X, then roll
+    /// about +Z (docs/lighting.md, "Environment light"). The unrotated map's centre column looks
+    /// along -Z, its top row at +Y.
+    std::array<float, 3> envRotationDeg{0.f, 0.f, 0.f};
     /// Keyframes by property path relative to the light ("intensity", "position", "cp[2]", "r[1]",
     /// ...): every numeric property can be animated. Keys are kept sorted by time.
     std::map<std::string, std::vector<Key>> keys;

@@ -54,7 +54,9 @@ enum LightTypeBits : unsigned {
     APPLIES_POINT = 1u << unsigned(LightType::Point),
     APPLIES_AREA = 1u << unsigned(LightType::Area),
     APPLIES_BENT_AREA = 1u << unsigned(LightType::BentArea),
-    APPLIES_ALL = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_POINT | APPLIES_AREA | APPLIES_BENT_AREA,
+    APPLIES_ENVIRONMENT = 1u << unsigned(LightType::Environment),
+    APPLIES_ALL = APPLIES_SPOT | APPLIES_BENDY | APPLIES_DIRECTIONAL | APPLIES_POINT | APPLIES_AREA | APPLIES_BENT_AREA |
+                  APPLIES_ENVIRONMENT,
 };
 
 struct Property;

@@ -33,4 +33,13 @@ Status checkImageFile(const std::string& path);
 /// and decoded; float files as linear; grey is replicated, missing alpha is 1). Errors name the file.
 Result<ImageF> readLinearImage(const std::string& path);
 
+/// Checks that `path` is an HDR image an environment light takes (header only): float data
+/// (OpenEXR, Radiance HDR, float TIFF: 8- and 16-bit integer images are refused, their values are
+/// not radiance), at most maxWidth x maxHeight texels. Errors name the file and what is wrong.
+Status checkHdrImageFile(const std::string& path, int maxWidth, int maxHeight);
+
+/// Reads such an image as linear RGBA float (grey replicated); refuses a non-finite or negative
+/// texel, naming it.
+Result<ImageF> readHdrImage(const std::string& path, int maxWidth, int maxHeight);
+
 } // namespace dfb

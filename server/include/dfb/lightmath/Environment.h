@@ -1,0 +1,130 @@
+#pragma once
+// The environment light's math (docs/lighting.md, "Environment light"): the latitude-longitude
+// parameterisation and the map's rotation, the projection of a map onto the spherical harmonics
+// of SphericalHarmonics.h, and the split-sum approximation of the GGX lobe against a prefiltered
+// map (Karis, "Real Shading in Unreal Engine 4", SIGGRAPH 2013 course notes: prefiltered
+// radiance x the DFG table's scale and bias of F0 and F90). The GLSL mirror of the
+// parameterisation is server/shaders/common_env.glsl (envLatLong).
+
+#include "Brdf.h"
+#include "Scalar.h"
+#include "SphericalHarmonics.h"
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <array>
+#include <cmath>
+#include <vector>
+
+namespace dfb::lightmath {
+
+constexpr double ENV_PI = 3.14159265358979323846;
+
+/// The map's direction of texture coordinate (u, v) in [0, 1]^2: u across (0.5 = the centre
+/// column, looking along -Z; u grows towards +X), v down (0 = the top row, +Y).
+template <typename T> vec3<T> envDirection(T u, T v) {
+    const T phi = T(2 * ENV_PI) * (u - T(0.5)), theta = T(ENV_PI) * v;
+    return {std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi)};
+}
+
+/// The inverse of envDirection for a unit direction: (u, v).
+template <typename T> vec2<T> envLatLong(const vec3<T>& d) {
+    const T u = T(0.5) + std::atan2(d.x, -d.z) / T(2 * ENV_PI);
+    const T v = std::acos(std::max(T(-1), std::min(T(1), d.y))) / T(ENV_PI);
+    return {u, v};
+}
+
+/// World direction = R x map direction, R = Ry(yaw) Rx(pitch) Rz(roll), degrees (Light::
+/// envRotationDeg): the map is rolled about +Z, then pitched about +X, then turned about +Y.
+inline glm::dmat3 envRotation(const std::array<float, 3>& yawPitchRollDeg) {
+    const glm::dmat4 y = glm::rotate(glm::dmat4(1.0), glm::radians(double(yawPitchRollDeg[0])), glm::dvec3(0, 1, 0));
+    const glm::dmat4 x = glm::rotate(glm::dmat4(1.0), glm::radians(double(yawPitchRollDeg[1])), glm::dvec3(1, 0, 0));
+    const glm::dmat4 z = glm::rotate(glm::dmat4(1.0), glm::radians(double(yawPitchRollDeg[2])), glm::dvec3(0, 0, 1));
+    return glm::dmat3(y * x * z);
+}
+
+/// The solid angle of texel row j of a w x h latitude-longitude map.
+inline double envTexelSolidAngle(int j, int w, int h) {
+    const double t0 = ENV_PI * double(j) / h, t1 = ENV_PI * double(j + 1) / h;
+    return (2 * ENV_PI / w) * (std::cos(t0) - std::cos(t1));
+}
+
+/// L_i (SphericalHarmonics.h) of an RGB(A) float map (`channels` floats per texel, row 0 at the
+/// top) turned by `rotation` (envRotation): the integral of the texel-constant function, each
+/// texel's Y_i taken at 2 x 2 sub-texel directions weighted by their solid angles (texel centres
+/// alone leave a 1e-4 error in a constant map's bands 1-2 at 64 rows; this, 3e-5).
+inline std::array<glm::dvec3, SH_COEFFICIENTS> envProjectSh(const float* texels, int w, int h, int channels,
+                                                             const glm::dmat3& rotation) {
+    std::array<glm::dvec3, SH_COEFFICIENTS> L{};
+    for (int j = 0; j < h; ++j) {
+        for (int sj = 0; sj < 2; ++sj) {
+            const double dOmega = envTexelSolidAngle(2 * j + sj, 2 * w, 2 * h);
+            for (int i = 0; i < w; ++i) {
+                const float* t = texels + (size_t(j) * size_t(w) + size_t(i)) * size_t(channels);
+                const glm::dvec3 c(t[0], t[1], t[2]);
+                for (int si = 0; si < 2; ++si) {
+                    const glm::dvec3 d = rotation * envDirection((2 * i + si + 0.5) / (2 * w), (2 * j + sj + 0.5) / (2 * h));
+                    const auto y = shEvaluate(d);
+                    for (int k = 0; k < SH_COEFFICIENTS; ++k) L[size_t(k)] += c * (y[size_t(k)] * dOmega);
+                }
+            }
+        }
+    }
+    return L;
+}
+
+/// Point i of n of the Hammersley set in [0, 1)^2 (radical inverse in base 2).
+inline glm::dvec2 hammersley(uint32_t i, uint32_t n) {
+    uint32_t b = i;
+    b = (b << 16u) | (b >> 16u);
+    b = ((b & 0x55555555u) << 1u) | ((b & 0xAAAAAAAAu) >> 1u);
+    b = ((b & 0x33333333u) << 2u) | ((b & 0xCCCCCCCCu) >> 2u);
+    b = ((b & 0x0F0F0F0Fu) << 4u) | ((b & 0xF0F0F0F0u) >> 4u);
+    b = ((b & 0x00FF00FFu) << 8u) | ((b & 0xFF00FF00u) >> 8u);
+    return {(i + 0.5) / n, double(b) * 2.3283064365386963e-10};
+}
+
+/// A GGX half vector about +Z for the sample point xi (pdf D(h) h.z; Walter et al., "Microfacet
+/// Models for Refraction through Rough Surfaces", EGSR 2007, eqs. 35-36).
+inline glm::dvec3 ggxHalfVector(const glm::dvec2& xi, double alpha) {
+    const double phi = 2 * ENV_PI * xi.x;
+    const double cosTheta = std::sqrt((1 - xi.y) / (1 + (alpha * alpha - 1) * xi.y));
+    const double sinTheta = std::sqrt(std::max(0.0, 1 - cosTheta * cosTheta));
+    return {sinTheta * std::cos(phi), sinTheta * std::sin(phi), cosTheta};
+}
+
+/// The split sum's second factor (Karis 2013): for the lobe D Vis N.L of roughness r at N.v,
+/// the integrals A (of (1 - Fc) ...) and B (of Fc ...), Fc = (1 - v.h)^5, so that the reflected
+/// radiance of a uniform environment of radiance 1 is F0 A + F90 B. `samples` GGX samples.
+inline glm::dvec2 dfgIntegral(double NdotV, double roughness, int samples) {
+    const double alpha = std::max(roughness * roughness, 1e-3);
+    const glm::dvec3 V(std::sqrt(std::max(0.0, 1 - NdotV * NdotV)), 0.0, NdotV);
+    glm::dvec2 ab(0.0);
+    for (int i = 0; i < samples; ++i) {
+        const glm::dvec3 H = ggxHalfVector(hammersley(uint32_t(i), uint32_t(samples)), alpha);
+        const double VdotH = glm::dot(V, H);
+        const glm::dvec3 L = 2.0 * VdotH * H - V;
+        const double NdotL = L.z, NdotH = H.z;
+        if (NdotL <= 0 || VdotH <= 0) continue;
+        // f cos / pdf_L with pdf_L = D NdotH / (4 VdotH): Vis 4 VdotH NdotL / NdotH.
+        const double g = visibilitySmithGGX(NdotL, NdotV, alpha) * 4 * VdotH * NdotL / NdotH;
+        const double fc = std::pow(1 - VdotH, 5.0);
+        ab += glm::dvec2((1 - fc) * g, fc * g);
+    }
+    return ab / double(samples);
+}
+
+/// The DFG table: size x size entries (A, B) of dfgIntegral at texel centres, N.v along x
+/// ((i + 0.5) / size), roughness along y ((j + 0.5) / size), row-major (GL's upload order).
+inline std::vector<float> dfgTable(int size, int samples) {
+    std::vector<float> t(size_t(size) * size_t(size) * 2);
+    for (int j = 0; j < size; ++j)
+        for (int i = 0; i < size; ++i) {
+            const glm::dvec2 ab = dfgIntegral((i + 0.5) / size, (j + 0.5) / size, samples);
+            t[(size_t(j) * size_t(size) + size_t(i)) * 2] = float(ab.x);
+            t[(size_t(j) * size_t(size) + size_t(i)) * 2 + 1] = float(ab.y);
+        }
+    return t;
+}
+
+} // namespace dfb::lightmath

@@ -1,0 +1,117 @@
+#version 450 core
+// An environment light's contribution per pixel from the G-buffer samples (docs/lighting.md,
+// "Environment light"), at unit radiance (the composite scales by colour x intensity):
+// - diffuse = (1 - metallic)(1 - F_d(N.v)) albedo sum_i L_i T_i: the map's spherical harmonics
+//   L (SSBO_ENV_SH, projected and rotated on the CPU: Environment.h envProjectSh) against the
+//   sample's diffuse transfer T, its baked visibility when the light is shadowed and the shot has
+//   one (precomputed radiance transfer: Sloan, Kautz and Snyder 2002), else the unshadowed
+//   clamped cosine (Ramamoorthi and Hanrahan 2001);
+// - specular = the prefiltered map at the mirror direction and the lobe's roughness times
+//   F0 A + F90 B from the DFG table (the split sum: Karis 2013), with KHR_materials_specular's
+//   F0 and F90 as common_brdf.glsl, and for shadowed lights a specular occlusion from the
+//   transfer's visibility (Lagarde and de Rousiers, "Moving Frostbite to Physically Based
+//   Rendering", 2014, section 4.10.2);
+// - clear coat: its own GGX lobe on top, the base attenuated by 1 - coat Fc(N.v) as
+//   evaluateLayeredBrdfCos; sheen scales the base as there (the sheen lobe's own reflection of
+//   the environment is left out).
+#include "common_uniforms.glsl"
+#include "common_brdf.glsl"
+#include "common_env.glsl"
+
+layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
+layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
+layout(binding = TEX_GBUFFER_ALBEDO) uniform sampler2D gAlbedo;
+layout(binding = TEX_GBUFFER_BRDF) uniform sampler2D gBrdf;
+layout(binding = TEX_GBUFFER_SHEEN) uniform sampler2D gSheen;
+layout(binding = TEX_GBUFFER_COAT) uniform sampler2D gCoat;
+layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
+layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
+layout(binding = TEX_ENV_PREFILTERED) uniform sampler2D envPrefiltered; // lat-long, ENV_LEVELS mips by roughness
+layout(binding = TEX_ENV_DFG) uniform sampler2D envDfg;                 // (A, B) by (N.v, roughness)
+#ifdef ENV_TRANSFER
+layout(binding = TEX_GBUFFER_ENV0) uniform sampler2D gEnv0; // the baked transfer T_0..T_3
+layout(binding = TEX_GBUFFER_ENV1) uniform sampler2D gEnv1; // T_4..T_7
+layout(binding = TEX_GBUFFER_ENV2) uniform sampler2D gEnv2; // T_8
+#endif
+layout(std430, binding = SSBO_ENV_SH) readonly buffer EnvSh { vec4 envSh[9]; }; // rgb L_i of the turned map
+
+layout(location = OUT_COLOR) out vec4 oColor;
+layout(early_fragment_tests) in;
+layout(location = LOC_RELIGHT_OUTPUT) uniform int uOutput;
+layout(location = LOC_RELIGHT_LINKED) uniform int uLinked;
+layout(location = LOC_RELIGHT_PIXEL_STEP) uniform int uPixelStep;
+
+// The map's radiance towards `dirWorld` prefiltered for `roughness`: worldToLightClip holds the
+// world-to-map rotation (R^T of envRotation).
+vec3 prefiltered(vec3 dirWorld, float roughness) {
+    vec3 d = mat3(uLight.worldToLightClip) * dirWorld;
+    return textureLod(envPrefiltered, envLatLong(normalize(d)), roughness * float(ENV_LEVELS - 1)).rgb;
+}
+
+// The split sum of a GGX lobe (Karis 2013): prefiltered radiance x (F0 A + F90 B).
+vec3 specularLobe(vec3 N, vec3 V, float NdotV, float roughness, vec3 f0, float f90) {
+    vec2 ab = texture(envDfg, vec2(NdotV, roughness)).rg;
+    return prefiltered(reflect(-V, N), roughness) * (f0 * ab.x + vec3(f90 * ab.y));
+}
+
+vec3 shadeSample(ivec2 t) {
+    vec4 pA = texelFetch(gP, t, 0);
+    if (pA.w <= 0.0) return vec3(0.0);
+    if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
+    vec3 N = normalize(texelFetch(gN, t, 0).xyz);
+    vec3 V = viewVector(pA.xyz);
+    float T[9];
+    float visibility = 1.0;
+#ifdef ENV_TRANSFER
+    if (SHADE_SHADOWED) {
+        vec4 a = texelFetch(gEnv0, t, 0), b = texelFetch(gEnv1, t, 0);
+        T = float[9](a.x, a.y, a.z, a.w, b.x, b.y, b.z, b.w, texelFetch(gEnv2, t, 0).x);
+        // The ambient visibility: T_0 / Y_0 (1 where the whole hemisphere sees the map).
+        visibility = clamp(T[0] / 0.282094791773878, 0.0, 1.0);
+    } else {
+        shUnshadowedTransfer(N, T);
+    }
+#else
+    shUnshadowedTransfer(N, T);
+#endif
+    if (SHADE_OUTPUT == 1) return vec3(visibility * pA.w, pA.w, 0.0);
+    vec3 irradiance = vec3(0.0);
+    for (int i = 0; i < 9; ++i) irradiance += envSh[i].rgb * T[i];
+    irradiance = max(irradiance, vec3(0.0)); // an order-3 expansion rings below zero behind bright suns
+
+    vec3 albedo = texelFetch(gAlbedo, t, 0).rgb;
+    vec4 brdf = texelFetch(gBrdf, t, 0);
+    float metallic = brdf.x, roughness = brdf.y, specular = brdf.z;
+    float NdotV = clamp(dot(N, V), 1e-4, 1.0);
+    vec3 Fd = fresnelSchlick(vec3(0.08 * specular), min(2.0 * specular, 1.0), NdotV);
+    float maxFd = max(Fd.x, max(Fd.y, Fd.z));
+    vec3 diffuse = ((1.0 - metallic) * (1.0 - maxFd)) * albedo * irradiance;
+    vec3 f0 = mix(vec3(0.08 * specular), albedo, metallic);
+    float f90 = mix(min(2.0 * specular, 1.0), 1.0, metallic);
+    // Specular occlusion (Lagarde and de Rousiers 2014, eq. 34 / listing 26) from the visibility.
+    float alpha = max(roughness * roughness, 1e-3);
+    float occlusion = clamp(pow(NdotV + visibility, exp2(-16.0 * alpha - 1.0)) - 1.0 + visibility, 0.0, 1.0);
+    vec3 base = diffuse + specularLobe(N, V, NdotV, roughness, f0, f90) * occlusion;
+    vec4 sheen = texelFetch(gSheen, t, 0);
+    if (SHADE_SHEEN && any(greaterThan(sheen.rgb, vec3(0.0)))) base *= 1.0 - max(max(sheen.r, sheen.g), sheen.b);
+    vec2 coat = texelFetch(gCoat, t, 0).xy;
+    if (SHADE_COAT && coat.x > 0.0) {
+        float Fc = 0.04 + 0.96 * pow(1.0 - NdotV, 5.0);
+        float coatAlpha = max(coat.y * coat.y, 1e-3);
+        float coatOcclusion = clamp(pow(NdotV + visibility, exp2(-16.0 * coatAlpha - 1.0)) - 1.0 + visibility, 0.0, 1.0);
+        base = base * (1.0 - coat.x * Fc) + coat.x * specularLobe(N, V, NdotV, coat.y, vec3(0.04), 1.0) * coatOcclusion;
+    }
+    return base * pA.w;
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
+#ifdef DFB_FLAT_SAMPLES
+    oColor = vec4(shadeSample(pixel), 1.0);
+#else
+    uvec2 range = texelFetch(gPixelSamples, pixel, 0).xy;
+    vec3 sum = vec3(0.0);
+    for (uint s = range.x; s < range.x + range.y; ++s) sum += shadeSample(sampleTexel(s));
+    oColor = vec4(sum, 1.0);
+#endif
+}

@@ -1,0 +1,152 @@
+#include "EnvironmentMap.h"
+
+#include <dfb/lightmath/Environment.h>
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+namespace dfb::engine {
+
+namespace {
+
+struct LatLong {
+    int w = 0, h = 0;
+    std::vector<glm::vec3> c;
+
+    // Wraps across the seam (u), clamps at the poles (v).
+    glm::vec3 texel(int i, int j) const {
+        i = ((i % w) + w) % w;
+        j = std::clamp(j, 0, h - 1);
+        return c[size_t(j) * size_t(w) + size_t(i)];
+    }
+    glm::vec3 bilinear(double u, double v) const {
+        const double x = u * w - 0.5, y = v * h - 0.5;
+        const int x0 = int(std::floor(x)), y0 = int(std::floor(y));
+        const float fx = float(x - x0), fy = float(y - y0);
+        return glm::mix(glm::mix(texel(x0, y0), texel(x0 + 1, y0), fx), glm::mix(texel(x0, y0 + 1), texel(x0 + 1, y0 + 1), fx), fy);
+    }
+};
+
+// src resampled to w x h: the average of the source texels each target texel covers when
+// shrinking, bilinear when growing.
+LatLong resample(const ImageF& src, int w, int h) {
+    LatLong out{w, h, std::vector<glm::vec3>(size_t(w) * size_t(h))};
+    LatLong in{src.width, src.height, std::vector<glm::vec3>(size_t(src.width) * size_t(src.height))};
+    for (size_t p = 0; p < in.c.size(); ++p) in.c[p] = glm::vec3(src.rgba[p * 4], src.rgba[p * 4 + 1], src.rgba[p * 4 + 2]);
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            glm::vec3 sum(0.f);
+            if (src.width >= w && src.height >= h) {
+                const int x0 = int(int64_t(i) * src.width / w), x1 = std::max(x0 + 1, int(int64_t(i + 1) * src.width / w));
+                const int y0 = int(int64_t(j) * src.height / h), y1 = std::max(y0 + 1, int(int64_t(j + 1) * src.height / h));
+                for (int y = y0; y < y1; ++y)
+                    for (int x = x0; x < x1; ++x) sum += in.texel(x, y);
+                sum /= float((x1 - x0) * (y1 - y0));
+            } else {
+                sum = in.bilinear((i + 0.5) / w, (j + 0.5) / h);
+            }
+            out.c[size_t(j) * size_t(w) + size_t(i)] = sum;
+        }
+    return out;
+}
+
+LatLong halve(const LatLong& a) {
+    LatLong out{std::max(a.w / 2, 1), std::max(a.h / 2, 1), {}};
+    out.c.resize(size_t(out.w) * size_t(out.h));
+    for (int j = 0; j < out.h; ++j)
+        for (int i = 0; i < out.w; ++i)
+            out.c[size_t(j) * size_t(out.w) + size_t(i)] =
+                0.25f * (a.texel(2 * i, 2 * j) + a.texel(2 * i + 1, 2 * j) + a.texel(2 * i, 2 * j + 1) + a.texel(2 * i + 1, 2 * j + 1));
+    return out;
+}
+
+std::vector<float> toRgba(const LatLong& l) {
+    std::vector<float> out(l.c.size() * 4);
+    for (size_t p = 0; p < l.c.size(); ++p) {
+        out[p * 4] = l.c[p].x;
+        out[p * 4 + 1] = l.c[p].y;
+        out[p * 4 + 2] = l.c[p].z;
+        out[p * 4 + 3] = 1.f;
+    }
+    return out;
+}
+
+// The pyramid's radiance towards unit d at fractional level lod.
+glm::vec3 sampleAt(const std::vector<LatLong>& pyramid, const glm::dvec3& d, double lod) {
+    lod = std::clamp(lod, 0.0, double(pyramid.size() - 1));
+    const int l0 = int(lod), l1 = std::min(l0 + 1, int(pyramid.size()) - 1);
+    const glm::dvec2 uv = lightmath::envLatLong(d);
+    return glm::mix(pyramid[size_t(l0)].bilinear(uv.x, uv.y), pyramid[size_t(l1)].bilinear(uv.x, uv.y), float(lod - l0));
+}
+
+constexpr int PREFILTER_SAMPLES = 64;
+
+LatLong prefilterLevel(const std::vector<LatLong>& pyramid, int w, double roughness) {
+    const int h = w / 2;
+    LatLong out{w, h, std::vector<glm::vec3>(size_t(w) * size_t(h))};
+    const double alpha = std::max(roughness * roughness, 1e-3);
+    const double texelSolidAngle = 4 * lightmath::ENV_PI / (double(pyramid[0].w) * double(pyramid[0].h));
+    auto rows = [&](int first, int step) {
+        for (int j = first; j < h; j += step)
+            for (int i = 0; i < w; ++i) {
+                const glm::dvec3 N = lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h);
+                // Any orthonormal frame about N (Frisvad's; the lobe is symmetric about N).
+                const glm::dvec3 up = std::abs(N.y) < 0.999 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
+                const glm::dvec3 tx = glm::normalize(glm::cross(up, N)), ty = glm::cross(N, tx);
+                glm::dvec3 sum(0.0);
+                double weight = 0.0;
+                for (int s = 0; s < PREFILTER_SAMPLES; ++s) {
+                    const glm::dvec3 hl = lightmath::ggxHalfVector(lightmath::hammersley(uint32_t(s), PREFILTER_SAMPLES), alpha);
+                    const glm::dvec3 H = tx * hl.x + ty * hl.y + N * hl.z;
+                    const glm::dvec3 L = 2.0 * glm::dot(N, H) * H - N;
+                    const double NdotL = glm::dot(N, L);
+                    if (NdotL <= 0) continue;
+                    // pdf of L with N = v: D(h) h.z / (4 v.h) = D / 4; the sample stands for
+                    // 1 / (samples pdf) steradians.
+                    const double pdf = lightmath::distributionGGX(hl.z, alpha) / 4;
+                    const double lod = 0.5 * std::log2(1.0 / (PREFILTER_SAMPLES * pdf * texelSolidAngle)) + 1.0;
+                    sum += glm::dvec3(sampleAt(pyramid, L, lod)) * NdotL;
+                    weight += NdotL;
+                }
+                out.c[size_t(j) * size_t(w) + size_t(i)] = glm::vec3(weight > 0 ? sum / weight : sum);
+            }
+    };
+    const int threads = int(std::clamp(std::thread::hardware_concurrency(), 1u, 8u));
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(rows, t, threads);
+    rows(0, threads);
+    for (std::thread& t : pool) t.join();
+    return out;
+}
+
+} // namespace
+
+EnvLevels prefilterEnvironment(const ImageF& src, int levels, int baseWidth) {
+    EnvLevels out;
+    bool constant = true;
+    for (size_t p = 4; p < src.rgba.size() && constant; p += 4)
+        constant = src.rgba[p] == src.rgba[0] && src.rgba[p + 1] == src.rgba[1] && src.rgba[p + 2] == src.rgba[2];
+    std::vector<LatLong> pyramid{resample(src, baseWidth, baseWidth / 2)};
+    while (pyramid.back().w > 2) pyramid.push_back(halve(pyramid.back()));
+    for (int k = 0; k < levels; ++k) {
+        const int w = std::max(baseWidth >> k, 2);
+        out.widths.push_back(w);
+        if (k == 0 || constant) {
+            out.rgba.push_back(toRgba(pyramid[size_t(std::min<size_t>(size_t(k), pyramid.size() - 1))]));
+        } else {
+            out.rgba.push_back(toRgba(prefilterLevel(pyramid, w, double(k) / double(levels - 1))));
+        }
+    }
+    for (const LatLong& l : pyramid) {
+        if (l.w <= 128) {
+            out.shWidth = l.w;
+            out.shHeight = l.h;
+            out.sh = toRgba(l);
+            break;
+        }
+    }
+    return out;
+}
+
+} // namespace dfb::engine

@@ -1,0 +1,32 @@
+#pragma once
+// An environment light's map on the CPU (docs/lighting.md, "Environment light"): the source
+// resampled to a fixed base size and prefiltered per GGX roughness level for the split-sum
+// specular (Karis, "Real Shading in Unreal Engine 4", 2013), with the level the spherical
+// harmonics are projected from. GL-free, so that tests and the reference can use it.
+
+#include <dfb/server/Engine.h>
+
+#include <vector>
+
+namespace dfb::engine {
+
+/// Level k is widths[k] x widths[k] / 2 texels of RGBA floats, row 0 at the top (+Y),
+/// prefiltered for GGX roughness k / (levels - 1) (level 0: the map itself, resampled).
+struct EnvLevels {
+    std::vector<int> widths;
+    std::vector<std::vector<float>> rgba;
+    /// The copy envProjectSh reads: the base box-filtered to at most 128 texels wide (an order-3
+    /// expansion needs no more; 8k texels project in well under a millisecond per rotation).
+    int shWidth = 0, shHeight = 0;
+    std::vector<float> sh;
+};
+
+/// The levels of `src`, a latitude-longitude RGBA float image of any size: `levels` levels from
+/// `baseWidth` texels wide (a power of two, >= 2^levels). Level k > 0 averages the map over the
+/// GGX lobe of roughness k / (levels - 1) about each texel's direction with N = v = r,
+/// importance-sampled (64 samples) from a box-filtered pyramid of the base at the lod of each
+/// sample's solid angle (Colbert and Krivanek, "GPU-Based Importance Sampling", GPU Gems 3, 2007,
+/// ch. 20). A constant map is filled without sampling.
+EnvLevels prefilterEnvironment(const ImageF& src, int levels, int baseWidth);
+
+} // namespace dfb::engine

@@ -1,0 +1,298 @@
+// Environment lights in the engine (issue 19; docs/lighting.md, "Environment light"): the white
+// furnace (a constant environment: Lambert gives the albedo, the split sum the DFG table's
+// integral), diffuse against the exact cosine integral of a map that order-3 spherical harmonics
+// hold exactly (any rotation), a yaw of 90 degrees against the same map shifted by a quarter turn
+// (specular included), caching (a rotation re-shades the environment alone, an intensity edit
+// nothing), and what the engine and the image reader refuse.
+
+#include "support/AreaShot.h"
+
+#include <dfb/lightmath/Environment.h>
+#include <dfb/server/ImageCodec.h>
+
+#include <OpenImageIO/imageio.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <functional>
+
+using namespace dfb;
+
+namespace {
+
+using namespace test;
+
+namespace fs = std::filesystem;
+
+// A fresh folder for this test's maps.
+fs::path mapFolder() {
+    const fs::path dir = fs::temp_directory_path() / ("dfb_env_test_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    return dir;
+}
+
+// Writes a w x h lat-long map whose texel (i, j) is f(direction at its centre), as 32-bit float
+// EXR (or `format` for the refusal tests).
+void writeMap(const fs::path& path, int w, int h, const std::function<glm::vec3(const glm::dvec3&)>& f,
+              OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT) {
+    std::vector<float> px(size_t(w) * size_t(h) * 3);
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const glm::vec3 c = f(lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h));
+            for (int k = 0; k < 3; ++k) px[(size_t(j) * size_t(w) + size_t(i)) * 3 + size_t(k)] = c[k];
+        }
+    auto out = OIIO::ImageOutput::create(path.string());
+    ASSERT_TRUE(out) << OIIO::geterror();
+    OIIO::ImageSpec spec(w, h, 3, format);
+    ASSERT_TRUE(out->open(path.string(), spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+    out->close();
+}
+
+// What the engine reads: the G-buffer's material layers as half float.
+double asHalf(float v) { return double(glm::unpackHalf1x16(glm::packHalf1x16(v))); }
+
+Light environment(const char* name, const std::string& map = "") {
+    Light l;
+    l.name = name;
+    l.type = LightType::Environment;
+    l.envMap = map;
+    l.intensityCd = 1.f;
+    l.shadow = false;
+    return l;
+}
+
+// The shot with every sample's specular level set to `specular` (0: pure Lambert), on its own
+// engine reading maps from `dir`.
+std::unique_ptr<Engine> engineWithSpecular(const Shot& s, float specular, const fs::path& dir) {
+    DeepBuffer g = s.g;
+    for (size_t i = 0; i < g.A.size(); ++i) g.brdf[i * 4 + 2] = specular;
+    auto e = Engine::create(g, shadowCasters(s.scene));
+    EXPECT_TRUE(e.ok()) << e.error().toString();
+    if (!e.ok()) return nullptr;
+    e.value()->setAssetDirectory(dir.string());
+    return std::move(e.value());
+}
+
+// The exact diffuse irradiance over pi of radiance L (a function of the world direction) at
+// normal N: integral of L(w) max(0, N.w) / pi dw, by a fine midpoint rule in (theta, phi).
+double cosineIntegral(const std::function<double(const glm::dvec3&)>& L, const glm::dvec3& N) {
+    constexpr int T = 256, P = 512;
+    double sum = 0;
+    for (int j = 0; j < T; ++j) {
+        const double theta = lightmath::ENV_PI * (j + 0.5) / T, st = std::sin(theta);
+        for (int i = 0; i < P; ++i) {
+            const double phi = 2 * lightmath::ENV_PI * (i + 0.5) / P;
+            const glm::dvec3 w(st * std::cos(phi), std::cos(theta), st * std::sin(phi));
+            sum += L(w) * std::max(0.0, glm::dot(N, w)) * st;
+        }
+    }
+    return sum * (lightmath::ENV_PI / T) * (2 * lightmath::ENV_PI / P) / lightmath::ENV_PI;
+}
+
+TEST(EnvironmentLight, WhiteFurnace) {
+    Shot s;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, true, 0.f, 0.5f));
+    const fs::path dir = mapFolder();
+    Rig rig;
+    rig.lights = {environment("env")};
+    // Lambert (specular level 0): the constant environment of radiance 1 gives the albedo.
+    {
+        auto e = engineWithSpecular(s, 0.f, dir);
+        ASSERT_TRUE(e);
+        auto img = e->renderLightLinear(rig, "env");
+        ASSERT_TRUE(img.ok()) << img.error().toString();
+        Errors err;
+        forEachSample(s.g, [&](size_t p, size_t i) { err.add(img->rgba[p * 4 + 1], asHalf(s.g.albedo[i * 3 + 1])); });
+        std::printf("white furnace, Lambert: mean %.2e max %.2e relative over %zu pixels\n", err.meanRel(), err.maxRel, err.n);
+        EXPECT_GT(err.n, 10000u);
+        // The projection's sub-texel quadrature leaves 3e-5 (Environment.h envProjectSh).
+        EXPECT_LT(err.maxRel, 5e-5);
+    }
+    // glTF's default dielectric (specular level 0.5: F0 0.04, F90 1): (1 - F(N.v)) albedo plus
+    // F0 A + F90 B of the DFG integral (without the table's interpolation).
+    {
+        auto img = s.engine->renderLightLinear(rig, "env");
+        ASSERT_TRUE(img.ok()) << img.error().toString();
+        Errors err;
+        const glm::dvec3 eye(0.f, 4.f, 4.5f);
+        forEachSample(s.g, [&](size_t p, size_t i) {
+            const glm::dvec3 P = glm::dvec3(s.g.position(i)), N = glm::normalize(glm::dvec3(s.g.normal(i)));
+            const double NdotV = std::clamp(glm::dot(N, glm::normalize(eye - P)), 1e-4, 1.0);
+            const double roughness = asHalf(s.g.brdf[i * 4 + 1]), specular = asHalf(s.g.brdf[i * 4 + 2]),
+                         albedo = asHalf(s.g.albedo[i * 3 + 1]);
+            const double F = 0.08 * specular + (std::min(2 * specular, 1.0) - 0.08 * specular) * std::pow(1 - NdotV, 5.0);
+            const glm::dvec2 ab = lightmath::dfgIntegral(NdotV, roughness, 4096);
+            err.add(img->rgba[p * 4 + 1], (1 - F) * albedo + 0.08 * specular * ab.x + std::min(2 * specular, 1.0) * ab.y);
+        });
+        std::printf("white furnace, dielectric: mean %.2e max %.2e relative\n", err.meanRel(), err.maxRel);
+        EXPECT_LT(err.meanRel(), 2e-3);
+        EXPECT_LT(err.maxRel, 1e-2);
+    }
+}
+
+// L(d) = 1 + 0.5 d.y + 0.3 d.x d.z + 0.2 (d.x^2 - d.y^2): bands 0..2 only, so the order-3
+// expansion and the clamped-cosine convolution are exact (Ramamoorthi and Hanrahan 2001) and
+// what is left is the map's texels.
+double bandLimited(const glm::dvec3& d) { return 1.0 + 0.5 * d.y + 0.3 * d.x * d.z + 0.2 * (d.x * d.x - d.y * d.y); }
+
+TEST(EnvironmentLight, DiffuseMatchesTheCosineIntegralAtAnyRotation) {
+    Shot s;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, true, 0.f, 0.5f));
+    const fs::path dir = mapFolder();
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "band.exr", 256, 128, [](const glm::dvec3& d) {
+        const float v = float(bandLimited(d));
+        return glm::vec3(v, 0.5f * v, 0.25f * v);
+    }));
+    auto e = engineWithSpecular(s, 0.f, dir);
+    ASSERT_TRUE(e);
+    for (const std::array<float, 3> rotation : {std::array<float, 3>{0.f, 0.f, 0.f}, std::array<float, 3>{30.f, 20.f, 10.f}}) {
+        Light l = environment("env", "band.exr");
+        l.envRotationDeg = rotation;
+        Rig rig;
+        rig.lights = {l};
+        auto img = e->renderLightLinear(rig, "env");
+        ASSERT_TRUE(img.ok()) << img.error().toString();
+        const glm::dmat3 R = lightmath::envRotation(rotation);
+        const auto world = [&](const glm::dvec3& w) { return bandLimited(glm::transpose(R) * w); };
+        // The shot's normals are the ground's and the box's front face's: one integral each.
+        std::map<std::array<int, 3>, double> integrals;
+        Errors err;
+        forEachSample(s.g, [&](size_t p, size_t i) {
+            const glm::dvec3 N = glm::normalize(glm::dvec3(s.g.normal(i)));
+            const std::array<int, 3> key{int(std::lround(N.x * 100)), int(std::lround(N.y * 100)), int(std::lround(N.z * 100))};
+            auto it = integrals.find(key);
+            if (it == integrals.end()) it = integrals.emplace(key, cosineIntegral(world, N)).first;
+            err.add(img->rgba[p * 4], asHalf(s.g.albedo[i * 3]) * it->second);
+            err.add(img->rgba[p * 4 + 2], 0.25 * asHalf(s.g.albedo[i * 3 + 2]) * it->second);
+        });
+        std::printf("diffuse vs the cosine integral, rotation (%g, %g, %g): mean %.2e max %.2e over %zu normals\n",
+                    double(rotation[0]), double(rotation[1]), double(rotation[2]), err.meanRel(), err.maxRel, integrals.size());
+        EXPECT_GE(integrals.size(), 2u);
+        EXPECT_LT(err.maxRel, 5e-4);
+    }
+}
+
+// A map with a bright, small patch (far from band-limited) and its copy shifted by a quarter
+// turn: a yaw of 90 degrees (envRotation: world -Z -> -X) must render the shifted file unturned,
+// prefiltered specular included.
+TEST(EnvironmentLight, YawEqualsTheShiftedMap) {
+    Shot s;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, true, 0.f, 0.3f));
+    const fs::path dir = mapFolder();
+    const auto patch = [](const glm::dvec3& d) {
+        const double k = std::max(0.0, glm::dot(d, glm::normalize(glm::dvec3(0.6, 0.5, -0.6))));
+        return glm::vec3(float(0.2 + 20.0 * std::pow(k, 40.0)), float(0.3 + 5.0 * std::pow(k, 10.0)), 0.4f);
+    };
+    constexpr int W = 64, H = 32;
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "patch.exr", W, H, patch));
+    // Shifted: column i holds the original's column i + W/4 (world -X, u = 0.25, shows the
+    // original's centre column, u = 0.5).
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "shifted.exr", W, H, [&](const glm::dvec3& d) {
+        const glm::dvec2 uv = lightmath::envLatLong(d);
+        return patch(lightmath::envDirection(uv.x + 0.25, uv.y));
+    }));
+    s.engine->setAssetDirectory(dir.string());
+    Light turned = environment("env", "patch.exr");
+    turned.envRotationDeg = {90.f, 0.f, 0.f};
+    Rig a, b;
+    a.lights = {turned};
+    b.lights = {environment("env", "shifted.exr")};
+    auto ia = s.engine->renderLightLinear(a, "env");
+    auto ib = s.engine->renderLightLinear(b, "env");
+    ASSERT_TRUE(ia.ok()) << ia.error().toString();
+    ASSERT_TRUE(ib.ok()) << ib.error().toString();
+    Errors err;
+    forEachSample(s.g, [&](size_t p, size_t) {
+        for (int c = 0; c < 3; ++c) err.add(ia->rgba[p * 4 + size_t(c)], ib->rgba[p * 4 + size_t(c)]);
+    });
+    // And it is not the unturned map (the comparison could fail).
+    Rig c;
+    c.lights = {environment("env", "patch.exr")};
+    auto ic = s.engine->renderLightLinear(c, "env");
+    ASSERT_TRUE(ic.ok());
+    Errors unturned;
+    forEachSample(s.g, [&](size_t p, size_t) { unturned.add(ic->rgba[p * 4], ib->rgba[p * 4]); });
+    std::printf("yaw 90 vs shifted map: mean %.2e max %.2e; unturned vs shifted: mean %.2e\n", err.meanRel(), err.maxRel,
+                unturned.meanRel());
+    EXPECT_LT(err.meanRel(), 1e-4);
+    EXPECT_LT(err.maxRel, 2e-3);
+    EXPECT_GT(unturned.meanRel(), 0.05);
+}
+
+TEST(EnvironmentLight, RotationReshadesItAloneAndIntensityNothing) {
+    Shot s;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, true));
+    Light spot;
+    spot.name = "key";
+    spot.position = {2.f, 4.f, 2.f};
+    spot.direction = {-0.4f, -0.8f, -0.4f};
+    spot.shadowMapSize = 512;
+    Rig rig;
+    rig.lights = {environment("env"), spot};
+    rig.lights[0].shadow = true; // no baked visibility here: shaded unshadowed, still no map
+    FrameStats st;
+    ASSERT_TRUE(s.engine->render(rig, &st).ok());
+    EXPECT_EQ(st.lightsShaded, 2);
+    EXPECT_EQ(st.shadowMapsRendered, 1);
+    rig.lights[0].envRotationDeg = {45.f, 0.f, 0.f};
+    st = {};
+    ASSERT_TRUE(s.engine->render(rig, &st).ok());
+    EXPECT_EQ(st.lightsShaded, 1);
+    EXPECT_EQ(st.shadowMapsRendered, 0);
+    rig.lights[0].intensityCd = 3.f;
+    rig.lights[0].color = {1.f, 0.5f, 0.2f};
+    st = {};
+    ASSERT_TRUE(s.engine->render(rig, &st).ok());
+    EXPECT_EQ(st.lightsShaded, 0);
+    EXPECT_EQ(st.shadowMapsRendered, 0);
+    // The rescaled image is the freshly shaded one.
+    auto cached = s.engine->renderLightLinear(rig, "env");
+    Shot fresh;
+    ASSERT_NO_FATAL_FAILURE(makeShot(fresh, true));
+    auto want = fresh.engine->renderLightLinear(rig, "env");
+    ASSERT_TRUE(cached.ok() && want.ok());
+    double worst = 0;
+    for (size_t i = 0; i < cached->rgba.size(); ++i)
+        worst = std::max(worst, double(std::abs(cached->rgba[i] - want->rgba[i])) / std::max(1e-6, double(std::abs(want->rgba[i]))));
+    EXPECT_LT(worst, 1e-5);
+}
+
+TEST(EnvironmentLight, BadMapsAreRefusedByName) {
+    const fs::path dir = mapFolder();
+    const auto grey = [](const glm::dvec3&) { return glm::vec3(0.5f); };
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "ldr16.png", 16, 8, grey, OIIO::TypeDesc::UINT16));
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "huge.exr", MAX_ENV_MAP_WIDTH + 8, 2, grey, OIIO::TypeDesc::HALF));
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "nan.exr", 16, 8, [](const glm::dvec3& d) {
+        return d.y > 0.9 ? glm::vec3(std::nanf("")) : glm::vec3(1.f);
+    }));
+    auto png = checkHdrImageFile((dir / "ldr16.png").string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+    ASSERT_FALSE(png.ok());
+    EXPECT_NE(png.error().message.find("not float"), std::string::npos) << png.error().message;
+    auto huge = checkHdrImageFile((dir / "huge.exr").string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+    ASSERT_FALSE(huge.ok());
+    EXPECT_NE(huge.error().message.find("at most 8192x4096"), std::string::npos) << huge.error().message;
+    EXPECT_TRUE(checkHdrImageFile((dir / "nan.exr").string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT).ok()); // the header is fine
+    auto nan = readHdrImage((dir / "nan.exr").string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+    ASSERT_FALSE(nan.ok());
+    EXPECT_NE(nan.error().message.find("texel ("), std::string::npos) << nan.error().message;
+
+    // The engine names the light and the map, and renders the next good rig.
+    Shot s;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, false));
+    s.engine->setAssetDirectory(dir.string());
+    for (const char* bad : {"nan.exr", "missing.exr", "ldr16.png"}) {
+        Rig rig;
+        rig.lights = {environment("dome", bad)};
+        auto img = s.engine->renderLinear(rig);
+        ASSERT_FALSE(img.ok()) << bad;
+        EXPECT_NE(img.error().message.find("light 'dome': map '" + std::string(bad) + "'"), std::string::npos) << img.error().message;
+    }
+    Rig good;
+    good.lights = {environment("dome")};
+    EXPECT_TRUE(s.engine->renderLinear(good).ok());
+}
+
+} // namespace
