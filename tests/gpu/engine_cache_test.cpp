@@ -180,6 +180,21 @@ void writeCookie(const std::string& path, int cell) {
         << path;
 }
 
+// Writes a 64x32 float lat-long sky: brighter towards the top, with a warm patch.
+void writeSky(const std::string& path) {
+    std::vector<float> px(64 * 32 * 3);
+    for (int y = 0; y < 32; ++y)
+        for (int x = 0; x < 64; ++x) {
+            float* p = &px[size_t(y * 64 + x) * 3];
+            const bool patch = x > 40 && x < 46 && y > 8 && y < 13;
+            p[0] = patch ? 8.f : 1.f - float(y) / 40.f, p[1] = patch ? 5.f : 1.1f - float(y) / 40.f, p[2] = 1.3f - float(y) / 40.f;
+        }
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out && out->open(path, OIIO::ImageSpec(64, 32, 3, OIIO::TypeDesc::FLOAT)) &&
+                out->write_image(OIIO::TypeDesc::FLOAT, px.data()) && out->close())
+        << path;
+}
+
 // Issue 15: the cache keys are derived from the rig schema, so this test edits every row of the
 // schema (through the protocol's own path edits, as a client would), in turn, on a random light
 // the row applies to, and compares with a from-scratch render along the way. A new row is edited
@@ -192,6 +207,7 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
     std::filesystem::create_directories(assets);
     writeCookie((assets / "checks.png").string(), 4);
     writeCookie((assets / "coarse.png").string(), 16);
+    writeSky((assets / "sky.exr").string());
     cached->setAssetDirectory(assets.string());
 
     const Bounds& b = scene.bounds;
@@ -212,14 +228,22 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
     makeStraightCorners(bent, 1.f);
     bent.cornerPoints[1][2] += 0.2f; // corner 0 bends a little
     rig.lights.push_back(bent);
+    Light dome;
+    dome.name = "dome";
+    dome.type = LightType::Environment;
+    dome.intensityCd = 0.3f;
+    dome.envMap = "sky.exr";
+    rig.lights.push_back(dome);
     for (Light& l : rig.lights) l.shadowMapSize = std::min(l.shadowMapSize, 512);
 
     test::SchemaEditOptions opt;
     opt.objectCount = uint32_t(shot.objectNames.size());
     opt.cookies = {"", "checks.png", "coarse.png"};
+    opt.envMaps = {"", "sky.exr"};
     // Seed 2024 left point lights 3 edits after the `shading` row joined the schema (the sequence
-    // shifts with the rows); 2025-2028 all cover every type more than 10 times.
-    std::mt19937 rng(2025);
+    // shifts with the rows); with the environment light's rows 2025 edited one type 5 times, 2026
+    // covers every type more than 5 times.
+    std::mt19937 rng(2026);
     std::map<std::string, int> edited; // schema row -> edits applied
     std::map<LightType, int> byType;
     const auto& rows = protocol::lightProperties();
@@ -276,7 +300,8 @@ TEST(EngineCache, EverySchemaPropertyEditedAtRandomMatchesAFromScratchRender) {
         }
     }
     // Every type edited (types change at random: the counts vary with the sequence).
-    for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area, LightType::BentArea})
+    for (LightType t : {LightType::Spot, LightType::Point, LightType::Bendy, LightType::Directional, LightType::Area, LightType::BentArea,
+                        LightType::Environment})
         EXPECT_GT(byType[t], 5) << "light type " << protocol::lightTypeName(t);
     EXPECT_EQ(checks, 14);
     std::filesystem::remove_all(assets);

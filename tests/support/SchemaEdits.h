@@ -22,6 +22,7 @@ namespace dfb::test {
 struct SchemaEditOptions {
     uint32_t objectCount = 1;                 ///< object ids 1..objectCount for linking rows
     std::vector<std::string> cookies = {""};  ///< file names cookie edits choose from
+    std::vector<std::string> envMaps = {""};  ///< file names an environment light's map edits choose from
     std::vector<int> shadowMapSizes = {256, 512};
     float positionStep = 0.2f;                ///< largest move of a point per edit, scene units
 };
@@ -53,7 +54,8 @@ inline std::optional<std::pair<std::string, nlohmann::json>> randomEdit(const pr
         }
         return std::pair{path, json(choices[rng() % choices.size()])};
     }
-    case PropType::String: // cookie, pattern: images
+    case PropType::String: // cookie, pattern: images; an environment's map: HDR images
+        if (path == "map") return std::pair{path, json(o.envMaps[rng() % o.envMaps.size()])};
         return std::pair{path, json(o.cookies[rng() % o.cookies.size()])};
     case PropType::Integer:
         if (path == "shadowMapSize") return std::pair{path, json(o.shadowMapSizes[rng() % o.shadowMapSizes.size()])};
