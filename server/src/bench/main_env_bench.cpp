@@ -1,0 +1,190 @@
+// dfb-env-bench: the environment light's fast path (order-3 spherical harmonics against the
+// shot's baked visibility, the split sum against the prefiltered map) against the brute-force
+// reference (renderEnvironmentReference: Embree rays per sample, the layered BRDF), and its
+// edit -> frame times (issue 19 points 4 and 5). A benchmark prints numbers; nothing here passes
+// or fails.
+//
+//   dfb-env-bench SHOT.exr [--scene S.glb] [--maps DIR] [--rays N] [--edits N] [--no-errors]
+//
+// Errors, per map (default: scenes/env's sunrise, an outdoor map with a sun, and interior): the
+// shot as Lambert (specular 0, metallic 0: the diffuse term), as a metal of its own roughness
+// (metallic 1: the specular term) and as baked; per covered pixel the luminance's relative error
+// |fast - ref| / ref (pixels with ref above 1e-3 of the mean), mean and 95th percentile, and the
+// aggregate sum |fast - ref| / sum ref. Shadowed when the shot holds the transfer (dfb-bake
+// --env-rays), unshadowed otherwise (the reference then traces no rays either).
+
+#include <dfb/core/Stats.h>
+#include <dfb/core/Version.h>
+#include <dfb/server/Engine.h>
+#include <dfb/server/EnvironmentReference.h>
+
+#include "BenchShot.h"
+
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+using namespace dfb;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+double luminance(const ImageF& img, size_t p) {
+    return 0.2126 * img.rgba[p * 4] + 0.7152 * img.rgba[p * 4 + 1] + 0.0722 * img.rgba[p * 4 + 2];
+}
+
+struct Figures {
+    double mean = 0, p95 = 0, aggregate = 0;
+    size_t pixels = 0;
+};
+
+Figures compare(const ImageF& fast, const ImageF& ref, const DeepBuffer& g) {
+    double sumRef = 0;
+    size_t covered = 0;
+    for (size_t p = 0; p < g.pixelCount(); ++p)
+        if (g.sampleOffset[p + 1] > g.sampleOffset[p]) sumRef += luminance(ref, p), ++covered;
+    const double floor = 1e-3 * sumRef / double(std::max<size_t>(covered, 1));
+    std::vector<double> rel;
+    double sumAbs = 0, sumR = 0;
+    for (size_t p = 0; p < g.pixelCount(); ++p) {
+        if (g.sampleOffset[p + 1] == g.sampleOffset[p]) continue;
+        const double r = luminance(ref, p), f = luminance(fast, p);
+        sumAbs += std::abs(f - r);
+        sumR += r;
+        if (r > floor) rel.push_back(std::abs(f - r) / r);
+    }
+    Figures out;
+    out.pixels = rel.size();
+    if (rel.empty()) return out;
+    for (double x : rel) out.mean += x;
+    out.mean /= double(rel.size());
+    std::sort(rel.begin(), rel.end());
+    out.p95 = rel[std::min(rel.size() - 1, size_t(0.95 * double(rel.size())))];
+    out.aggregate = sumR > 0 ? sumAbs / sumR : 0;
+    return out;
+}
+
+// The shot with its materials changed: "diffuse" (Lambert), "specular" (a metal) or as baked.
+DeepBuffer variant(const DeepBuffer& g, const std::string& kind) {
+    DeepBuffer v = g;
+    if (kind == "baked") return v;
+    for (size_t s = 0; s < v.A.size(); ++s) {
+        v.brdf[s * 4] = kind == "specular" ? 1.f : 0.f; // metallic
+        if (kind == "diffuse") v.brdf[s * 4 + 2] = 0.f;  // specular level 0: Lambert
+        for (int c = 0; c < 4; ++c) v.sheen[s * 4 + size_t(c)] = 0.f;
+        v.coat[s * 2] = 0.f;
+    }
+    return v;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"dfb-env-bench: the environment light against its brute-force reference, and edit -> frame times"};
+    app.set_version_flag("--version", dfb::versionText("dfb-env-bench"));
+    std::string shotPath, scenePath, mapDir = DFB_SOURCE_DIR "/scenes/env";
+    std::vector<std::string> maps{"sunrise.exr", "interior.exr"};
+    int rays = 256, edits = 10;
+    bool skipErrors = false;
+    app.add_option("shot", shotPath, "deep framebuffer EXR")->required();
+    app.add_option("--scene", scenePath, "the scene the reference traces (default: the shot's source scene)");
+    app.add_option("--maps", mapDir, "the folder of the maps");
+    app.add_option("--map", maps, "maps in that folder (repeat)");
+    app.add_option("--rays", rays, "the reference's rays per sample")->check(CLI::Range(3, 65536));
+    app.add_option("--edits", edits, "timed edits per row")->check(CLI::Range(1, 1000));
+    app.add_flag("--no-errors", skipErrors, "only the edit -> frame times");
+    CLI11_PARSE(app, argc, argv);
+    keepFreedMemoryForFrames();
+
+    bench::BenchShot opened;
+    if (int rc = bench::openBenchShot("dfb-env-bench", shotPath, scenePath, opened)) return rc;
+    const DeepBuffer& g = opened.shot;
+    const bool transfer = !g.envTransfer.empty();
+    std::printf("%s: %dx%d, %zu samples, visibility transfer %s\n", shotPath.c_str(), g.width, g.height, g.sampleCount(),
+                transfer ? "baked" : "absent (unshadowed)");
+    TriangleBvh bvh;
+    for (const MeshPart& p : opened.scene.parts) bvh.addMesh(p.positions, p.indices);
+    bvh.commit();
+    const Bounds& b = opened.scene.bounds;
+    const float radius = 0.5f * glm::length(b.max - b.min);
+
+    Light env;
+    env.name = "dome";
+    env.type = LightType::Environment;
+    env.intensityCd = 1.f;
+    env.shadow = transfer;
+    if (!skipErrors) {
+        std::printf(" fast path vs reference (%d rays per sample), luminance relative error per pixel: mean / p95 / aggregate\n", rays);
+        for (const std::string& map : maps) {
+            env.envMap = map;
+            for (const char* kind : {"diffuse", "specular", "baked"}) {
+                const DeepBuffer v = variant(g, kind);
+                auto engine = Engine::create(v, opened.casters);
+                if (!engine) {
+                    std::cerr << "dfb-env-bench: " << engine.error().toString() << "\n";
+                    return 3;
+                }
+                engine.value()->setAssetDirectory(mapDir);
+                Rig rig;
+                rig.lights = {env};
+                auto fast = engine.value()->renderLightLinear(rig, env.name);
+                const auto t0 = Clock::now();
+                auto ref = renderEnvironmentReference(v, transfer ? &bvh : nullptr, radius, env, mapDir, rays);
+                const double refMs = msSince(t0);
+                if (!fast || !ref) {
+                    std::cerr << "dfb-env-bench: " << (fast ? ref.error() : fast.error()).toString() << "\n";
+                    return 1;
+                }
+                const Figures f = compare(fast.value(), ref.value(), v);
+                std::printf("  %-14s %-9s mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%  (%zu pixels; reference %.1f s)\n", map.c_str(),
+                            kind, 100 * f.mean, 100 * f.p95, 100 * f.aggregate, f.pixels, refMs / 1000);
+            }
+        }
+    }
+
+    // Edit -> frame: the environment beside the scene's default key and fill.
+    Engine& engine = *opened.engine;
+    engine.setAssetDirectory(mapDir);
+    Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+    env.envMap = maps.front();
+    rig.lights.push_back(env);
+    Light& dome = rig.lights.back();
+    FrameStats st;
+    if (auto r = engine.render(rig, &st); !r) {
+        std::cerr << "dfb-env-bench: " << r.error().toString() << "\n";
+        return 1;
+    }
+    auto timed = [&](const char* what, const std::function<void(int)>& edit) {
+        std::vector<double> ms;
+        for (int i = 0; i < edits; ++i) {
+            edit(i);
+            ++rig.version;
+            const auto t0 = Clock::now();
+            if (!engine.render(rig, &st)) return;
+            ms.push_back(msSince(t0));
+        }
+        if (ms.empty()) return;
+        std::printf("  %-30s first %7.1f ms, median %7.1f ms (%d edits; last: %d lights shaded, %d shadow maps)\n", what, ms[0],
+                    median(ms), edits, st.lightsShaded, st.shadowMapsRendered);
+    };
+    std::printf(" edit -> frame at %dx%d (the default key and fill plus the environment):\n", g.width, g.height);
+    timed("environment rotation (yaw)", [&](int i) { dome.envRotationDeg[0] = float(10 * (i + 1)); });
+    timed("environment intensity", [&](int i) { dome.intensityCd = 0.5f + 0.1f * float(i); });
+    timed("key light move", [&](int i) { rig.lights[0].position[0] += (i % 2 ? -0.05f : 0.05f); });
+    // The first swap reads and prefilters the map; the engine keeps the last few, so later ones don't.
+    timed("environment map swap", [&](int i) { dome.envMap = maps[size_t(i + 1) % maps.size()]; });
+    return 0;
+}
