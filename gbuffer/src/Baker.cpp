@@ -1,4 +1,5 @@
 #include <dfb/gbuffer/Baker.h>
+#include <dfb/gbuffer/EnvTransfer.h>
 
 #include <dfb/gl/Context.h>
 #include <dfb/gl/Objects.h>
@@ -219,6 +220,10 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
     if (o.samples < 1 || o.samples > MAX_SAMPLES_PER_PIXEL) {
         return makeError(ErrorCode::InvalidValue, "samples per pixel " + std::to_string(o.samples) + " is out of range (1.." +
                                                       std::to_string(MAX_SAMPLES_PER_PIXEL) + ")");
+    }
+    if (o.envRays < 0 || o.envRays > MAX_ENV_RAYS) {
+        return makeError(ErrorCode::InvalidValue, "environment rays per sample " + std::to_string(o.envRays) +
+                                                      " is out of range (0.." + std::to_string(MAX_ENV_RAYS) + ")");
     }
     if (scene.objectNames.size() >= MAX_ID || scene.materials.size() >= MAX_ID) {
         return makeError(ErrorCode::InvalidValue, scene.path + ": more than 2^24 objects or materials");
@@ -485,6 +490,10 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         for (const Group* g : groups) store(s++, *g);
     }
     progress();
+    if (o.envRays > 0) {
+        auto transfer = bakeEnvTransfer(scene, b, o.envRays);
+        if (!transfer) return transfer.error();
+    }
     return b;
 }
 

@@ -20,6 +20,9 @@ struct BakeOptions {
     std::optional<glm::vec3> lookFrom; ///< with lookAt: overrides the scene's cameras
     std::optional<glm::vec3> lookAt;
     float fovDegrees = 0.f;   ///< vertical field of view for lookFrom/auto framing; 0 = 40 degrees
+    /// Rays per sample for the environment transfer (bakeEnvTransfer, dfb/gbuffer/EnvTransfer.h),
+    /// 0..MAX_ENV_RAYS; 0 = not baked (envTransfer left empty). dfb-bake asks for 64 by default.
+    int envRays = 0;
     /// Called with (done, total) work units while baking; may be empty.
     std::function<void(size_t, size_t)> progress;
 };
@@ -34,7 +37,9 @@ std::vector<glm::vec2> sampleOffsets(int samples);
 Result<CameraInfo> chooseCamera(const Scene& scene, const BakeOptions& options);
 
 /// Bakes the scene. Creates its own EGL context on the calling thread. Fails with GpuError when no
-/// context can be made, InvalidValue for bad sizes or sample counts.
+/// context can be made, InvalidValue for bad sizes, sample counts or environment ray counts.
+/// With envRays > 0, the environment transfer is estimated after the raster passes (on the CPU,
+/// over every core: bakeEnvTransfer).
 ///
 /// With several samples per pixel, each sample is a full raster pass with the projection jittered
 /// to the sample position; a pixel's samples that hit the same object and material are merged
