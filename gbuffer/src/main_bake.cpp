@@ -11,7 +11,6 @@
 #include <dfb/core/Version.h>
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/gbuffer/Baker.h>
-#include <dfb/gbuffer/EnvTransfer.h>
 #include <dfb/gbuffer/ExrIO.h>
 #include <dfb/gbuffer/LayerImage.h>
 #include <dfb/gbuffer/Scene.h>
@@ -108,11 +107,11 @@ int writeLayer(const std::string& shot, const std::string& layer, const std::str
 }
 
 // A progress bar on the terminal (stderr), only when it is one.
-void showProgress(const char* what, size_t done, size_t total) {
+void showProgress(size_t done, size_t total) {
     static const bool tty = ::isatty(2);
     if (!tty || total == 0) return;
     const int width = 40, filled = int(width * done / total);
-    std::fprintf(stderr, "\r  %-9s [%.*s%*s] %3d%%", what, filled, "########################################", width - filled,
+    std::fprintf(stderr, "\r  baking [%.*s%*s] %3d%%", filled, "########################################", width - filled,
                  "", int(100 * done / total));
     if (done == total) std::fprintf(stderr, "\n");
     std::fflush(stderr);
@@ -168,7 +167,10 @@ int main(int argc, char** argv) {
         opts.lookFrom = glm::vec3(lookFrom[0], lookFrom[1], lookFrom[2]);
         opts.lookAt = glm::vec3(lookAt[0], lookAt[1], lookAt[2]);
     }
-    opts.progress = [](size_t done, size_t total) { showProgress("baking", done, total); };
+    opts.progress = showProgress;
+    opts.envRays = envRays;
+    dfb::EnvTransferStats envStats;
+    opts.envStats = &envStats;
 
     const auto t0 = std::chrono::steady_clock::now();
     auto scene = dfb::loadScene(scenePath);
@@ -176,21 +178,16 @@ int main(int argc, char** argv) {
         std::cerr << "dfb-bake: " << scene.error().toString() << "\n";
         return exitCodeFor(scene.error().code);
     }
-    auto buffer = dfb::bake(scene.value(), opts); // opts.envRays = 0: the transfer is timed on its own below
+    auto buffer = dfb::bake(scene.value(), opts);
     if (!buffer) {
         std::cerr << "dfb-bake: " << buffer.error().toString() << "\n";
         return exitCodeFor(buffer.error().code);
     }
     if (envRays > 0) {
-        auto transfer = dfb::bakeEnvTransfer(scene.value(), buffer.value(), envRays, 0,
-                                             [](size_t done, size_t total) { showProgress("env rays", done, total); });
-        if (!transfer) {
-            std::cerr << "dfb-bake: " << transfer.error().toString() << "\n";
-            return exitCodeFor(transfer.error().code);
-        }
-        std::printf("environment transfer: %d rays per sample, %zu covered samples, %zu rays traced, %u threads, "
-                    "%.0f ms (hierarchy %.0f ms)\n",
-                    envRays, transfer->samples, transfer->rays, transfer->threads, transfer->totalMs, transfer->bvhMs);
+        std::printf("environment transfer: %d rays per pixel over %d pass%s, %zu covered samples, %zu rays traced, "
+                    "%u threads, %.0f ms of the bake (hierarchy %.0f ms)\n",
+                    envRays, opts.samples, opts.samples > 1 ? "es" : "", envStats.samples, envStats.rays,
+                    envStats.threads, envStats.totalMs, envStats.bvhMs);
     }
     if (auto s = dfb::writeDeepBuffer(buffer.value(), outPath); !s) {
         std::cerr << "dfb-bake: " << s.error().toString() << "\n";

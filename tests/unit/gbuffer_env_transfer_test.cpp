@@ -290,6 +290,55 @@ TEST(EnvTransfer, RaysOutOfRangeAreRefused) {
     EXPECT_NE(b.error().message.find("5000"), std::string::npos) << b.error().message;
 }
 
+// With several samples per pixel the bake traces each pass's own surface point and averages the
+// points' transfers: the merged samples' averaged positions lie inside curved meshes (the chord of
+// a convex surface), and rays from there would call them occluded. Tracing the stored samples
+// instead blackened 5.7 % of the tabletop's samples at 4 spp (480x270).
+TEST(EnvTransfer, MultiSampleBakeMatchesTheFlatBake) {
+    auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
+    ASSERT_TRUE(scene.ok()) << scene.error().toString();
+    struct Figures {
+        double mean = 0, darkShare = 0;
+    };
+    auto bakeAt = [&](int samples) {
+        BakeOptions o;
+        o.width = 160;
+        o.height = 90;
+        o.samples = samples;
+        o.envRays = 64;
+        EnvTransferStats stats;
+        o.envStats = &stats;
+        auto b = bake(scene.value(), o);
+        EXPECT_TRUE(b.ok()) << b.error().toString();
+        Figures f;
+        if (!b) return f;
+        EXPECT_EQ(b->envRays, 64);
+        EXPECT_GT(stats.rays, 0u);
+        EXPECT_GT(stats.totalMs, 0.0);
+        double a = 0;
+        size_t dark = 0, covered = 0;
+        for (size_t s = 0; s < b->sampleCount(); ++s) {
+            if (!(b->A[s] > 0.f)) continue;
+            const double v = visibility(b->envTransfer[s * ENV_TRANSFER_COEFFICIENTS]);
+            f.mean += b->A[s] * v;
+            a += b->A[s];
+            dark += v < 0.03;
+            ++covered;
+        }
+        EXPECT_EQ(stats.samples, covered);
+        f.mean /= a;
+        f.darkShare = double(dark) / double(covered);
+        std::printf("%2d spp: coverage-weighted mean visibility %.4f, %.3f %% of covered samples below 0.03\n", samples,
+                    f.mean, 100.0 * f.darkShare);
+        return f;
+    };
+    const Figures flat = bakeAt(1), four = bakeAt(4);
+    EXPECT_LT(flat.darkShare, 0.002);
+    // Partly covered edge samples have fewer rays, so a little more noise: measured 0.19 %.
+    EXPECT_LT(four.darkShare, 0.004);
+    EXPECT_NEAR(four.mean, flat.mean, 0.01);
+}
+
 TEST(BakeCli, EnvRaysOption) {
     const std::string shot = tempPath("cli.exr");
     for (const char* bad : {"5000", "-1"}) {
@@ -305,7 +354,7 @@ TEST(BakeCli, EnvRaysOption) {
         auto [rc, out] = test::run({DFB_BAKE_EXE, DFB_SOURCE_DIR "/scenes/tabletop.glb", "-o", shot, "--width", "32",
                                     "--height", "18"});
         ASSERT_EQ(rc, 0) << out;
-        EXPECT_NE(out.find("environment transfer: 64 rays per sample"), std::string::npos) << out;
+        EXPECT_NE(out.find("environment transfer: 64 rays per pixel"), std::string::npos) << out;
         auto r = readDeepBuffer(shot);
         ASSERT_TRUE(r.ok()) << r.error().toString();
         EXPECT_TRUE(r->hasEnvTransfer());

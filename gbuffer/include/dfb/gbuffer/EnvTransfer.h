@@ -3,7 +3,9 @@
 // Sloan, Kautz and Snyder, "Precomputed Radiance Transfer for Real-Time Rendering in Dynamic,
 // Low-Frequency Lighting Environments", SIGGRAPH 2002, section 4), estimated by ray casting
 // against the scene the bake rasterised. DeepBuffer::envTransfer says what is stored; the basis
-// and the transfer's definition are dfb/lightmath/SphericalHarmonics.h's.
+// and the transfer's definition are dfb/lightmath/SphericalHarmonics.h's. The bake computes it
+// itself (BakeOptions::envRays); bakeEnvTransfer gives one to a buffer that has none (a shot read
+// from a file, a hand-made buffer), with the same estimator.
 
 #include <dfb/core/Result.h>
 #include <dfb/gbuffer/DeepBuffer.h>
@@ -14,7 +16,7 @@
 
 namespace dfb {
 
-/// What one bakeEnvTransfer call did.
+/// What one transfer bake did (bakeEnvTransfer, or the bake's share: BakeOptions::envStats).
 struct EnvTransferStats {
     size_t samples = 0;     ///< covered samples (A > 0) given a transfer
     size_t rays = 0;        ///< rays traced (directions below the geometric plane are not)
@@ -33,6 +35,10 @@ struct EnvTransferStats {
 /// P + Ng x (1e-5 x scene radius) over 4 scene radii meets none of the scene's triangles (every
 /// part, as rasterised; alpha-masked and blended materials occlude fully). Uncovered samples get
 /// zeros.
+///
+/// Each stored sample is taken as one surface point: right for flat (1 sample per pixel) buffers,
+/// approximate for merged samples of a multi-sample bake, whose averaged position may lie inside
+/// a curved mesh (its rays then start occluded); the bake itself traces each pass's points.
 ///
 /// Threading: runs `threads` workers (0 = std::thread::hardware_concurrency()), the caller being
 /// one of them; `progress(done, total)` is called on the calling thread only, may be empty.
