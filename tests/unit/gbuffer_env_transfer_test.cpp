@@ -52,7 +52,9 @@ Result<Scene> planeScene(const std::string& path, float half, float cameraHeight
     if (box) g.addBox("box", lo, hi, material);
     g.addTopCamera("top", 0.f, 0.f, cameraHeight, half, half);
     if (!g.write(path)) return makeError(ErrorCode::IoError, "cannot write " + path);
-    return loadScene(path);
+    auto scene = loadScene(path);
+    std::filesystem::remove(path); // the bake then records no source hash, as for scenes from memory
+    return scene;
 }
 
 // The transfer by brute force, independent of the bake's sampler: a jittered stratified grid of
