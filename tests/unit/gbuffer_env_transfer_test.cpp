@@ -31,7 +31,7 @@ using Sh = std::array<double, lm::SH_COEFFICIENTS>;
 double visibility(double t0) { return t0 * 2.0 * std::sqrt(3.14159265358979323846); }
 
 std::string tempPath(const std::string& name) {
-    return (std::filesystem::temp_directory_path() / ("dfb_env_" + std::to_string(::getpid()) + "_" + name)).string();
+    return (std::filesystem::temp_directory_path() / ("dfb_envbake_" + std::to_string(::getpid()) + "_" + name)).string();
 }
 
 Sh transferOf(const DeepBuffer& b, size_t s) {
