@@ -1,5 +1,7 @@
 #include <dfb/gbuffer/Baker.h>
 
+#include "EnvTracer.h"
+
 #include <dfb/gl/Context.h>
 #include <dfb/gl/Objects.h>
 
@@ -9,9 +11,12 @@
 #include <openssl/evp.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <string_view>
 #include <unordered_map>
 
@@ -49,7 +54,11 @@ struct Group {
     uint32_t object = 0, material = 0;
     uint32_t count = 0;
     float sum[FLOATS];
+    float env[ENV_TRANSFER_COEFFICIENTS]; // summed environment transfer of the points (when baked)
 };
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 } // namespace
 
@@ -220,6 +229,10 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         return makeError(ErrorCode::InvalidValue, "samples per pixel " + std::to_string(o.samples) + " is out of range (1.." +
                                                       std::to_string(MAX_SAMPLES_PER_PIXEL) + ")");
     }
+    if (o.envRays < 0 || o.envRays > MAX_ENV_RAYS) {
+        return makeError(ErrorCode::InvalidValue, "environment rays per sample " + std::to_string(o.envRays) +
+                                                      " is out of range (0.." + std::to_string(MAX_ENV_RAYS) + ")");
+    }
     if (scene.objectNames.size() >= MAX_ID || scene.materials.size() >= MAX_ID) {
         return makeError(ErrorCode::InvalidValue, scene.path + ": more than 2^24 objects or materials");
     }
@@ -235,8 +248,20 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
                                      {GL_FRAGMENT_SHADER, "bake_gbuffer.frag", shaders::gbufferShader("bake_gbuffer.frag")}});
     if (!program) return program.error();
 
-    // Work units for the progress report: upload, each sample pass, merging.
-    const size_t totalWork = 2 + size_t(o.samples) * 2;
+    // The environment transfer's rays, traced at each pass's exact surface points (Baker.h).
+    std::optional<EnvTracer> env;
+    EnvTransferStats envStats;
+    std::atomic<size_t> envTraced{0};
+    if (o.envRays > 0) {
+        const auto t0 = Clock::now();
+        env.emplace(scene, o.envRays);
+        envStats.bvhMs = env->bvhMs();
+        envStats.totalMs += msSince(t0);
+    }
+
+    // Work units for the progress report: upload, each sample pass (raster, environment rays),
+    // merging.
+    const size_t totalWork = 2 + size_t(o.samples) * (env ? 3 : 2);
     size_t done = 0;
     auto progress = [&]() {
         if (o.progress) o.progress(++done, totalWork);
@@ -330,6 +355,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
     std::unordered_map<size_t, std::vector<Group>> extra;
     std::vector<float> readback(np * 4);
     std::vector<std::vector<float>> pass(TARGETS);
+    std::vector<float> passEnv(env ? np * ENV_TRANSFER_COEFFICIENTS : 0);
 
     const std::vector<glm::vec2> offsets = sampleOffsets(o.samples);
     for (int s = 0; s < o.samples; ++s) {
@@ -392,6 +418,31 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
                               pass[size_t(t)].data());
         }
         if (auto st = ctx.value()->check("G-buffer read-back"); !st) return st.error();
+        if (env) {
+            // This pass's point in each covered pixel gets every stride-th direction of the
+            // pixel's pattern (one shift per pixel, seeded by the pixel: a flat bake's seeds are
+            // bakeEnvTransfer's sample indices): a surface all the passes hit is integrated with
+            // the whole stratified pattern, as at one sample per pixel, and a partly covered
+            // sample's fewer directions are still an unbiased estimate.
+            const size_t stride = size_t(std::min(o.samples, o.envRays)), firstRay = size_t(s) % stride;
+            const auto t0 = Clock::now();
+            envStats.threads = parallelChunks(np, 0, [&](size_t lo, size_t hi) {
+                size_t mine = 0;
+                for (size_t dst = lo; dst < hi; ++dst) {
+                    const size_t src = (size_t(H) - 1 - dst / size_t(W)) * size_t(W) + dst % size_t(W);
+                    if (uint32_t(pass[2][src * 4 + 3]) == 0) continue;
+                    auto at = [&](int t) { // target t's xyz: P, N, Ng (bake_gbuffer.frag)
+                        const float* v = &pass[size_t(t)][src * 4];
+                        return glm::vec3(v[0], v[1], v[2]);
+                    };
+                    mine += env->estimate(at(0), at(1), at(2), uint64_t(dst), firstRay, stride,
+                                          &passEnv[dst * ENV_TRANSFER_COEFFICIENTS]);
+                }
+                envTraced.fetch_add(mine);
+            });
+            envStats.totalMs += msSince(t0);
+            progress();
+        }
         // Merge this pass's samples into the pixels' groups. GL's row 0 is the bottom; the deep
         // buffer's row 0 is the top (EXR convention).
         for (size_t dst = 0; dst < np; ++dst) {
@@ -413,10 +464,15 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
                 g->object = object;
                 g->material = material;
                 std::fill(std::begin(g->sum), std::end(g->sum), 0.f);
+                std::fill(std::begin(g->env), std::end(g->env), 0.f);
             }
             ++g->count;
             for (int t = 0; t < TARGETS; ++t)
                 for (int c = 0; c < 4; ++c) g->sum[t * 4 + c] += pass[size_t(t)][src * 4 + size_t(c)];
+            if (env) {
+                const float* t = &passEnv[dst * ENV_TRANSFER_COEFFICIENTS];
+                for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i) g->env[i] += t[i];
+            }
         }
         progress();
     }
@@ -431,6 +487,10 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
     }
     DeepBuffer b;
     b.allocateSamples(W, H, counts);
+    if (env) {
+        b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
+        b.envRays = o.envRays;
+    }
     b.samplesPerPixel = o.samples;
     b.camera = cam;
     b.sourcePath = scene.path;
@@ -466,6 +526,13 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         b.A[s] = float(g.count) * invSamples * avg(1, 3); // fraction of samples x BLEND alpha
         b.objectId[s] = g.object;
         b.materialId[s] = g.material;
+        if (env) {
+            // The mean of the points' transfers: each estimates the transfer at its own surface
+            // point, and the sample stands for their average, as for every attribute above.
+            for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i)
+                b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)] = g.env[i] * inv;
+            envStats.samples += b.A[s] > 0.f;
+        }
     };
     std::vector<const Group*> groups;
     for (size_t p = 0; p < np; ++p) {
@@ -485,6 +552,10 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         for (const Group* g : groups) store(s++, *g);
     }
     progress();
+    if (env && o.envStats) {
+        envStats.rays = envTraced.load();
+        *o.envStats = envStats;
+    }
     return b;
 }
 

@@ -29,6 +29,10 @@ void DeepBuffer::allocateSamples(int w, int h, const std::vector<uint32_t>& coun
     sheen.assign(n * 4, 0.f);
     coat.assign(n * 2, 0.f);
     emission.assign(n * 3, 0.f);
+    // Optional: the samples it held are gone, and a stale layer of the old size would be read as
+    // this buffer's (copies made with `DeepBuffer d = f; d.allocateSamples(...)`).
+    envTransfer.clear();
+    envRays = 0;
     A.assign(n, 0.f);
     objectId.assign(n, 0);
     materialId.assign(n, 0);

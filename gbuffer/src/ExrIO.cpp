@@ -41,10 +41,17 @@ struct ChannelSpec {
     int components; // components per sample in the layer
     bool required;
     std::function<char*(DeepBuffer&)> base;
+    // An optional layer (DeepBuffer::envTransfer): its channels are written only when the buffer
+    // holds the layer, and a file holds all of them or none.
+    bool optionalLayer = false;
 };
 
-// The channel table of format v2 (docs/gbuffer-format.md). Positions and depth are float for
-// precision over large scenes; directions, colours and lobe parameters are half; ids are uint.
+// The first of the environment transfer's channels: its absence means the file has none.
+constexpr const char* ENV_CHANNEL0 = "env.sh0";
+
+// The channel table of format v3 (docs/gbuffer-format.md). Positions and depth are float for
+// precision over large scenes; directions, colours, lobe parameters and the environment transfer
+// are half; ids are uint.
 const std::vector<ChannelSpec>& channelSpecs() {
     using PT = Imf::PixelType;
     auto f = [](std::vector<float> DeepBuffer::*m) {
@@ -87,9 +94,24 @@ const std::vector<ChannelSpec>& channelSpecs() {
         {"A", PT::HALF, 0, 1, true, f(&DeepBuffer::A)},
         {"id.object", PT::UINT, 0, 1, true, u(&DeepBuffer::objectId)},
         {"id.material", PT::UINT, 0, 1, true, u(&DeepBuffer::materialId)},
+        // Half: |T_i| <= max |Y_i| <= 0.631 (the cosine lobe's (1/pi) integral is 1), where half's
+        // steps (2.4e-4 at most) are far below the Monte Carlo error of a bake at MAX_ENV_RAYS.
+        {"env.sh0", PT::HALF, 0, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh1", PT::HALF, 1, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh2", PT::HALF, 2, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh3", PT::HALF, 3, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh4", PT::HALF, 4, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh5", PT::HALF, 5, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh6", PT::HALF, 6, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh7", PT::HALF, 7, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh8", PT::HALF, 8, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
     };
+    static_assert(ENV_TRANSFER_COEFFICIENTS == 9, "the table lists env.sh0 .. env.sh8");
     return specs;
 }
+
+// Whether a buffer writes channel c: every channel, but an optional layer's only when it holds it.
+bool writes(const ChannelSpec& c, const DeepBuffer& b) { return !c.optionalLayer || b.hasEnvTransfer(); }
 
 Imath::M44f toImath(const glm::mat4& m) {
     Imath::M44f r;
@@ -127,7 +149,9 @@ void writeHeaderAttributes(Imf::Header& header, const DeepBuffer& b) {
     header.insert("dfb.sourceSha256", Imf::StringAttribute(b.sourceSha256));
     nlohmann::json manifest = {{"objects", b.objectNames}, {"materials", b.materialNames}};
     header.insert("dfb.manifest", Imf::StringAttribute(manifest.dump()));
-    for (const ChannelSpec& c : channelSpecs()) header.channels().insert(c.name, Imf::Channel(c.fileType));
+    if (b.hasEnvTransfer() && b.envRays > 0) header.insert("dfb.envRays", Imf::IntAttribute(b.envRays));
+    for (const ChannelSpec& c : channelSpecs())
+        if (writes(c, b)) header.channels().insert(c.name, Imf::Channel(c.fileType));
 }
 
 // Samples of one channel in the file's type: half channels are staged (OpenEXR output needs
@@ -165,6 +189,7 @@ Status writeFlat(const DeepBuffer& b, const std::string& tmp) {
     staged.reserve(channelSpecs().size());
     Imf::FrameBuffer fb;
     for (const ChannelSpec& c : channelSpecs()) {
+        if (!writes(c, b)) continue;
         staged.push_back(stage(c, mb));
         fb.insert(c.name, Imf::Slice(c.fileType, staged.back().base, staged.back().stride,
                                      staged.back().stride * size_t(b.width)));
@@ -192,6 +217,7 @@ Status writeDeep(const DeepBuffer& b, const std::string& tmp) {
     staged.reserve(channelSpecs().size());
     pointers.reserve(channelSpecs().size());
     for (const ChannelSpec& c : channelSpecs()) {
+        if (!writes(c, b)) continue;
         staged.push_back(stage(c, mb));
         auto& ptrs = pointers.emplace_back(np);
         for (size_t p = 0; p < np; ++p) ptrs[p] = staged.back().base + staged.back().stride * b.sampleOffset[p];
@@ -294,6 +320,9 @@ Status readHeaderAttributes(const Imf::Header& h, const std::string& path, DeepB
         }
         b.samplesPerPixel = a->value();
     }
+    if (const auto* a = h.findTypedAttribute<Imf::IntAttribute>("dfb.envRays"); a && a->value() < 1) {
+        return fileError(ErrorCode::InvalidValue, path, "dfb.envRays " + std::to_string(a->value()) + " is not positive");
+    }
     auto getFloat = [&](const char* name, float& out) {
         if (const auto* a = h.findTypedAttribute<Imf::FloatAttribute>(name)) out = a->value();
     };
@@ -327,11 +356,21 @@ Status readHeaderAttributes(const Imf::Header& h, const std::string& path, DeepB
 }
 
 // Checks every channel the table requires and the types of those present; collects the absent.
+// An optional layer's channels come all or none: a file with some is refused naming the first
+// absent one (half a transfer would be read as zeros, a wrong transfer rather than none).
 Status checkChannels(const Imf::Header& h, const std::string& path, std::set<std::string>& missing) {
+    bool anyOfLayer = false;
+    for (const ChannelSpec& c : channelSpecs())
+        anyOfLayer = anyOfLayer || (c.optionalLayer && h.channels().findChannel(c.name));
     for (const ChannelSpec& c : channelSpecs()) {
         const Imf::Channel* ch = h.channels().findChannel(c.name);
         if (!ch) {
             if (c.required) return fileError(ErrorCode::MissingData, path, std::string("required channel '") + c.name + "' is missing");
+            if (c.optionalLayer && anyOfLayer) {
+                return fileError(ErrorCode::MissingData, path, std::string("channel '") + c.name +
+                                                                   "' is missing (the environment transfer needs all of "
+                                                                   "env.sh0 .. env.sh8, or none)");
+            }
             missing.insert(c.name);
             continue;
         }
@@ -371,12 +410,21 @@ Result<Imath::Box2i> readPrelude(File& file, const std::string& path, DeepBuffer
     return dw;
 }
 
+// After allocateSamples, which leaves the optional layer empty: the environment transfer's layer
+// and ray count when the file has its channels.
+void allocateEnvTransfer(const Imf::Header& h, const std::set<std::string>& missing, DeepBuffer& b) {
+    if (missing.count(ENV_CHANNEL0)) return;
+    b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
+    if (const auto* a = h.findTypedAttribute<Imf::IntAttribute>("dfb.envRays")) b.envRays = a->value();
+}
+
 Status readFlat(const std::string& path, DeepBuffer& b, std::set<std::string>& missing) {
     Imf::InputFile file(path.c_str());
     auto dw = readPrelude(file, path, b, missing);
     if (!dw) return dw.error();
     const long w = long(dw->max.x) - dw->min.x + 1, hgt = long(dw->max.y) - dw->min.y + 1;
     b.allocate(int(w), int(hgt));
+    allocateEnvTransfer(file.header(), missing, b);
     Imf::FrameBuffer fb;
     for (const ChannelSpec& c : channelSpecs()) {
         if (missing.count(c.name)) continue;
@@ -437,6 +485,7 @@ Status readDeep(const std::string& path, DeepBuffer& b, std::set<std::string>& m
         total += counts[p];
     }
     b.allocateSamples(int(w), int(hgt), counts);
+    allocateEnvTransfer(file.header(), missing, b);
     for (Stage& st : stages) {
         const ChannelSpec& c = *st.spec;
         size_t stride;
@@ -465,7 +514,8 @@ Status readDeep(const std::string& path, DeepBuffer& b, std::set<std::string>& m
 
 Status writeDeepBuffer(const DeepBuffer& b, const std::string& path) {
     if (b.width <= 0 || b.height <= 0 || b.sampleOffset.size() != b.pixelCount() + 1 ||
-        b.P.size() != b.sampleCount() * 3) {
+        b.P.size() != b.sampleCount() * 3 ||
+        (b.hasEnvTransfer() && b.envTransfer.size() != b.sampleCount() * ENV_TRANSFER_COEFFICIENTS)) {
         return makeError(ErrorCode::InvalidValue, "refusing to write " + path + ": deep buffer is empty or inconsistent");
     }
     const std::string tmp = path + ".tmp" + std::to_string(::getpid());
@@ -562,6 +612,17 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
                 for (int c = 0; c < 3; ++c) {
                     if (!std::isfinite(b.P[s * 3 + c]) || !std::isfinite(b.N[s * 3 + c])) {
                         return makeError(ErrorCode::InvalidValue, path + ": non-finite P or N" + where);
+                    }
+                }
+            }
+            // The transfer of every sample, covered or not: the writer stores finite values only
+            // (zeros where A = 0), so anything else is a damaged or foreign file.
+            for (uint32_t s = b.firstSample(x, y); s < b.firstSample(x, y) + b.pixelSamples(x, y) && b.hasEnvTransfer(); ++s) {
+                for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i) {
+                    if (!std::isfinite(b.envTransfer[size_t(s) * ENV_TRANSFER_COEFFICIENTS + size_t(i)])) {
+                        return makeError(ErrorCode::InvalidValue, path + ": non-finite environment transfer in channel 'env.sh" +
+                                                                      std::to_string(i) + "' at pixel (" + std::to_string(x) +
+                                                                      ", " + std::to_string(y) + ")");
                     }
                 }
             }

@@ -72,7 +72,7 @@ std::vector<glm::dvec3> cpuRelight(const DeepBuffer& b, const Light& l) {
 // The layers the engine uploads as half float (GBufferTextures: all but P), rounded as a shot read
 // from its EXR file holds them, so that the CPU relight sees the values the GPU reads.
 void roundToHalf(DeepBuffer& b) {
-    for (std::vector<float>* layer : {&b.N, &b.Ng, &b.T, &b.albedo, &b.brdf, &b.sheen, &b.coat, &b.emission, &b.A})
+    for (std::vector<float>* layer : {&b.N, &b.Ng, &b.T, &b.albedo, &b.brdf, &b.sheen, &b.coat, &b.emission, &b.A, &b.envTransfer})
         for (float& v : *layer) v = glm::unpackHalf1x16(glm::packHalf1x16(v));
 }
 

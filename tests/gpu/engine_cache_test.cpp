@@ -484,6 +484,11 @@ TEST(EngineDeep, EachSampleSplitInTwoRendersAsTheFlatShot) {
     split(d.P, f.P, 3), split(d.N, f.N, 3), split(d.Ng, f.Ng, 3), split(d.T, f.T, 4), split(d.Z, f.Z, 1);
     split(d.albedo, f.albedo, 3), split(d.brdf, f.brdf, 4), split(d.sheen, f.sheen, 4), split(d.coat, f.coat, 2);
     split(d.emission, f.emission, 3), split(d.A, f.A, 1);
+    if (f.hasEnvTransfer()) { // allocateSamples left the optional layer empty
+        d.envTransfer.resize(f.envTransfer.size() * 2);
+        split(d.envTransfer, f.envTransfer, ENV_TRANSFER_COEFFICIENTS);
+        d.envRays = f.envRays;
+    }
     for (float& a : d.A) a *= 0.5f;
     for (size_t p = 0; p < f.pixelCount(); ++p) {
         d.objectId[2 * p] = d.objectId[2 * p + 1] = f.objectId[p];

@@ -78,10 +78,12 @@ DeepBuffer fromReference(const DeepBuffer& big, int block, int samplesPerPixel) 
         std::vector<float> DeepBuffer::*data;
         int n;
     };
-    const Layer layers[] = {{&DeepBuffer::P, 3},      {&DeepBuffer::N, 3},    {&DeepBuffer::Ng, 3},
-                            {&DeepBuffer::T, 4},      {&DeepBuffer::Z, 1},    {&DeepBuffer::albedo, 3},
-                            {&DeepBuffer::brdf, 4},   {&DeepBuffer::sheen, 4}, {&DeepBuffer::coat, 2},
-                            {&DeepBuffer::emission, 3}};
+    std::vector<Layer> layers = {{&DeepBuffer::P, 3},      {&DeepBuffer::N, 3},    {&DeepBuffer::Ng, 3},
+                                 {&DeepBuffer::T, 4},      {&DeepBuffer::Z, 1},    {&DeepBuffer::albedo, 3},
+                                 {&DeepBuffer::brdf, 4},   {&DeepBuffer::sheen, 4}, {&DeepBuffer::coat, 2},
+                                 {&DeepBuffer::emission, 3}};
+    // The optional environment transfer, when baked: linear in V, so averaged as the bake would.
+    if (big.hasEnvTransfer()) layers.push_back({&DeepBuffer::envTransfer, ENV_TRANSFER_COEFFICIENTS});
     struct Group {
         std::vector<size_t> subs; // sample indices of the big shot
         float z = 0;
@@ -106,6 +108,10 @@ DeepBuffer fromReference(const DeepBuffer& big, int block, int samplesPerPixel) 
         }
     DeepBuffer d;
     d.allocateSamples(W, H, counts);
+    if (big.hasEnvTransfer()) {
+        d.envTransfer.assign(d.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
+        d.envRays = big.envRays;
+    }
     d.samplesPerPixel = samplesPerPixel;
     d.camera = big.camera;
     d.sourcePath = big.sourcePath;

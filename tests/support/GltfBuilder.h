@@ -48,6 +48,49 @@ public:
         return int(model.nodes.size()) - 1;
     }
 
+    /// An axis-aligned box from `lo` to `hi`: six faces with outward flat normals, counter-clockwise
+    /// seen from outside (a single-sided material culls the faces seen from inside), UV (0,0) to
+    /// (1,1) on each face.
+    int addBox(const std::string& name, const glm::vec3& lo, const glm::vec3& hi, int material) {
+        const glm::vec3 c = 0.5f * (lo + hi), h = 0.5f * (hi - lo);
+        // Per face: its normal n and axes u, v with cross(u, v) = n, so that the corners
+        // -u-v, +u-v, +u+v, -u+v go counter-clockwise seen from n's side.
+        const glm::vec3 faces[6][3] = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},  {{-1, 0, 0}, {0, 0, 1}, {0, 1, 0}},
+                                       {{0, 1, 0}, {0, 0, 1}, {1, 0, 0}},  {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},
+                                       {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}},  {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}}};
+        std::vector<float> pos, nrm, uv;
+        std::vector<uint16_t> idx;
+        for (const auto& f : faces) {
+            const auto base = uint16_t(pos.size() / 3);
+            const float corners[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+            for (const auto& k : corners) {
+                const glm::vec3 p = c + h * (f[0] + k[0] * f[1] + k[1] * f[2]);
+                pos.insert(pos.end(), {p.x, p.y, p.z});
+                nrm.insert(nrm.end(), {f[0].x, f[0].y, f[0].z});
+                uv.insert(uv.end(), {0.5f + 0.5f * k[0], 0.5f + 0.5f * k[1]});
+            }
+            for (uint16_t i : {0, 1, 2, 0, 2, 3}) idx.push_back(uint16_t(base + i));
+        }
+        tinygltf::Primitive prim;
+        prim.attributes["POSITION"] = accessor(pos.data(), pos.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 24,
+                                               {lo.x, lo.y, lo.z}, {hi.x, hi.y, hi.z});
+        prim.attributes["NORMAL"] = accessor(nrm.data(), nrm.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 24);
+        prim.attributes["TEXCOORD_0"] = accessor(uv.data(), uv.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, 24);
+        prim.indices = accessor(idx.data(), idx.size() * 2, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_SCALAR, 36);
+        prim.material = material;
+        prim.mode = TINYGLTF_MODE_TRIANGLES;
+        tinygltf::Mesh mesh;
+        mesh.name = name;
+        mesh.primitives.push_back(prim);
+        model.meshes.push_back(mesh);
+        tinygltf::Node node;
+        node.name = name;
+        node.mesh = int(model.meshes.size()) - 1;
+        model.nodes.push_back(node);
+        model.scenes[0].nodes.push_back(int(model.nodes.size()) - 1);
+        return int(model.nodes.size()) - 1;
+    }
+
     int addMaterial(const tinygltf::Material& m) {
         model.materials.push_back(m);
         return int(model.materials.size()) - 1;

@@ -1,9 +1,9 @@
 #pragma once
 // Test support: reference visibility by ray casting with Embree on the CPU, to check what the
-// GPU shadow maps say. The server's own hierarchy (dfb/server/TriangleBvh.h, what the Picker
+// GPU shadow maps say. The server's own hierarchy (dfb/bvh/TriangleBvh.h, what the Picker
 // casts against), under the name the tests know.
 
-#include <dfb/server/TriangleBvh.h>
+#include <dfb/bvh/TriangleBvh.h>
 
 namespace dfb::test {
 

@@ -5,12 +5,17 @@
 
 #include <ImfChannelList.h>
 #include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfIntAttribute.h>
 #include <ImfOutputFile.h>
+#include <ImfStandardAttributes.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 
 using namespace dfb;
@@ -63,6 +68,34 @@ DeepBuffer randomBuffer(int w, int h, uint32_t seed) {
     b.objectNames = {"a", "b", "c", "d", "e", "f", "g"};
     b.materialNames = {"m1", "m2", "m3", "m4", "m5"};
     return b;
+}
+
+// A random environment transfer (each coefficient in the layer's range, |T_i| <= 0.631) on the
+// covered samples, zeros elsewhere, as the bake stores it.
+void addRandomEnvTransfer(DeepBuffer& b, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-0.63f, 0.63f);
+    b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
+    for (size_t s = 0; s < b.sampleCount(); ++s)
+        if (b.A[s] > 0.f)
+            for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i) b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)] = u(rng);
+    b.envRays = 64;
+}
+
+std::string readBytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Rewrites an EXR's int attribute `dfb.formatVersion` in place (its 4 value bytes follow the name,
+// the type and the size), as tests/fixtures/make_fixtures.cpp makes future_version.exr.
+void patchFormatVersion(const std::string& path, int32_t version) {
+    std::string bytes = readBytes(path);
+    const std::string key = std::string("dfb.formatVersion") + '\0' + "int" + '\0';
+    const size_t at = bytes.find(key);
+    ASSERT_NE(at, std::string::npos);
+    std::memcpy(&bytes[at + key.size() + 4], &version, 4);
+    std::ofstream(path, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
 }
 
 // Half precision: 11 significant bits.
@@ -232,4 +265,138 @@ TEST(ExrIO, FailedWriteLeavesExistingFileIntact) {
     EXPECT_EQ(std::filesystem::file_size(path), sizeBefore);
     EXPECT_TRUE(readDeepBuffer(path).ok());
     std::filesystem::remove(path);
+}
+
+// Format v3's optional layer: env.sh0 .. env.sh8 (docs/gbuffer-format.md, "Environment transfer").
+
+TEST(ExrIO, EnvTransferRoundTripsFlatAndDeep) {
+    DeepBuffer flat = randomBuffer(37, 23, 5);
+    addRandomEnvTransfer(flat, 6);
+    std::mt19937 rng(8);
+    std::vector<uint32_t> counts(size_t(19 * 13));
+    for (auto& c : counts) c = rng() % 4;
+    DeepBuffer deep;
+    deep.allocateSamples(19, 13, counts);
+    deep.samplesPerPixel = 4;
+    for (size_t s = 0; s < deep.sampleCount(); ++s) {
+        deep.A[s] = 0.2f;
+        deep.N[s * 3 + 1] = 1.f;
+    }
+    addRandomEnvTransfer(deep, 9);
+    deep.envRays = 4096;
+    for (const DeepBuffer* in : {&flat, &deep}) {
+        const std::string path = tempPath("env_roundtrip.exr");
+        ASSERT_TRUE(writeDeepBuffer(*in, path).ok());
+        {
+            Imf::InputFile f(path.c_str());
+            for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i) {
+                const std::string name = "env.sh" + std::to_string(i);
+                const Imf::Channel* ch = f.header().channels().findChannel(name);
+                ASSERT_NE(ch, nullptr) << name;
+                EXPECT_EQ(ch->type, Imf::HALF) << name;
+            }
+            const auto* version = f.header().findTypedAttribute<Imf::IntAttribute>("dfb.formatVersion");
+            ASSERT_NE(version, nullptr);
+            EXPECT_EQ(version->value(), 3);
+            const auto* rays = f.header().findTypedAttribute<Imf::IntAttribute>("dfb.envRays");
+            ASSERT_NE(rays, nullptr);
+            EXPECT_EQ(rays->value(), in->envRays);
+        }
+        auto r = readDeepBuffer(path);
+        ASSERT_TRUE(r.ok()) << r.error().toString();
+        ASSERT_TRUE(r->hasEnvTransfer());
+        EXPECT_EQ(r->envRays, in->envRays);
+        EXPECT_EQ(r->isFlat(), in->isFlat());
+        // Same values to half precision: each within half a step of 11 significant bits.
+        ASSERT_EQ(r->envTransfer.size(), in->envTransfer.size());
+        for (size_t k = 0; k < in->envTransfer.size(); ++k)
+            ASSERT_NEAR(r->envTransfer[k], in->envTransfer[k], std::max(std::abs(in->envTransfer[k]) * 4.9e-4f, 3e-8f))
+                << "element " << k << (in->isFlat() ? " (flat)" : " (deep)");
+        expectHalfNear(r->N, in->N, "N"); // the other layers are unaffected
+        std::filesystem::remove(path);
+    }
+}
+
+TEST(ExrIO, WithoutEnvTransferTheFileHasNoEnvChannels) {
+    const DeepBuffer in = randomBuffer(16, 9, 4);
+    ASSERT_FALSE(in.hasEnvTransfer());
+    const std::string path = tempPath("no_env.exr");
+    ASSERT_TRUE(writeDeepBuffer(in, path).ok());
+    {
+        Imf::InputFile f(path.c_str());
+        for (auto it = f.header().channels().begin(); it != f.header().channels().end(); ++it)
+            EXPECT_NE(std::string(it.name()).rfind("env.", 0), 0u) << it.name();
+        EXPECT_EQ(f.header().findTypedAttribute<Imf::IntAttribute>("dfb.envRays"), nullptr);
+    }
+    auto r = readDeepBuffer(path);
+    ASSERT_TRUE(r.ok()) << r.error().toString();
+    EXPECT_FALSE(r->hasEnvTransfer());
+    EXPECT_EQ(r->envRays, 0);
+    std::filesystem::remove(path);
+}
+
+TEST(ExrIO, Version2FileWithoutEnvChannelsLoads) {
+    // Version 2's channels and attributes are version 3's without env.sh* and dfb.envRays: the
+    // writer's file without the layer, its version set to 2, is a version 2 file.
+    const DeepBuffer in = randomBuffer(20, 10, 12);
+    const std::string path = tempPath("v2.exr");
+    ASSERT_TRUE(writeDeepBuffer(in, path).ok());
+    patchFormatVersion(path, 2);
+    {
+        Imf::InputFile f(path.c_str());
+        EXPECT_EQ(f.header().findTypedAttribute<Imf::IntAttribute>("dfb.formatVersion")->value(), 2);
+    }
+    auto r = readDeepBuffer(path);
+    ASSERT_TRUE(r.ok()) << r.error().toString();
+    EXPECT_TRUE(r->envTransfer.empty());
+    EXPECT_EQ(r->envRays, 0);
+    EXPECT_EQ(r->P, in.P);
+    std::filesystem::remove(path);
+}
+
+TEST(ExrIO, SomeButNotAllEnvChannelsAreRefusedNamingTheFirstMissing) {
+    // A flat file with every required channel and env.sh0 .. env.sh4 only (zero-filled pixels).
+    const std::string path = tempPath("env_partial.exr");
+    {
+        Imf::Header h(4, 4);
+        Imf::addWorldToCamera(h, Imath::M44f());
+        Imf::addWorldToNDC(h, Imath::M44f());
+        for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
+        for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A"})
+            h.channels().insert(c, Imf::Channel(Imf::HALF));
+        for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
+        for (int i = 0; i <= 4; ++i) h.channels().insert("env.sh" + std::to_string(i), Imf::Channel(Imf::HALF));
+        Imf::OutputFile f(path.c_str(), h); // unwritten lines are zero-filled on close
+    }
+    auto r = readDeepBuffer(path);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::MissingData);
+    EXPECT_NE(r.error().message.find("'env.sh5' is missing"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find(path), std::string::npos) << r.error().message;
+    std::filesystem::remove(path);
+}
+
+TEST(ExrIO, NonFiniteEnvTransferIsRefusedNamingTheChannel) {
+    for (const bool covered : {true, false}) {
+        DeepBuffer b = randomBuffer(16, 16, 13);
+        addRandomEnvTransfer(b, 14);
+        size_t i = 0;
+        while ((b.A[i] > 0.f) != covered) ++i;
+        b.envTransfer[i * ENV_TRANSFER_COEFFICIENTS + 3] = covered ? std::nanf("") : INFINITY;
+        const std::string path = tempPath("env_nan.exr");
+        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+        auto r = readDeepBuffer(path);
+        ASSERT_FALSE(r.ok()) << (covered ? "NaN on a covered sample" : "infinity on an uncovered sample");
+        EXPECT_EQ(r.error().code, ErrorCode::InvalidValue);
+        EXPECT_NE(r.error().message.find("'env.sh3'"), std::string::npos) << r.error().message;
+        const std::string pixel = "(" + std::to_string(i % 16) + ", " + std::to_string(i / 16) + ")";
+        EXPECT_NE(r.error().message.find(pixel), std::string::npos) << r.error().message;
+        std::filesystem::remove(path);
+    }
+}
+
+TEST(ExrIO, InconsistentEnvTransferIsNotWritten) {
+    DeepBuffer b = randomBuffer(8, 8, 15);
+    b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS - 1, 0.f);
+    EXPECT_FALSE(writeDeepBuffer(b, tempPath("env_short.exr")).ok());
 }

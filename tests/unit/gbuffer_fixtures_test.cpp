@@ -33,6 +33,8 @@ TEST(Fixtures, MalformedShotsGiveClearErrors) {
         {"coverage_over_one.exr", ErrorCode::InvalidValue, "add up to more than 1"},
         {"future_version.exr", ErrorCode::InvalidFile, "format version 99"},
         {"bad_manifest.exr", ErrorCode::InvalidFile, "dfb.manifest"},
+        {"env_partial.exr", ErrorCode::MissingData, "'env.sh5' is missing"},
+        {"env_nan.exr", ErrorCode::InvalidValue, "non-finite environment transfer in channel 'env.sh3' at pixel (3, 3)"},
         // Found by scripts/fuzz: a header attribute declaring 2 GB in a 1 KB file.
         {"fuzz_slow_attribute_size.exr", ErrorCode::InvalidFile, "corrupt header"},
         // Found by scripts/fuzz: a channel list whose content disagrees with its declared size;
@@ -47,6 +49,15 @@ TEST(Fixtures, MalformedShotsGiveClearErrors) {
         EXPECT_NE(r.error().message.find(c.file), std::string::npos) << r.error().message;
         EXPECT_NE(r.error().message.find(c.mentions), std::string::npos) << c.file << ": " << r.error().message;
     }
+}
+
+// Format v3 reads version 2 shots: they have no environment transfer.
+TEST(Fixtures, Version2ShotLoadsWithoutEnvTransfer) {
+    auto r = readDeepBuffer(DIR + "v2_shot.exr");
+    ASSERT_TRUE(r.ok()) << r.error().toString();
+    EXPECT_EQ(r->width, 8);
+    EXPECT_FALSE(r->hasEnvTransfer());
+    EXPECT_EQ(r->envRays, 0);
 }
 
 TEST(Fixtures, MalformedScenesGiveClearErrors) {

@@ -4,6 +4,7 @@
 
 #include <dfb/core/Result.h>
 #include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/gbuffer/EnvTransfer.h>
 #include <dfb/gbuffer/Scene.h>
 
 #include <functional>
@@ -20,6 +21,11 @@ struct BakeOptions {
     std::optional<glm::vec3> lookFrom; ///< with lookAt: overrides the scene's cameras
     std::optional<glm::vec3> lookAt;
     float fovDegrees = 0.f;   ///< vertical field of view for lookFrom/auto framing; 0 = 40 degrees
+    /// Rays per pixel for the environment transfer (DeepBuffer::envTransfer), 0..MAX_ENV_RAYS;
+    /// 0 = not baked (envTransfer left empty). dfb-bake asks for 64 by default.
+    int envRays = 0;
+    /// When set and envRays > 0: filled with what the transfer cost (its share of the bake).
+    EnvTransferStats* envStats = nullptr;
     /// Called with (done, total) work units while baking; may be empty.
     std::function<void(size_t, size_t)> progress;
 };
@@ -34,7 +40,13 @@ std::vector<glm::vec2> sampleOffsets(int samples);
 Result<CameraInfo> chooseCamera(const Scene& scene, const BakeOptions& options);
 
 /// Bakes the scene. Creates its own EGL context on the calling thread. Fails with GpuError when no
-/// context can be made, InvalidValue for bad sizes or sample counts.
+/// context can be made, InvalidValue for bad sizes, sample counts or environment ray counts.
+/// With envRays > 0, each pass's surface points also get the environment transfer, on the CPU over
+/// every core (the estimator of bakeEnvTransfer): a pixel's envRays directions, shifted once per
+/// pixel (seeded by the pixel index: reproducible), are dealt out to its passes, every
+/// samples-th to each; a merged sample's transfer is the mean of its points', as its other
+/// attributes are, so that no ray starts from an averaged position (which may lie inside a curved
+/// mesh). With one sample per pixel the result is bakeEnvTransfer's on the stored samples.
 ///
 /// With several samples per pixel, each sample is a full raster pass with the projection jittered
 /// to the sample position; a pixel's samples that hit the same object and material are merged

@@ -3,7 +3,7 @@
 // shared by every hierarchy and released with the last one.
 
 #include <dfb/core/Check.h>
-#include <dfb/server/TriangleBvh.h>
+#include <dfb/bvh/TriangleBvh.h>
 
 #include <embree3/rtcore.h>
 

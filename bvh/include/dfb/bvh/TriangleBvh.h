@@ -1,7 +1,9 @@
 #pragma once
 // A bounding-volume hierarchy of world-space triangles for ray queries on the CPU (Embree 3,
-// hidden in server/src/pick/TriangleBvh.cpp): what the Picker casts its rays against, and the
-// tests' reference visibility (tests/support/RayCaster.h wraps it).
+// hidden in bvh/src/TriangleBvh.cpp; library dfb_bvh): what the Picker casts its rays against,
+// what the bake traces the environment's visibility with (gbuffer/src/EnvTransfer.cpp), and the
+// tests' reference visibility (tests/support/RayCaster.h wraps it). Its own library so that the
+// bake (dfb_gbuffer) can use it without depending on the relight engine.
 //
 // Threading: add meshes and commit() on one thread; after commit() the queries are const and
 // may run on any number of threads at once (Embree's rtcIntersect1 / rtcOccluded1 are).

@@ -1,0 +1,54 @@
+#pragma once
+// The environment transfer's estimator at one surface point, shared by the bake (each raster
+// pass's exact surface points, gbuffer/src/Baker.cpp) and bakeEnvTransfer (a buffer's stored
+// samples), and the worker threads both run it on. Private to dfb_gbuffer.
+
+#include <dfb/bvh/TriangleBvh.h>
+#include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/gbuffer/Scene.h>
+
+#include <glm/glm.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace dfb {
+
+/// Rays against every triangle of a scene and one fixed pattern of directions. Threading: built on
+/// one thread; estimate() is const and may run on any number of threads at once.
+class EnvTracer {
+public:
+    /// Builds the hierarchy of every part of `scene` (world space, as rasterised) and a pattern of
+    /// `patternRays` >= 1 directions.
+    EnvTracer(const Scene& scene, int patternRays);
+
+    /// The transfer at the surface point P (shading normal N, geometric normal Ng; both are
+    /// normalised here): out[i] = (1/m) sum_k V(w_k) Y_i(w_k) over the m pattern directions
+    /// k = first, first + stride, ... (first < stride), mapped to the cosine lobe about N and
+    /// shifted by a hash of `seed` (docs/gbuffer-format.md, "Environment transfer"). Every
+    /// direction of a shifted pattern is distributed as the lobe, so any such subset is an
+    /// unbiased estimate, and the subsets first = 0 .. stride - 1 together are the whole pattern.
+    /// Returns the rays traced.
+    size_t estimate(const glm::vec3& P, const glm::vec3& N, const glm::vec3& Ng, uint64_t seed, size_t first,
+                    size_t stride, float out[ENV_TRANSFER_COEFFICIENTS]) const;
+
+    int patternRays() const { return int(mPattern.size()); }
+    double bvhMs() const { return mBvhMs; } ///< building the hierarchy, milliseconds
+
+private:
+    TriangleBvh mBvh;
+    std::vector<glm::vec2> mPattern; // Hammersley points in [0, 1)^2
+    float mHair = 0.f, mLength = 0.f;
+    double mBvhMs = 0.0;
+};
+
+/// Calls fn(begin, end) over consecutive chunks of [0, count) on `threads` workers
+/// (0 = std::thread::hardware_concurrency()), the calling thread being one of them, and
+/// progress(done, count) on the calling thread after each of its chunks (may be empty). Returns
+/// the workers used.
+unsigned parallelChunks(size_t count, unsigned threads, const std::function<void(size_t, size_t)>& fn,
+                        const std::function<void(size_t, size_t)>& progress = {});
+
+} // namespace dfb
