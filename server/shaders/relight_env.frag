@@ -28,6 +28,7 @@ layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 layout(binding = TEX_ENV_PREFILTERED) uniform sampler2D envPrefiltered; // lat-long, ENV_LEVELS mips by roughness
 layout(binding = TEX_ENV_DFG) uniform sampler2D envDfg;                 // (A, B) by (N.v, roughness)
+layout(binding = TEX_ENV_IRRADIANCE) uniform sampler2D envIrradiance;   // exact E(N) / pi by world normal
 #ifdef ENV_TRANSFER
 layout(binding = TEX_GBUFFER_ENV0) uniform sampler2D gEnv0; // the baked transfer T_0..T_3
 layout(binding = TEX_GBUFFER_ENV1) uniform sampler2D gEnv1; // T_4..T_7
@@ -48,10 +49,15 @@ vec3 prefiltered(vec3 dirWorld, float roughness) {
     return textureLod(envPrefiltered, envLatLong(normalize(d)), roughness * float(ENV_LEVELS - 1)).rgb;
 }
 
-// The split sum of a GGX lobe (Karis 2013): prefiltered radiance x (F0 A + F90 B).
+// The split sum of a GGX lobe (Karis 2013): prefiltered radiance x (F0 A + F90 B), read towards
+// the lobe's dominant direction, which leans from the mirror direction towards N as roughness
+// grows (Lagarde and de Rousiers 2014, section 4.9.3, getSpecularDominantDir).
 vec3 specularLobe(vec3 N, vec3 V, float NdotV, float roughness, vec3 f0, float f90) {
     vec2 ab = texture(envDfg, vec2(NdotV, roughness)).rg;
-    return prefiltered(reflect(-V, N), roughness) * (f0 * ab.x + vec3(f90 * ab.y));
+    float a = roughness * roughness;
+    vec3 R = reflect(-V, N);
+    vec3 dominant = normalize(mix(N, R, (1.0 - a) * (sqrt(1.0 - a) + a)));
+    return prefiltered(dominant, roughness) * (f0 * ab.x + vec3(f90 * ab.y));
 }
 
 vec3 shadeSample(ivec2 t) {
@@ -75,9 +81,24 @@ vec3 shadeSample(ivec2 t) {
     shUnshadowedTransfer(N, T);
 #endif
     if (SHADE_OUTPUT == 1) return vec3(visibility * pA.w, pA.w, 0.0);
-    vec3 irradiance = vec3(0.0);
-    for (int i = 0; i < 9; ++i) irradiance += envSh[i].rgb * T[i];
-    irradiance = max(irradiance, vec3(0.0)); // an order-3 expansion rings below zero behind bright suns
+    // The map's exact unshadowed irradiance at N, times the spherical harmonics' share of it that
+    // the sample's visibility lets through (1 unshadowed): open surfaces are exact, and only the
+    // visibility is order-3 (docs/lighting.md, "Environment light").
+    float open[9];
+    shUnshadowedTransfer(N, open);
+    vec3 shadowed = vec3(0.0), unshadowed = vec3(0.0);
+    for (int i = 0; i < 9; ++i) {
+        shadowed += envSh[i].rgb * T[i];
+        unshadowed += envSh[i].rgb * open[i];
+    }
+    // The grid's rows run from pole to pole inclusive (envIrradianceNormal).
+    vec2 uv = envLatLong(N);
+    float rows = float(ENV_IRRADIANCE_WIDTH / 2);
+    vec3 residual = texture(envIrradiance, vec2(uv.x, (uv.y * (rows - 1.0) + 0.5) / rows)).rgb;
+    vec3 irradiance = max(unshadowed + residual, vec3(0.0));
+#ifdef ENV_TRANSFER
+    if (SHADE_SHADOWED) irradiance *= clamp(shadowed / max(unshadowed, vec3(1e-6)), 0.0, 1.0);
+#endif
 
     vec3 albedo = texelFetch(gAlbedo, t, 0).rgb;
     vec4 brdf = texelFetch(gBrdf, t, 0);

@@ -109,8 +109,9 @@ TEST(EnvironmentLight, WhiteFurnace) {
         forEachSample(s.g, [&](size_t p, size_t i) { err.add(img->rgba[p * 4 + 1], asHalf(s.g.albedo[i * 3 + 1])); });
         std::printf("white furnace, Lambert: mean %.2e max %.2e relative over %zu pixels\n", err.meanRel(), err.maxRel, err.n);
         EXPECT_GT(err.n, 10000u);
-        // The projection's sub-texel quadrature leaves 3e-5 (Environment.h envProjectSh).
-        EXPECT_LT(err.maxRel, 5e-5);
+        // The exact irradiance grid's texel-centre quadrature of the clamped cosine leaves 3e-4
+        // (Environment.h envIrradianceMap, from the map's 128 x 64 copy).
+        EXPECT_LT(err.maxRel, 5e-4);
     }
     // glTF's default dielectric (specular level 0.5: F0 0.04, F90 1): (1 - F(N.v)) albedo plus
     // F0 A + F90 B of the DFG integral (without the table's interpolation).
@@ -335,6 +336,76 @@ TEST(EnvironmentLight, ReferenceAgreesWhereTheFastPathIsExact) {
     forEachSample(s.g, [&](size_t p, size_t) { werr.add(fastWhite->rgba[p * 4], refWhite->rgba[p * 4]); });
     std::printf("white furnace, dielectric: fast path vs reference mean %.2e max %.2e relative\n", werr.meanRel(), werr.maxRel);
     EXPECT_LT(werr.meanRel(), 3e-2);
+}
+
+} // namespace
+
+namespace {
+
+// With the shot's baked visibility (BakeOptions::envRays): the box shadows the ground under the
+// soft courtyard map, and the fast path (order-3 transfer) agrees with the ray-traced reference
+// within the 5 % for diffuse; unshadowed it would not.
+TEST(EnvironmentLight, BakedVisibilityShadowsLikeTheReference) {
+    Shot s;
+    if (s.scene.materials.empty()) s.scene.materials.push_back(Material{});
+    s.scene.materials[0].specularFactor = 0.f; // Lambert: the diffuse term alone
+    s.scene.materials[0].metallic = 0.f;
+    s.scene.materials[0].roughness = 1.f;
+    s.scene.materials[0].baseColor = glm::vec4(0.8f, 0.8f, 0.8f, 1.f);
+    s.scene.objectNames = {"ground", "box"};
+    std::vector<glm::vec3> g, c;
+    quad(g, {-4, 0, 4}, {4, 0, 4}, {4, 0, -4}, {-4, 0, -4});
+    s.scene.parts.push_back(flatPart(1, g));
+    const glm::vec3 a(-0.6f, 0.f, -0.6f), b(0.6f, 0.8f, 0.6f);
+    quad(c, {a.x, b.y, b.z}, {b.x, b.y, b.z}, {b.x, b.y, a.z}, {a.x, b.y, a.z});
+    quad(c, {a.x, a.y, b.z}, {b.x, a.y, b.z}, {b.x, b.y, b.z}, {a.x, b.y, b.z});
+    quad(c, {b.x, a.y, a.z}, {a.x, a.y, a.z}, {a.x, b.y, a.z}, {b.x, b.y, a.z});
+    quad(c, {b.x, a.y, b.z}, {b.x, a.y, a.z}, {b.x, b.y, a.z}, {b.x, b.y, b.z});
+    quad(c, {a.x, a.y, a.z}, {a.x, a.y, b.z}, {a.x, b.y, b.z}, {a.x, b.y, a.z});
+    s.scene.parts.push_back(flatPart(2, c));
+    for (const MeshPart& p : s.scene.parts)
+        for (const glm::vec3& v : p.positions) s.scene.bounds.extend(v);
+    BakeOptions o;
+    o.lookFrom = glm::vec3(0.f, 4.f, 4.5f);
+    o.lookAt = glm::vec3(0.f, 0.f, 0.f);
+    o.fovDegrees = 50.f;
+    o.envRays = 256;
+    ASSERT_NO_FATAL_FAILURE(finishShot(s, o));
+    ASSERT_TRUE(s.g.hasEnvTransfer());
+    const std::string maps = DFB_SOURCE_DIR "/scenes/env";
+    s.engine->setAssetDirectory(maps);
+    Light l = environment("env", "courtyard.exr");
+    l.shadow = true;
+    Rig rig;
+    rig.lights = {l};
+    auto fast = s.engine->renderLightLinear(rig, "env");
+    ASSERT_TRUE(fast.ok()) << fast.error().message;
+    rig.lights[0].shadow = false;
+    auto open = s.engine->renderLightLinear(rig, "env");
+    ASSERT_TRUE(open.ok());
+    const float radius = 0.5f * glm::length(s.scene.bounds.max - s.scene.bounds.min);
+    auto ref = renderEnvironmentReference(s.g, &s.rays, radius, l, maps, 1024);
+    ASSERT_TRUE(ref.ok()) << ref.error().toString();
+    Errors shadowed, unshadowed;
+    double nearBox = 0, far = 0;
+    size_t nNear = 0, nFar = 0;
+    forEachSample(s.g, [&](size_t p, size_t i) {
+        shadowed.add(fast->rgba[p * 4 + 1], ref->rgba[p * 4 + 1]);
+        unshadowed.add(open->rgba[p * 4 + 1], ref->rgba[p * 4 + 1]);
+        const glm::vec3 P = s.g.position(i);
+        if (s.g.objectId[i] != 1) return;
+        const float d = std::max(std::abs(P.x), std::abs(P.z));
+        if (d > 0.6f && d < 0.75f) nearBox += fast->rgba[p * 4 + 1], ++nNear;
+        if (d > 3.f) far += fast->rgba[p * 4 + 1], ++nFar;
+    });
+    ASSERT_GT(nNear, 50u);
+    ASSERT_GT(nFar, 50u);
+    std::printf("courtyard, box on the ground, Lambert: fast vs reference mean %.2f%% (unshadowed %.2f%%); ground beside the "
+                "box %.3f of far away\n",
+                100 * shadowed.meanRel(), 100 * unshadowed.meanRel(), (nearBox / double(nNear)) / (far / double(nFar)));
+    EXPECT_LT(shadowed.meanRel(), 0.05);
+    EXPECT_GT(unshadowed.meanRel(), 2 * shadowed.meanRel());
+    EXPECT_LT((nearBox / double(nNear)) / (far / double(nFar)), 0.85);
 }
 
 } // namespace

@@ -65,6 +65,17 @@ Status GBufferTextures::upload(const DeepBuffer& g) {
         hasSheen = g.sheen[i * 4] > 0.f || g.sheen[i * 4 + 1] > 0.f || g.sheen[i * 4 + 2] > 0.f;
     }
     for (size_t i = 0; i < g.sampleCount() && !hasCoat; ++i) hasCoat = g.coat[i * 2] > 0.f;
+    hasEnvTransfer = g.hasEnvTransfer();
+    if (hasEnvTransfer) {
+        // The environment transfer T_0..T_8 (relight_env.frag's ENV_TRANSFER) in three sample
+        // textures of four, four and one coefficients.
+        const size_t n = g.sampleCount();
+        std::vector<float> part[3];
+        for (int k = 0; k < 3; ++k) part[k].resize(n * 4, 0.f);
+        for (size_t i = 0; i < n; ++i)
+            for (int c = 0; c < 9; ++c) part[c / 4][i * 4 + size_t(c % 4)] = g.envTransfer[i * 9 + size_t(c)];
+        for (int k = 0; k < 3; ++k) envTransfer[k] = uploadLayer(GL_RGBA16F, sampleRow, rows, part[k], 4, nullptr);
+    }
     {
         std::vector<uint32_t> objectIds(size_t(sampleRow) * size_t(rows), 0);
         for (size_t i = 0; i < g.sampleCount(); ++i) {
@@ -96,6 +107,11 @@ void GBufferTextures::bindForShading() const {
     glBindTextureUnit(TEX_GBUFFER_SHEEN, sheen.id());
     glBindTextureUnit(TEX_GBUFFER_COAT, coat.id());
     glBindTextureUnit(TEX_PIXEL_SAMPLES, pixelSamples.id());
+    if (hasEnvTransfer) {
+        glBindTextureUnit(TEX_GBUFFER_ENV0, envTransfer[0].id());
+        glBindTextureUnit(TEX_GBUFFER_ENV1, envTransfer[1].id());
+        glBindTextureUnit(TEX_GBUFFER_ENV2, envTransfer[2].id());
+    }
 }
 
 } // namespace dfb::engine

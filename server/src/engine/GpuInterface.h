@@ -50,7 +50,8 @@
     X(TEX_ENV_DFG, 22, "RG32F ENV_DFG_SIZE^2: the split sum's (A, B) by (N.v, roughness) (Environment.h dfgTable)") \
     X(TEX_GBUFFER_ENV0, 23, "RGBA16F: the baked environment transfer T_0..T_3 (DeepBuffer::envTransfer)") \
     X(TEX_GBUFFER_ENV1, 24, "RGBA16F: T_4..T_7")                                                         \
-    X(TEX_GBUFFER_ENV2, 25, "R16F: T_8")
+    X(TEX_GBUFFER_ENV2, 25, "R16F: T_8")                                                                \
+    X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of world normals: the turned map's exact E(N) / pi (envIrradianceMap)")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).
 #define DFB_GPU_STORAGE_BINDINGS(X)                                                                    \
@@ -102,6 +103,7 @@
     X(LTC_DISK_NEWTON_STEPS, dfb::lightmath::LTC_DISK_NEWTON_STEPS, "Newton steps of the disk's ellipse (Ltc.h)") \
     X(ENV_LEVELS, 6, "mip levels of the prefiltered environment, roughness 0 .. 1 (EnvironmentMap.cpp)") \
     X(ENV_DFG_SIZE, 32, "rows and columns of the DFG table")                                      \
+    X(ENV_IRRADIANCE_WIDTH, 32, "texels across the exact irradiance map (16 rows)")                   \
     X(AREA_MAX_LAYERS, 256, "an area light's shadow maps: MAX_AREA_SHADOW_GRID squared (Rig.h; ShadowMaps.cpp asserts it)") \
     X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands") \
     X(BENDY_TESS_WORK_WORD, offsetof(dfb::engine::BendyDrawCommands, tessWork) / 4, "BendyDrawCommands.tessWork's uint")

@@ -266,13 +266,15 @@ Result<ImageF> readHdrImage(const std::string& path, int maxWidth, int maxHeight
         const float* s = &src[p * n];
         const float rgb[3] = {s[0], n >= 3 ? s[1] : s[0], n >= 3 ? s[2] : s[0]};
         for (int c = 0; c < 3; ++c) {
-            if (!std::isfinite(rgb[c]) || rgb[c] < 0.f) {
+            if (!std::isfinite(rgb[c])) {
                 return makeError(ErrorCode::InvalidValue, "image '" + path + "': texel (" + std::to_string(p % size_t(spec.width)) +
                                                               ", " + std::to_string(p / size_t(spec.width)) + ") channel " +
                                                               std::to_string(c) + " is " + std::to_string(rgb[c]) +
-                                                              ": radiance must be finite and >= 0");
+                                                              ": radiance must be finite");
             }
-            img.rgba[p * 4 + size_t(c)] = rgb[c];
+            // Lossy EXR compression leaves tiny negatives in real maps (-1e-5 in Blender's
+            // studio lights): radiance below zero is read as zero.
+            img.rgba[p * 4 + size_t(c)] = std::max(rgb[c], 0.f);
         }
         img.rgba[p * 4 + 3] = 1.f;
     }

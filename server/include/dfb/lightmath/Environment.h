@@ -73,6 +73,47 @@ inline std::array<glm::dvec3, SH_COEFFICIENTS> envProjectSh(const float* texels,
     return L;
 }
 
+/// The normal of row j, column i of the irradiance grid: rows from the pole +Y (j = 0) to -Y
+/// (j = outH - 1) inclusive, so that the poles are grid points; columns at u = (i + 0.5) / outW.
+inline glm::dvec3 envIrradianceNormal(int i, int j, int outW, int outH) {
+    return envDirection((i + 0.5) / outW, double(j) / double(outH - 1));
+}
+
+/// The map's exact unshadowed diffuse irradiance over pi, E(N) / pi = (1/pi) integral of
+/// L(w) max(0, N.w) dw, at the normals envIrradianceNormal of an outW x outH grid (RGBA), from a
+/// w x h copy of the map turned by `rotation`. relight_env.frag adds what the order-3 expansion
+/// misses of it (the grid holds E minus the expansion's E, smooth and small, interpolated), and
+/// scales by the expansion's ratio of shadowed to unshadowed irradiance: open surfaces get the
+/// map's irradiance without order-3 truncation (3.9 % on the courtyard map facing up) and only the
+/// visibility is approximated.
+inline std::vector<float> envIrradianceMap(const float* texels, int w, int h, int channels, const glm::dmat3& rotation,
+                                           int outW, int outH) {
+    std::vector<glm::dvec3> dirs(size_t(w) * size_t(h));
+    std::vector<glm::dvec3> weighted(dirs.size());
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const size_t k = size_t(j) * size_t(w) + size_t(i);
+            const float* t = texels + k * size_t(channels);
+            dirs[k] = rotation * envDirection((i + 0.5) / w, (j + 0.5) / h);
+            weighted[k] = glm::dvec3(t[0], t[1], t[2]) * (envTexelSolidAngle(j, w, h) / ENV_PI);
+        }
+    std::vector<float> out(size_t(outW) * size_t(outH) * 4, 1.f);
+    for (int j = 0; j < outH; ++j)
+        for (int i = 0; i < outW; ++i) {
+            const glm::dvec3 N = envIrradianceNormal(i, j, outW, outH);
+            glm::dvec3 E(0.0);
+            for (size_t k = 0; k < dirs.size(); ++k) {
+                const double c = glm::dot(N, dirs[k]);
+                if (c > 0) E += weighted[k] * c;
+            }
+            float* o = &out[(size_t(j) * size_t(outW) + size_t(i)) * 4];
+            o[0] = float(E.x);
+            o[1] = float(E.y);
+            o[2] = float(E.z);
+        }
+    return out;
+}
+
 /// Point i of n of the Hammersley set in [0, 1)^2 (radical inverse in base 2).
 inline glm::dvec2 hammersley(uint32_t i, uint32_t n) {
     uint32_t b = i;

@@ -9,7 +9,7 @@
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/protocol/Rig.h>
 #include <dfb/server/Engine.h>
-#include <dfb/server/TriangleBvh.h>
+#include <dfb/bvh/TriangleBvh.h>
 
 #include <string>
 

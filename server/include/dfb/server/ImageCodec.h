@@ -38,8 +38,8 @@ Result<ImageF> readLinearImage(const std::string& path);
 /// not radiance), at most maxWidth x maxHeight texels. Errors name the file and what is wrong.
 Status checkHdrImageFile(const std::string& path, int maxWidth, int maxHeight);
 
-/// Reads such an image as linear RGBA float (grey replicated); refuses a non-finite or negative
-/// texel, naming it.
+/// Reads such an image as linear RGBA float (grey replicated); refuses a non-finite texel, naming
+/// it; negative values (lossy compression's) are read as 0.
 Result<ImageF> readHdrImage(const std::string& path, int maxWidth, int maxHeight);
 
 } // namespace dfb
