@@ -8,7 +8,7 @@
 import { schemaRows } from "./rig.js";
 
 // Names of the components of fixed-size number lists (the schema gives their number only).
-const COMPONENTS = { barnDoors: ["left", "right", "top", "bottom"] };
+const COMPONENTS = { barnDoors: ["left", "right", "top", "bottom"], rotation: ["yaw", "pitch", "roll"] };
 // A slider's upper end bounded by another property: the server refuses a penumbra wider than the
 // cone (Schema.cpp setPenumbra), which a row's own range cannot say.
 const BOUNDED_BY = { penumbra: "coneAngle" };

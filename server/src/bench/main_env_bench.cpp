@@ -4,7 +4,8 @@
 // edit -> frame times (issue 19 points 4 and 5). A benchmark prints numbers; nothing here passes
 // or fails.
 //
-//   dfb-env-bench SHOT.exr [--scene S.glb] [--maps DIR] [--rays N] [--edits N] [--no-errors]
+//   dfb-env-bench SHOT.exr [--scene S.glb] [--maps DIR] [--map NAME ...] [--rays N] [--edits N]
+//                 [--no-errors] [--unshadowed]
 //
 // Errors, per map (default: scenes/env's sunrise, an outdoor map with a sun, and interior): the
 // shot as Lambert (specular 0, metallic 0: the diffuse term), as a metal of its own roughness
@@ -106,6 +107,8 @@ int main(int argc, char** argv) {
     app.add_option("--rays", rays, "the reference's rays per sample")->check(CLI::Range(3, 65536));
     app.add_option("--edits", edits, "timed edits per row")->check(CLI::Range(1, 1000));
     app.add_flag("--no-errors", skipErrors, "only the edit -> frame times");
+    bool unshadowed = false;
+    app.add_flag("--unshadowed", unshadowed, "without visibility on both sides (the split sum and the irradiance alone)");
     CLI11_PARSE(app, argc, argv);
     keepFreedMemoryForFrames();
 
@@ -125,7 +128,7 @@ int main(int argc, char** argv) {
     env.name = "dome";
     env.type = LightType::Environment;
     env.intensityCd = 1.f;
-    env.shadow = transfer;
+    env.shadow = transfer && !unshadowed;
     if (!skipErrors) {
         std::printf(" fast path vs reference (%d rays per sample), luminance relative error per pixel: mean / p95 / aggregate\n", rays);
         for (const std::string& map : maps) {
@@ -142,7 +145,7 @@ int main(int argc, char** argv) {
                 rig.lights = {env};
                 auto fast = engine.value()->renderLightLinear(rig, env.name);
                 const auto t0 = Clock::now();
-                auto ref = renderEnvironmentReference(v, transfer ? &bvh : nullptr, radius, env, mapDir, rays);
+                auto ref = renderEnvironmentReference(v, env.shadow ? &bvh : nullptr, radius, env, mapDir, rays);
                 const double refMs = msSince(t0);
                 if (!fast || !ref) {
                     std::cerr << "dfb-env-bench: " << (fast ? ref.error() : fast.error()).toString() << "\n";
