@@ -439,7 +439,7 @@ function renderOutputs() {
   const opts = [["beauty", "beauty"]];
   for (const l of S.rig.lights) opts.push([`light:${l.name}`, `light: ${l.name}`]);
   // An area light's stratified reference beside its one-shot image: the approximation's error.
-  for (const l of S.rig.lights) if (l.type === "area") opts.push([`reference:${l.name}`, `reference: ${l.name}`]);
+  for (const l of S.rig.lights) if (l.type === "area" || l.type === "environment") opts.push([`reference:${l.name}`, `reference: ${l.name}`]);
   for (const l of S.rig.lights) opts.push([`shadow:${l.name}`, `shadow: ${l.name}`]);
   for (const n of LAYERS) opts.push([`layer:${n}`, `layer: ${n}`]);
   const sig = opts.map((o) => o[0]).join("|");

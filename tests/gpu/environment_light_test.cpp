@@ -10,6 +10,7 @@
 #include <dfb/lightmath/Environment.h>
 #include <dfb/server/EnvironmentReference.h>
 #include <dfb/server/ImageCodec.h>
+#include <dfb/server/Outputs.h>
 
 #include <OpenImageIO/imageio.h>
 
@@ -406,6 +407,31 @@ TEST(EnvironmentLight, BakedVisibilityShadowsLikeTheReference) {
     EXPECT_LT(shadowed.meanRel(), 0.05);
     EXPECT_GT(unshadowed.meanRel(), 2 * shadowed.meanRel());
     EXPECT_LT((nearBox / double(nNear)) / (far / double(nFar)), 0.85);
+}
+
+} // namespace
+
+namespace {
+
+// `reference:NAME` of an environment light (dfb/server/Outputs.h): the ray-traced reference as
+// the server serves it, refused without the scene's hierarchy.
+TEST(EnvironmentLight, ReferenceIsAnOutput) {
+    Shot s;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, true));
+    Rig rig;
+    rig.lights = {environment("dome")};
+    rig.lights[0].shadow = true;
+    OutputRequest req;
+    req.output = "reference:dome";
+    req.format = "exr";
+    auto refused = renderOutput(*s.engine, s.g, rig, req);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.error().message.find("light 'dome': no reference here"), std::string::npos) << refused.error().message;
+    auto out = renderOutput(*s.engine, s.g, rig, req, ReferenceScene{&s.rays, 6.f, "."});
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    EXPECT_EQ(out->width, s.g.width);
+    EXPECT_EQ(out->height, s.g.height);
+    EXPECT_EQ(out->contentType, "image/x-exr");
 }
 
 } // namespace

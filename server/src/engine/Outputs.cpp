@@ -1,6 +1,7 @@
 #include <dfb/server/Outputs.h>
 
 #include <dfb/gbuffer/LayerImage.h>
+#include <dfb/server/EnvironmentReference.h>
 #include <dfb/server/ImageCodec.h>
 
 #include <algorithm>
@@ -63,7 +64,8 @@ void scale(ImageF& img, float s, bool alphaToo) {
 
 } // namespace
 
-Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request) {
+Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request,
+                                  const ReferenceScene& reference) {
     auto parsed = parse(request);
     if (!parsed) return parsed.error();
     const auto& [kind, name] = parsed.value();
@@ -91,7 +93,15 @@ Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const 
             for (int c = 0; c < 3; ++c) img.rgba[p * 4 + size_t(c)] = rgb.value()[p * 3 + size_t(c)];
         return encode8(img, request);
     }
-    auto linear = kind == "light"       ? engine.renderLightLinear(rig, name)
+    const Light* light = rig.find(name);
+    const bool environment = kind == "reference" && light && light->type == LightType::Environment;
+    if (environment && !reference.scene) {
+        return makeError(ErrorCode::InvalidValue, "light '" + name + "': no reference here (the scene's hierarchy is not loaded)");
+    }
+    if (environment && !light->enabled) return makeError(ErrorCode::InvalidValue, "light '" + name + "' is disabled");
+    auto linear = kind == "light"     ? engine.renderLightLinear(rig, name)
+                  : environment       ? renderEnvironmentReference(shot, reference.scene, reference.sceneRadius, *light,
+                                                                   reference.assetDir, ENV_REFERENCE_OUTPUT_RAYS)
                   : kind == "reference" ? engine.renderAreaReference(rig, name, AREA_REFERENCE_OUTPUT_CELLS)
                                         : engine.renderShadowMask(rig, name);
     if (!linear) return linear.error();

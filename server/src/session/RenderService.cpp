@@ -108,7 +108,9 @@ Result<std::shared_ptr<const EncodedFrame>> RenderService::encode(Engine& engine
         req.format = protocol::encodingName(view.encoding);
         req.jpegQuality = view.quality;
         engine.setPreview(false);
-        auto out = renderOutput(engine, mShot, r, req);
+        ReferenceScene reference;
+        if (mPicker) reference = {&mPicker->casters(), mSceneRadius, mSession.assetDirectory()};
+        auto out = renderOutput(engine, mShot, r, req, reference);
         if (!out) return out.error();
         bytes = std::move(out->bytes);
         width = out->width;
@@ -190,6 +192,9 @@ void RenderService::run(ShadowGeometry casters, std::promise<Status>* ready) {
             return;
         }
         mPicker = std::move(p.value());
+        glm::vec3 lo(1e30f), hi(-1e30f);
+        for (const glm::vec3& v : casters.positions) lo = glm::min(lo, v), hi = glm::max(hi, v);
+        mSceneRadius = casters.positions.empty() ? 1.f : std::max(0.5f * glm::length(hi - lo), 1e-3f);
         casters = {};
         ready->set_value(okStatus()); // `ready` must not be touched after this
     }

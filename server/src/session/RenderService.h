@@ -114,6 +114,7 @@ private:
 
     // Render thread only.
     std::unique_ptr<Picker> mPicker; // built with the engine, from the same casters (one BVH per session)
+    float mSceneRadius = 1.f;        // the casters' bounding radius (an environment reference's ray length)
     Image8 mImage;
     FrameStats mStats;
     uint64_t mImageVersion = ~0ull;

@@ -6,6 +6,7 @@
 #include <dfb/core/Result.h>
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/protocol/Rig.h>
+#include <dfb/bvh/TriangleBvh.h>
 #include <dfb/server/Engine.h>
 
 #include <cstdint>
@@ -42,6 +43,18 @@ struct EncodedImage {
 /// linear floats times the rig's exposure: the beauty as R, G, B, A plus a layer NAME.R/G/B per
 /// enabled light; one light alone as R, G, B; a shadow mask as R = G = B = visibility and A = the
 /// coverage the light reaches. G-buffer layers have no EXR output (the shot file holds them).
-Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request);
+/// `reference:NAME` of an area light is the engine's stratified reference; of an environment
+/// light, renderEnvironmentReference with ENV_REFERENCE_OUTPUT_RAYS rays per sample against
+/// `scene` (the casters' hierarchy; its bounding radius `sceneRadius`), maps from `assetDir`: CPU
+/// seconds on the render thread, like the area reference's GPU seconds. Without `scene` an
+/// environment light has no reference output.
+struct ReferenceScene {
+    const TriangleBvh* scene = nullptr;
+    float sceneRadius = 1.f;
+    std::string assetDir = ".";
+};
+constexpr int ENV_REFERENCE_OUTPUT_RAYS = 64;
+Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request,
+                                  const ReferenceScene& reference = {});
 
 } // namespace dfb
