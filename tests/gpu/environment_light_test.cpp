@@ -348,30 +348,13 @@ namespace {
 // within the 5 % for diffuse; unshadowed it would not.
 TEST(EnvironmentLight, BakedVisibilityShadowsLikeTheReference) {
     Shot s;
-    if (s.scene.materials.empty()) s.scene.materials.push_back(Material{});
-    s.scene.materials[0].specularFactor = 0.f; // Lambert: the diffuse term alone
-    s.scene.materials[0].metallic = 0.f;
-    s.scene.materials[0].roughness = 1.f;
-    s.scene.materials[0].baseColor = glm::vec4(0.8f, 0.8f, 0.8f, 1.f);
-    s.scene.objectNames = {"ground", "box"};
-    std::vector<glm::vec3> g, c;
-    quad(g, {-4, 0, 4}, {4, 0, 4}, {4, 0, -4}, {-4, 0, -4});
-    s.scene.parts.push_back(flatPart(1, g));
-    const glm::vec3 a(-0.6f, 0.f, -0.6f), b(0.6f, 0.8f, 0.6f);
-    quad(c, {a.x, b.y, b.z}, {b.x, b.y, b.z}, {b.x, b.y, a.z}, {a.x, b.y, a.z});
-    quad(c, {a.x, a.y, b.z}, {b.x, a.y, b.z}, {b.x, b.y, b.z}, {a.x, b.y, b.z});
-    quad(c, {b.x, a.y, a.z}, {a.x, a.y, a.z}, {a.x, b.y, a.z}, {b.x, b.y, a.z});
-    quad(c, {b.x, a.y, b.z}, {b.x, a.y, a.z}, {b.x, b.y, a.z}, {b.x, b.y, b.z});
-    quad(c, {a.x, a.y, a.z}, {a.x, a.y, b.z}, {a.x, b.y, b.z}, {a.x, b.y, a.z});
-    s.scene.parts.push_back(flatPart(2, c));
-    for (const MeshPart& p : s.scene.parts)
-        for (const glm::vec3& v : p.positions) s.scene.bounds.extend(v);
-    BakeOptions o;
-    o.lookFrom = glm::vec3(0.f, 4.f, 4.5f);
-    o.lookAt = glm::vec3(0.f, 0.f, 0.f);
-    o.fovDegrees = 50.f;
-    o.envRays = 256;
-    ASSERT_NO_FATAL_FAILURE(finishShot(s, o));
+    ShotOptions opt;
+    opt.boxMin = {-0.6f, 0.f, -0.6f};
+    opt.boxMax = {0.6f, 0.8f, 0.6f};
+    opt.specularFactor = 0.f; // Lambert: the diffuse term alone
+    opt.roughness = 1.f;
+    opt.envRays = 256;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, opt));
     ASSERT_TRUE(s.g.hasEnvTransfer());
     const std::string maps = DFB_SOURCE_DIR "/scenes/env";
     s.engine->setAssetDirectory(maps);

@@ -45,18 +45,29 @@ inline void finishShot(Shot& s, BakeOptions o) {
     s.rays.commit();
 }
 
-inline void makeShot(Shot& s, bool withBox, float metallic = 0.f, float roughness = 0.5f) {
+/// What makeShot builds: the box's corners (none when `box` is false), the one material's
+/// terms, and the bake's environment rays (BakeOptions::envRays).
+struct ShotOptions {
+    bool box = true;
+    glm::vec3 boxMin{-0.3f, 0.f, -0.3f}, boxMax{0.3f, 0.6f, 0.3f};
+    float metallic = 0.f, roughness = 0.5f;
+    float specularFactor = 1.f; ///< KHR_materials_specular: 0 = Lambert
+    int envRays = 0;
+};
+
+inline void makeShot(Shot& s, const ShotOptions& opt) {
     if (s.scene.materials.empty()) s.scene.materials.push_back(Material{});
-    s.scene.materials[0].metallic = metallic;
-    s.scene.materials[0].roughness = roughness;
+    s.scene.materials[0].metallic = opt.metallic;
+    s.scene.materials[0].roughness = opt.roughness;
+    s.scene.materials[0].specularFactor = opt.specularFactor;
     s.scene.materials[0].baseColor = glm::vec4(0.8f, 0.8f, 0.8f, 1.f);
     s.scene.objectNames = {"ground", "box"};
     std::vector<glm::vec3> g;
     quad(g, {-4, 0, 4}, {4, 0, 4}, {4, 0, -4}, {-4, 0, -4});
     s.scene.parts.push_back(flatPart(1, g));
-    if (withBox) {
+    if (opt.box) {
         std::vector<glm::vec3> c;
-        const glm::vec3 a(-0.3f, 0.f, -0.3f), b(0.3f, 0.6f, 0.3f);
+        const glm::vec3 a = opt.boxMin, b = opt.boxMax;
         quad(c, {a.x, b.y, b.z}, {b.x, b.y, b.z}, {b.x, b.y, a.z}, {a.x, b.y, a.z});
         quad(c, {a.x, a.y, b.z}, {b.x, a.y, b.z}, {b.x, b.y, b.z}, {a.x, b.y, b.z});
         quad(c, {b.x, a.y, a.z}, {a.x, a.y, a.z}, {a.x, b.y, a.z}, {b.x, b.y, a.z});
@@ -70,7 +81,16 @@ inline void makeShot(Shot& s, bool withBox, float metallic = 0.f, float roughnes
     o.lookFrom = glm::vec3(0.f, 4.f, 4.5f);
     o.lookAt = glm::vec3(0.f, 0.f, 0.f);
     o.fovDegrees = 50.f;
+    o.envRays = opt.envRays;
     finishShot(s, o);
+}
+
+inline void makeShot(Shot& s, bool withBox, float metallic = 0.f, float roughness = 0.5f) {
+    ShotOptions o;
+    o.box = withBox;
+    o.metallic = metallic;
+    o.roughness = roughness;
+    makeShot(s, o);
 }
 
 inline Light panel(const char* name, float height, bool disk) {
