@@ -7,6 +7,10 @@
 
 #include "session/Session.h"
 
+#include <dfb/protocol/Codec.h>
+
+#include <OpenImageIO/imageio.h>
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -597,4 +601,46 @@ TEST(Session, ACrashBetweenSnapshotAndCompactionOpensToTheSameState) {
         << bad.error().message;
     std::filesystem::remove_all(plain);
     std::filesystem::remove_all(snap);
+}
+
+namespace {
+
+// Writes a w x h RGB image of `format` (the environment map refusals below).
+void writeImage(const std::filesystem::path& p, int w, int h, OIIO::TypeDesc format) {
+    std::vector<float> px(size_t(w) * size_t(h) * 3, 0.5f);
+    auto out = OIIO::ImageOutput::create(p.string());
+    ASSERT_TRUE(out && out->open(p.string(), OIIO::ImageSpec(w, h, 3, format)) && out->write_image(OIIO::TypeDesc::FLOAT, px.data()) &&
+                out->close())
+        << p;
+}
+
+} // namespace
+
+// An environment light's map is checked when it is named (header only): a PNG, a map over the
+// size limit or a missing file is refused naming the light, the row and why; the rig is unchanged.
+TEST(Session, EnvironmentMapsAreCheckedWhenNamed) {
+    const auto dir = freshDir("envmaps");
+    std::filesystem::create_directories(dir);
+    auto s = open({});
+    ASSERT_TRUE(s);
+    s->setAssetDirectory(dir.string());
+    writeImage(dir / "sky.exr", 64, 32, OIIO::TypeDesc::HALF);
+    writeImage(dir / "ldr.png", 64, 32, OIIO::TypeDesc::UINT16);
+    writeImage(dir / "huge.exr", MAX_ENV_MAP_WIDTH + 2, 2, OIIO::TypeDesc::HALF);
+    const Author alice{1, "alice"};
+    ASSERT_TRUE(s->edit({{"fill.type", "environment"}, {"fill.map", "sky.exr"}}, alice).ok());
+    const std::string before = protocol::toJson(s->rig()).dump();
+    const struct {
+        const char* file;
+        const char* words;
+    } bad[] = {{"ldr.png", "not float"}, {"huge.exr", "at most 8192x4096"}, {"missing.exr", "missing.exr"}};
+    for (const auto& b : bad) {
+        auto r = s->edit({{"fill.map", b.file}}, alice);
+        ASSERT_FALSE(r.ok()) << b.file;
+        EXPECT_EQ(r.error().code, ErrorCode::InvalidValue);
+        EXPECT_NE(r.error().message.find("fill.map: '" + std::string(b.file) + "'"), std::string::npos) << r.error().message;
+        EXPECT_NE(r.error().message.find(b.words), std::string::npos) << r.error().message;
+        EXPECT_EQ(protocol::toJson(s->rig()).dump(), before);
+    }
+    std::filesystem::remove_all(dir);
 }
