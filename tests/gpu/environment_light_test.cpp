@@ -7,6 +7,8 @@
 
 #include "support/AreaShot.h"
 
+#include "engine/EnvironmentMap.h"
+
 #include <dfb/lightmath/Environment.h>
 #include <dfb/server/EnvironmentReference.h>
 #include <dfb/server/ImageCodec.h>
@@ -415,6 +417,83 @@ TEST(EnvironmentLight, ReferenceIsAnOutput) {
     EXPECT_EQ(out->width, s.g.width);
     EXPECT_EQ(out->height, s.g.height);
     EXPECT_EQ(out->contentType, "image/x-exr");
+}
+
+} // namespace
+
+namespace {
+
+// A map with a small, very bright sun: extractSun finds it (direction, irradiance), the engine
+// shades it as a directional light with a sharp shadow map, and against the ray-traced
+// reference the box's shadow is where the sun puts it; a rotation re-renders the sun's map.
+TEST(EnvironmentLight, ASunIsExtractedAndShadowsSharply) {
+    const fs::path dir = mapFolder();
+    const glm::dvec3 toSun = glm::normalize(glm::dvec3(0.5, 0.6, 0.4));
+    const double sunCos = std::cos(glm::radians(1.5)), sunRadiance = 4e4, sky = 0.5;
+    const auto sunny = [&](const glm::dvec3& d) { return glm::vec3(float(glm::dot(d, toSun) > sunCos ? sunRadiance : sky)); };
+    constexpr int W = 512, H = 256;
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "sunny.exr", W, H, sunny));
+    auto map = readHdrImage((dir / "sunny.exr").string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+    ASSERT_TRUE(map.ok());
+    // The sun's irradiance as the map holds it: (L - sky) x the solid angle of its texels.
+    double want = 0;
+    for (int j = 0; j < H; ++j)
+        for (int i = 0; i < W; ++i)
+            if (glm::dot(lightmath::envDirection((i + 0.5) / W, (j + 0.5) / H), toSun) > sunCos)
+                want += (sunRadiance - sky) * lightmath::envTexelSolidAngle(j, W, H);
+    ImageF rest = map.value();
+    const engine::EnvSun sun = engine::extractSun(rest);
+    ASSERT_TRUE(sun.found);
+    const double angle = glm::degrees(std::acos(std::clamp(glm::dot(glm::dvec3(sun.direction), toSun), -1.0, 1.0)));
+    std::printf("sun: %.3f degrees off, irradiance %.4g of %.4g\n", angle, double(sun.irradiance.y), want);
+    EXPECT_LT(angle, 0.3);
+    EXPECT_NEAR(sun.irradiance.y, want, 0.01 * want);
+    float brightest = 0;
+    for (size_t p = 0; p < rest.rgba.size(); p += 4) brightest = std::max(brightest, rest.rgba[p + 1]);
+    EXPECT_LT(brightest, 1.f);
+
+    Shot s;
+    ShotOptions opt;
+    opt.specularFactor = 0.f;
+    opt.roughness = 1.f;
+    opt.envRays = 256;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, opt));
+    s.engine->setAssetDirectory(dir.string());
+    Light l = environment("env", "sunny.exr");
+    l.shadow = true;
+    Rig rig;
+    rig.lights = {l};
+    FrameStats st;
+    ASSERT_TRUE(s.engine->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 1); // the sun's
+    auto fast = s.engine->renderLightLinear(rig, "env");
+    ASSERT_TRUE(fast.ok()) << fast.error().message;
+    const float radius = 0.5f * glm::length(s.scene.bounds.max - s.scene.bounds.min);
+    auto ref = renderEnvironmentReference(s.g, &s.rays, radius, l, dir.string(), 768);
+    ASSERT_TRUE(ref.ok()) << ref.error().message;
+    // Lit by the sun or in the box's shadow, in both: the sun's share dominates.
+    size_t agree = 0, ground = 0;
+    Errors err;
+    double meanFast = 0;
+    forEachSample(s.g, [&](size_t p, size_t i) {
+        err.add(fast->rgba[p * 4 + 1], ref->rgba[p * 4 + 1]);
+        if (s.g.objectId[i] != 1) return;
+        meanFast += fast->rgba[p * 4 + 1];
+        ++ground;
+    });
+    meanFast /= double(ground);
+    forEachSample(s.g, [&](size_t p, size_t i) {
+        if (s.g.objectId[i] == 1) agree += (fast->rgba[p * 4 + 1] > 0.5 * meanFast) == (ref->rgba[p * 4 + 1] > 0.5 * meanFast);
+    });
+    std::printf("sunny map, box on the ground, Lambert: fast vs reference mean %.2f%%; lit/shadowed agree on %.2f%% of the ground\n",
+                100 * err.meanRel(), 100.0 * double(agree) / double(ground));
+    EXPECT_LT(err.meanRel(), 0.05);
+    EXPECT_GT(double(agree) / double(ground), 0.99);
+    rig.lights[0].envRotationDeg = {20.f, 0.f, 0.f};
+    st = {};
+    ASSERT_TRUE(s.engine->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 1);
+    EXPECT_EQ(st.lightsShaded, 1);
 }
 
 } // namespace

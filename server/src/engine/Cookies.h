@@ -3,6 +3,8 @@
 // as mipmapped textures, area lights' patterns as summed-area tables (dfb/server/AreaPattern.h),
 // environment lights' maps prefiltered by roughness (EnvironmentMap.h).
 
+#include "EnvironmentMap.h"
+
 #include <dfb/core/Result.h>
 #include <dfb/gl/Objects.h>
 #include <dfb/protocol/Rig.h>
@@ -43,6 +45,7 @@ public:
         GLuint texture = 0;
         const std::vector<float>* sh = nullptr;
         int shWidth = 0, shHeight = 0;
+        EnvSun sun; // taken out of the map (texture and sh hold the rest)
     };
     Result<Environment> environment(const Light& l);
 
@@ -51,6 +54,7 @@ private:
         gl::Texture texture;
         std::vector<float> sh;
         int shWidth = 0, shHeight = 0;
+        EnvSun sun;
     };
     std::map<std::string, EnvEntry> mEnvironments; // by file name ("" = constant)
     std::string mDirectory = ".";

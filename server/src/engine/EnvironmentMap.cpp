@@ -122,6 +122,59 @@ LatLong prefilterLevel(const std::vector<LatLong>& pyramid, int w, double roughn
 
 } // namespace
 
+EnvSun extractSun(ImageF& map) {
+    EnvSun sun;
+    const int w = map.width, h = map.height;
+    if (w <= 0 || h <= 0) return sun;
+    auto lum = [&](size_t p) { return 0.2126 * map.rgba[p * 4] + 0.7152 * map.rgba[p * 4 + 1] + 0.0722 * map.rgba[p * 4 + 2]; };
+    double total = 0, area = 0, peak = -1;
+    size_t peakAt = 0;
+    for (int j = 0; j < h; ++j) {
+        const double dOmega = lightmath::envTexelSolidAngle(j, w, h);
+        for (int i = 0; i < w; ++i) {
+            const size_t p = size_t(j) * size_t(w) + size_t(i);
+            const double l = lum(p);
+            total += l * dOmega;
+            area += dOmega;
+            if (l > peak) peak = l, peakAt = p;
+        }
+    }
+    const double mean = total / area;
+    if (!(peak > SUN_PEAK_OVER_MEAN * mean) || !(mean > 0)) return sun;
+    const glm::dvec3 centre = lightmath::envDirection((double(peakAt % size_t(w)) + 0.5) / w, (double(peakAt / size_t(w)) + 0.5) / h);
+    const double cosRegion = std::cos(glm::radians(double(SUN_RADIUS_DEG))), cosRing = std::cos(glm::radians(2.0 * SUN_RADIUS_DEG));
+    const double threshold = std::max(double(SUN_REGION_SHARE) * peak, 20.0 * mean);
+    std::vector<size_t> region;
+    glm::dvec3 ring(0.0);
+    double ringArea = 0;
+    for (int j = 0; j < h; ++j) {
+        const double dOmega = lightmath::envTexelSolidAngle(j, w, h);
+        for (int i = 0; i < w; ++i) {
+            const size_t p = size_t(j) * size_t(w) + size_t(i);
+            const double c = glm::dot(centre, lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h));
+            if (c < cosRing) continue;
+            if (c >= cosRegion && lum(p) > threshold) region.push_back(p);
+            else if (lum(p) <= threshold) ring += glm::dvec3(map.rgba[p * 4], map.rgba[p * 4 + 1], map.rgba[p * 4 + 2]) * dOmega, ringArea += dOmega;
+        }
+    }
+    const glm::dvec3 fill = ringArea > 0 ? ring / ringArea : glm::dvec3(mean);
+    glm::dvec3 power(0.0), direction(0.0);
+    for (size_t p : region) {
+        const int i = int(p % size_t(w)), j = int(p / size_t(w));
+        const double dOmega = lightmath::envTexelSolidAngle(j, w, h);
+        const glm::dvec3 c(map.rgba[p * 4], map.rgba[p * 4 + 1], map.rgba[p * 4 + 2]);
+        const glm::dvec3 excess = glm::max(c - fill, glm::dvec3(0.0)) * dOmega;
+        power += excess;
+        direction += lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h) * (0.2126 * excess.x + 0.7152 * excess.y + 0.0722 * excess.z);
+        for (int k = 0; k < 3; ++k) map.rgba[p * 4 + size_t(k)] = float(std::min(c[k], fill[k]));
+    }
+    if (glm::length(direction) <= 0) return sun;
+    sun.found = true;
+    sun.direction = glm::vec3(glm::normalize(direction));
+    sun.irradiance = glm::vec3(power);
+    return sun;
+}
+
 EnvLevels prefilterEnvironment(const ImageF& src, int levels, int baseWidth) {
     EnvLevels out;
     bool constant = true;

@@ -21,6 +21,22 @@ struct EnvLevels {
     std::vector<float> sh;
 };
 
+/// A map's sun (docs/lighting.md, "Environment light"): a small region far brighter than the
+/// rest, taken out of the map and shaded as a directional light with a sharp shadow map, since
+/// order-3 visibility cannot hold its shadow.
+struct EnvSun {
+    bool found = false;
+    glm::vec3 direction{0.f, 1.f, 0.f}; ///< towards the sun, map space, unit
+    glm::vec3 irradiance{0.f};          ///< its irradiance at normal incidence, integral of (L - fill) dw, RGB
+};
+
+/// Finds the sun of `map` (RGBA float lat-long) and replaces its texels by the radiance around it:
+/// the brightest texel, when its luminance is over SUN_PEAK_OVER_MEAN times the map's mean; its
+/// region the texels within SUN_RADIUS_DEG of it brighter than SUN_REGION_SHARE of the peak (and
+/// than 20 times the mean); the fill the mean of the ring out to twice that radius below that.
+constexpr float SUN_PEAK_OVER_MEAN = 500.f, SUN_RADIUS_DEG = 6.f, SUN_REGION_SHARE = 0.01f;
+EnvSun extractSun(ImageF& map);
+
 /// The levels of `src`, a latitude-longitude RGBA float image of any size: `levels` levels from
 /// `baseWidth` texels wide (a power of two, >= 2^levels). Level k > 0 averages the map over the
 /// GGX lobe of roughness k / (levels - 1) about each texel's direction with N = v = r,

@@ -1,5 +1,7 @@
 #include "LightCache.h"
 
+#include <dfb/lightmath/Environment.h>
+
 #include <dfb/server/BendyChain.h>
 #include <dfb/server/BentArea.h>
 
@@ -20,6 +22,21 @@ void syncInterior(LightCache& c, glm::ivec2 grid) {
         c.interior[k].softCasters = true;
     }
     c.interiorGrid = grid;
+}
+
+Light environmentSun(const Light& l, const glm::vec3& toSunMap) {
+    Light sun;
+    sun.name = l.name + ".sun";
+    sun.type = LightType::Directional;
+    const glm::vec3 toSun = glm::normalize(glm::vec3(lightmath::envRotation(l.envRotationDeg) * glm::dvec3(toSunMap)));
+    sun.direction = {-toSun.x, -toSun.y, -toSun.z};
+    sun.intensityCd = 1.f;
+    sun.shadow = l.shadow;
+    sun.shadowMapSize = 2048;
+    sun.shadowFilter = 1;
+    sun.include = l.include;
+    sun.exclude = l.exclude;
+    return sun;
 }
 
 } // namespace dfb::engine

@@ -236,7 +236,17 @@ void LightShading::bindLinkMask(LightCache& c, bool linked) {
 
 Status LightShading::shade(LightCache& c, int output, bool preview, int referenceCells) {
     if (c.params.type == LightType::BentArea) return shadeBentArea(c, output, preview);
-    return shadeInto(c, c, output, preview, referenceCells, {});
+    if (auto s = shadeInto(c, c, output, preview, referenceCells, {}); !s) return s;
+    if (c.params.type == LightType::Environment && output == 0 && !c.interior.empty()) {
+        // The map's sun (GlEngine::updateShadows): a directional light of unit intensity added
+        // with its irradiance as the weight, so the sum is at the environment's unit radiance.
+        auto env = mCookies.environment(c.params);
+        if (!env) return env.error();
+        if (env->sun.found) {
+            if (auto s = shadeInto(c.interior[0], c, output, preview, 0, {true, false, env->sun.irradiance}); !s) return s;
+        }
+    }
+    return okStatus();
 }
 
 // A bent area light (paper 003 section 4.1): the sum of its interior BendyLights, each shaded as a
@@ -256,7 +266,7 @@ Status LightShading::shadeBentArea(LightCache& c, int output, bool preview) {
         glClearNamedFramebufferfv(target.value(), GL_COLOR, 0, zero);
     }
     for (size_t k = 0; k < c.interior.size(); ++k) {
-        if (auto s = shadeInto(c.interior[k], c, output, preview, 0, {true, k == 0, weight}); !s) return s;
+        if (auto s = shadeInto(c.interior[k], c, output, preview, 0, {true, k == 0, glm::vec3(weight)}); !s) return s;
     }
     c.hasContribution = true;
     if (output == 0) {
@@ -373,7 +383,7 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
     auto blend = [&acc] {
         if (!acc.on) return;
         glEnable(GL_BLEND);
-        glBlendColor(acc.weight, acc.weight, acc.weight, acc.weight);
+        glBlendColor(acc.weight.r, acc.weight.g, acc.weight.b, 1.f);
         glBlendFunc(GL_CONSTANT_COLOR, acc.first ? GL_ZERO : GL_ONE);
     };
     if (!perSample) blend();

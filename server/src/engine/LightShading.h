@@ -39,7 +39,7 @@ private:
     struct Accumulation {
         bool on = false;
         bool first = false;
-        float weight = 1.f;
+        glm::vec3 weight{1.f}; // per channel (an environment's sun: its RGB irradiance)
     };
     Status shadeInto(LightCache& c, LightCache& into, int output, bool preview, int referenceCells, Accumulation acc);
     Status shadeBentArea(LightCache& c, int output, bool preview);
