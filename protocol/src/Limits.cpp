@@ -9,9 +9,9 @@ uint64_t lightMemoryBytes(const Light& l, const RigLimits& limits) {
     uint64_t bytes = limits.imagePixels * 16; // its contribution image, RGBA32F
     if (l.type == LightType::Environment) {
         // No shadow map (its visibility is baked in the shot): the prefiltered map and its mips.
-        // and, shadowed, its sun's 2048 map (engine environmentSun) if the map has one.
+        // and, shadowed, its sun's map (engine environmentSun) if the map has one.
         const uint64_t w = ENV_PREFILTER_WIDTH;
-        return bytes + w * (w / 2) * 16 * 4 / 3 + (l.shadow ? uint64_t(2048) * 2048 * 4 : 0);
+        return bytes + w * (w / 2) * 16 * 4 / 3 + (l.shadow ? uint64_t(ENV_SUN_MAP_SIZE) * ENV_SUN_MAP_SIZE * 4 : 0);
     }
     if (l.shadow) {
         const uint64_t side = uint64_t(l.shadowMapSize);

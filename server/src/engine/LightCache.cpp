@@ -32,7 +32,7 @@ Light environmentSun(const Light& l, const glm::vec3& toSunMap) {
     sun.direction = {-toSun.x, -toSun.y, -toSun.z};
     sun.intensityCd = 1.f;
     sun.shadow = l.shadow;
-    sun.shadowMapSize = 2048;
+    sun.shadowMapSize = ENV_SUN_MAP_SIZE;
     sun.shadowFilter = 1;
     sun.include = l.include;
     sun.exclude = l.exclude;

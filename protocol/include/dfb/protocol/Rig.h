@@ -47,6 +47,8 @@ constexpr int MAX_ENV_MAP_WIDTH = 8192, MAX_ENV_MAP_HEIGHT = 4096;
 /// The prefiltered environment's top level, texels wide (twice its height), RGBA32F with its
 /// mip chain: what an environment light holds on the GPU besides its contribution.
 constexpr int ENV_PREFILTER_WIDTH = 512;
+/// The shadow map's side of an environment map's sun (shaded as a directional light).
+constexpr int ENV_SUN_MAP_SIZE = 2048;
 
 /// Most Bezier segments a BendyLight chain may have (lightmath::MAX_SEGMENTS).
 constexpr int MAX_BENDY_SEGMENTS = 8;
