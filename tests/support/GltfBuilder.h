@@ -22,18 +22,8 @@ public:
 
     /// An axis-aligned quad in the plane y = height spanning [x0,x1] x [z0,z1], facing +Y, with
     /// UV (0,0) at (x0, z0) and (1,1) at (x1, z1) in both UV sets.
-    int addQuad(const std::string& name, float x0, float z0, float x1, float z1, float height, int material) {
-        const std::vector<float> pos = {x0, height, z0, x1, height, z0, x1, height, z1, x0, height, z1};
-        const std::vector<float> nrm = {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0};
-        const std::vector<float> uv = {0, 0, 1, 0, 1, 1, 0, 1};
-        const std::vector<uint16_t> idx = {0, 2, 1, 0, 3, 2}; // counter-clockwise seen from +Y
-        tinygltf::Primitive prim;
-        prim.attributes["POSITION"] = accessor(pos.data(), pos.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 4,
-                                               {x0, height, z0}, {x1, height, z1});
-        prim.attributes["NORMAL"] = accessor(nrm.data(), nrm.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 4);
-        prim.attributes["TEXCOORD_0"] = accessor(uv.data(), uv.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, 4);
-        prim.attributes["TEXCOORD_1"] = accessor(uv.data(), uv.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, 4);
-        prim.indices = accessor(idx.data(), idx.size() * 2, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_SCALAR, 6);
+    /// A mesh of one triangle primitive with `material`, in a node of the scene; the node's index.
+    int addMeshNode(const std::string& name, tinygltf::Primitive prim, int material) {
         prim.material = material;
         prim.mode = TINYGLTF_MODE_TRIANGLES;
         tinygltf::Mesh mesh;
@@ -46,6 +36,21 @@ public:
         model.nodes.push_back(node);
         model.scenes[0].nodes.push_back(int(model.nodes.size()) - 1);
         return int(model.nodes.size()) - 1;
+    }
+
+    int addQuad(const std::string& name, float x0, float z0, float x1, float z1, float height, int material) {
+        const std::vector<float> pos = {x0, height, z0, x1, height, z0, x1, height, z1, x0, height, z1};
+        const std::vector<float> nrm = {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0};
+        const std::vector<float> uv = {0, 0, 1, 0, 1, 1, 0, 1};
+        const std::vector<uint16_t> idx = {0, 2, 1, 0, 3, 2}; // counter-clockwise seen from +Y
+        tinygltf::Primitive prim;
+        prim.attributes["POSITION"] = accessor(pos.data(), pos.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 4,
+                                               {x0, height, z0}, {x1, height, z1});
+        prim.attributes["NORMAL"] = accessor(nrm.data(), nrm.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 4);
+        prim.attributes["TEXCOORD_0"] = accessor(uv.data(), uv.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, 4);
+        prim.attributes["TEXCOORD_1"] = accessor(uv.data(), uv.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, 4);
+        prim.indices = accessor(idx.data(), idx.size() * 2, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_SCALAR, 6);
+        return addMeshNode(name, prim, material);
     }
 
     /// An axis-aligned box from `lo` to `hi`: six faces with outward flat normals, counter-clockwise
@@ -77,18 +82,7 @@ public:
         prim.attributes["NORMAL"] = accessor(nrm.data(), nrm.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 24);
         prim.attributes["TEXCOORD_0"] = accessor(uv.data(), uv.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, 24);
         prim.indices = accessor(idx.data(), idx.size() * 2, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_SCALAR, 36);
-        prim.material = material;
-        prim.mode = TINYGLTF_MODE_TRIANGLES;
-        tinygltf::Mesh mesh;
-        mesh.name = name;
-        mesh.primitives.push_back(prim);
-        model.meshes.push_back(mesh);
-        tinygltf::Node node;
-        node.name = name;
-        node.mesh = int(model.meshes.size()) - 1;
-        model.nodes.push_back(node);
-        model.scenes[0].nodes.push_back(int(model.nodes.size()) - 1);
-        return int(model.nodes.size()) - 1;
+        return addMeshNode(name, prim, material);
     }
 
     int addMaterial(const tinygltf::Material& m) {

@@ -181,6 +181,22 @@ Result<std::unique_ptr<OIIO::ImageInput>> openImage(const std::string& path) {
     return in;
 }
 
+// Float-coded files hold linear values (radiance in an HDR map); integer ones are display-coded.
+bool isFloatData(const OIIO::ImageSpec& spec) {
+    const auto base = spec.format.basetype;
+    return base == OIIO::TypeDesc::HALF || base == OIIO::TypeDesc::FLOAT || base == OIIO::TypeDesc::DOUBLE;
+}
+
+// Every channel of every pixel as float, row 0 at the top.
+Result<std::vector<float>> readChannels(OIIO::ImageInput& in, const std::string& path) {
+    const OIIO::ImageSpec& spec = in.spec();
+    std::vector<float> src(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
+    if (!in.read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, src.data())) {
+        return makeError(ErrorCode::IoError, "cannot read image '" + path + "': " + in.geterror());
+    }
+    return src;
+}
+
 } // namespace
 
 Status checkImageFile(const std::string& path) {
@@ -193,12 +209,10 @@ Result<ImageF> readLinearImage(const std::string& path) {
     if (!opened) return opened.error();
     auto& in = opened.value();
     const OIIO::ImageSpec spec = in->spec();
-    std::vector<float> src(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, src.data())) {
-        return makeError(ErrorCode::IoError, "cannot read image '" + path + "': " + in->geterror());
-    }
-    const bool srgb = !(spec.format.basetype == OIIO::TypeDesc::HALF || spec.format.basetype == OIIO::TypeDesc::FLOAT ||
-                        spec.format.basetype == OIIO::TypeDesc::DOUBLE);
+    auto read = readChannels(*in, path);
+    if (!read) return read.error();
+    const std::vector<float>& src = read.value();
+    const bool srgb = !isFloatData(spec);
     auto decode = [srgb](float v) {
         if (!std::isfinite(v)) return 0.f;
         if (!srgb) return std::max(v, 0.f);
@@ -228,8 +242,7 @@ Result<std::unique_ptr<OIIO::ImageInput>> openHdrImage(const std::string& path, 
     auto opened = openImage(path);
     if (!opened) return opened.error();
     const OIIO::ImageSpec& spec = opened.value()->spec();
-    const auto base = spec.format.basetype;
-    if (base != OIIO::TypeDesc::HALF && base != OIIO::TypeDesc::FLOAT && base != OIIO::TypeDesc::DOUBLE) {
+    if (!isFloatData(spec)) {
         return makeError(ErrorCode::InvalidValue, "image '" + path + "' holds " + std::string(spec.format.c_str()) +
                                                       " data, not float: an environment map must be HDR (OpenEXR or Radiance .hdr)");
     }
@@ -254,10 +267,9 @@ Result<ImageF> readHdrImage(const std::string& path, int maxWidth, int maxHeight
     auto& in = opened.value();
     const OIIO::ImageSpec spec = in->spec();
     const size_t n = size_t(spec.nchannels), texels = size_t(spec.width) * size_t(spec.height);
-    std::vector<float> src(texels * n);
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, src.data())) {
-        return makeError(ErrorCode::IoError, "cannot read image '" + path + "': " + in->geterror());
-    }
+    auto read = readChannels(*in, path);
+    if (!read) return read.error();
+    const std::vector<float>& src = read.value();
     ImageF img;
     img.width = spec.width;
     img.height = spec.height;
