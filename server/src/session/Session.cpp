@@ -3,6 +3,7 @@
 #include <dfb/core/Check.h>
 #include <dfb/server/AreaPattern.h>
 #include <dfb/server/BendyChain.h>
+#include <dfb/server/FinalRender.h>
 #include <dfb/server/ImageCodec.h>
 
 #include <cstdio>
@@ -53,24 +54,11 @@ bool overlaps(const std::string& a, const std::string& b) {
 Session::Session(std::string id, const DeepBuffer& shot, std::string shotPath, Rig rig) : mId(std::move(id)), mRig(std::move(rig)) {
     updateWarnings(mRig);
     mLimits.imagePixels = uint64_t(shot.width) * uint64_t(shot.height);
-    auto mat = [](const glm::mat4& m) {
-        json a = json::array();
-        for (int c = 0; c < 4; ++c)
-            for (int r = 0; r < 4; ++r) a.push_back(m[c][r]);
-        return a; // column-major, as glm and WebGL store matrices
-    };
     mDescription = {{"shot", shotPath},
                     {"source", shot.sourcePath},
                     {"width", shot.width},
                     {"height", shot.height},
-                    {"camera",
-                     {{"name", shot.camera.name},
-                      {"yfov", shot.camera.yfovRadians},
-                      {"aspect", shot.camera.aspect},
-                      {"near", shot.camera.znear},
-                      {"far", shot.camera.zfar},
-                      {"worldToCamera", mat(shot.camera.worldToCamera)},
-                      {"worldToNDC", mat(shot.camera.worldToNDC)}}},
+                    {"camera", cameraJson(shot.camera)},
                     {"objects", shot.objectNames}};
 }
 
