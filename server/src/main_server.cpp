@@ -184,6 +184,11 @@ int main(int argc, char** argv) {
     app.add_option("--metrics-session-names", serverLimits.metricsSessionNames,
                    "label /metrics series with session names (false: sums without names)")
         ->capture_default_str();
+    dfb::net::FinalRenderLimits finalLimits;
+    int finalTimeout = int(finalLimits.timeLimit.count());
+    app.add_option("--final-timeout", finalTimeout, "seconds a Cycles final render (POST .../final) may run before it is stopped")
+        ->check(CLI::Range(1, 86400));
+    app.add_option("--blender", finalLimits.blender, "the Blender executable final renders run (a name is searched in PATH)");
     size_t snapshotEvery = dfb::Session::SNAPSHOT_EVERY;
     app.add_option("--snapshot-every", snapshotEvery, "journaled changes between two snapshots of a session's state (then the "
                                                       "journal is compacted)")
@@ -345,6 +350,8 @@ int main(int argc, char** argv) {
         banner.push_back(line);
         render.value()->setRefinement(std::chrono::milliseconds(refineMs), std::chrono::milliseconds(150));
         hub->setRender(std::move(render.value()));
+        finalLimits.timeLimit = std::chrono::seconds(finalTimeout);
+        hub->finals().setLimits(finalLimits);
         hub->render().requestFrame();
         hub->startHousekeeping();
         state->addSession(hub);

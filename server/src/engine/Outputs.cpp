@@ -22,6 +22,20 @@ float srgbEncode(float c) {
     return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.f / 2.4f) - 0.055f;
 }
 
+// An 8-bit image of `f` with `encode` per colour channel, alpha 255.
+template <class Encode>
+Image8 toImage8(const ImageF& f, Encode encode) {
+    Image8 img;
+    img.width = f.width;
+    img.height = f.height;
+    img.rgba.resize(f.rgba.size());
+    for (size_t i = 0; i < f.rgba.size(); i += 4) {
+        for (size_t c = 0; c < 3; ++c) img.rgba[i + c] = uint8_t(std::lround(encode(f.rgba[i + c]) * 255.f));
+        img.rgba[i + 3] = 255;
+    }
+    return img;
+}
+
 struct Parsed {
     std::string kind; // beauty, light, shadow, layer
     std::string name;
@@ -118,21 +132,13 @@ Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const 
         for (size_t i = 3; i < f.rgba.size(); i += 4) f.rgba[i] = 1.f;
     }
     if (exr) return encodeFloat({{"", std::move(f)}});
-    Image8 img;
-    img.width = f.width;
-    img.height = f.height;
-    img.rgba.resize(f.rgba.size());
-    for (size_t i = 0; i < f.rgba.size(); i += 4) {
-        for (int c = 0; c < 3; ++c) {
-            const float x = f.rgba[i + size_t(c)];
-            const float v = kind == "shadow" ? std::clamp(x, 0.f, 1.f)
-                            : rig.viewTransform == ViewTransform::Filmic ? srgbEncode(filmic(x))
-                                                                         : srgbEncode(x);
-            img.rgba[i + size_t(c)] = uint8_t(std::lround(v * 255.f));
-        }
-        img.rgba[i + 3] = 255;
-    }
-    return encode8(img, request);
+    if (kind == "shadow") return encode8(toImage8(f, [](float x) { return std::clamp(x, 0.f, 1.f); }), request);
+    return encode8(displayImage(f, rig.viewTransform), request);
+}
+
+Image8 displayImage(const ImageF& image, ViewTransform viewTransform) {
+    if (viewTransform == ViewTransform::Filmic) return toImage8(image, [](float x) { return srgbEncode(filmic(x)); });
+    return toImage8(image, srgbEncode);
 }
 
 } // namespace dfb

@@ -7,6 +7,8 @@
 #include <dfb/protocol/Schema.h>
 #include <dfb/server/Drag.h>
 #include <dfb/server/GltfExport.h>
+#include <dfb/server/ImageCodec.h>
+#include <dfb/server/Outputs.h>
 
 #include <cctype>
 #include <cstdlib>
@@ -545,6 +547,53 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
             asio::post(self->mStream.get_executor(), [self, res = std::move(res)]() mutable { self->send(std::move(res)); });
         });
         return;
+    }
+    if (resource == "final") {
+        // Cycles final renders (net/FinalRenders.h; docs/protocol.md "Final render"): the state
+        // for anyone, start (POST) and cancel (DELETE) for editors.
+        FinalRenders& finals = hub->finals();
+        if (get) return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(finals.status(), 2)));
+        if (!post && req.method() != http::verb::delete_) return notAllowed("GET, HEAD, POST, DELETE");
+        if (!editorOnly()) return;
+        Result<json> out = makeError(ErrorCode::Protocol, "");
+        if (post) {
+            auto in = req.body().empty() ? Result<EditorBody>(EditorBody{std::nullopt, json::object()})
+                                         : editorBody(req, "POST final", "{\"samples\", \"directOnly\"}");
+            if (!in) return refuse(in.error());
+            FinalRenderOptions o;
+            for (auto it = in->body.begin(); it != in->body.end(); ++it) {
+                if (it.key() == "samples" && it->is_number_integer() && it->get<int64_t>() >= 1 && it->get<int64_t>() <= (1 << 20)) {
+                    o.samples = int(it->get<int64_t>());
+                } else if (it.key() == "directOnly" && it->is_boolean()) {
+                    o.directOnly = it->get<bool>();
+                } else {
+                    return refuse(makeError(ErrorCode::Protocol, "POST final: '" + it.key().substr(0, 64) +
+                                                                     "' is not a field (samples: an integer, directOnly: a boolean)"));
+                }
+            }
+            out = finals.start(session.rig(), o, session.assetDirectory());
+        } else {
+            out = finals.cancel();
+        }
+        // A render of another version running, nothing to cancel: 409 (not If-Match's 412).
+        const bool busy = out ? false : out.error().code == ErrorCode::Conflict || out.error().code == ErrorCode::MissingData;
+        if (!out) return refuse(out.error(), busy ? std::optional(http::status::conflict) : std::nullopt);
+        return send(makeResponse(req, post ? http::status::accepted : http::status::ok, "application/json", protocol::dump(out.value(), 2)));
+    }
+    if (resource == "final.exr" || resource == "final.png") {
+        if (!get) return notAllowed("GET, HEAD");
+        auto image = hub->finals().image();
+        if (!image) {
+            return refuse(makeError(ErrorCode::MissingData, "session '" + hub->id() + "' has no finished final render (POST .../final)"),
+                          http::status::conflict);
+        }
+        const bool exr = resource == "final.exr";
+        auto bytes = exr ? encodeExr({{"", *image}}) : encodePng(displayImage(*image, hub->finals().imageRig().viewTransform));
+        if (!bytes) return refuse(bytes.error(), http::status::internal_server_error);
+        auto res = makeResponse(req, http::status::ok, exr ? "image/x-exr" : "image/png",
+                                std::string(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
+        res.set(http::field::etag, etag(hub->finals().imageRig().version));
+        return send(std::move(res));
     }
     if (resource == "pick") {
         if (!get) return notAllowed("GET, HEAD");

@@ -5,6 +5,7 @@
 // I/O thread only, except onNewImage (any thread).
 
 #include "net/Beast.h"
+#include "net/FinalRenders.h"
 #include "session/Metrics.h"
 #include "session/RenderService.h"
 #include "session/Session.h"
@@ -41,7 +42,9 @@ public:
     SessionHub(asio::io_context& ioc, Metrics& metrics, std::unique_ptr<DeepBuffer> shot, std::unique_ptr<Session> session,
                SessionTokens tokens)
         : mIoc(ioc), mMetrics(metrics), mShot(std::move(shot)), mSession(std::move(session)), mTokens(std::move(tokens)),
-          mHousekeeping(ioc) {}
+          mHousekeeping(ioc) {
+        makeFinalRenders();
+    }
 
     /// Starts the periodic work of the session on the I/O thread (rig.json after a burst of
     /// changes, Session::flushSavedRig).
@@ -52,6 +55,10 @@ public:
     const DeepBuffer& shot() const { return *mShot; }
     RenderService& render() { return *mRender; }
     void setRender(std::unique_ptr<RenderService> render) { mRender = std::move(render); }
+    /// The session's Cycles final renders (net/FinalRenders.h).
+    FinalRenders& finals() { return *mFinals; }
+    /// Sends one text message to every client.
+    void broadcastText(std::shared_ptr<const std::string> message);
     Metrics& metrics() { return mMetrics; }
     const SessionTokens& tokens() const { return mTokens; }
     /// The role `token` opens in this session, or nothing (compared in constant time).
@@ -72,6 +79,8 @@ public:
     void onNewImage(uint64_t imageSerial);
 
 private:
+    void makeFinalRenders();
+
     asio::io_context& mIoc;
     Metrics& mMetrics;
     std::unique_ptr<DeepBuffer> mShot;
@@ -80,6 +89,7 @@ private:
     SessionTokens mTokens;
     std::set<WebSocketSession*> mClients;
     asio::steady_timer mHousekeeping;
+    std::unique_ptr<FinalRenders> mFinals;
 };
 
 } // namespace dfb::net

@@ -2,6 +2,8 @@
 
 #include "net/WebSocketSession.h"
 
+#include <dfb/server/GltfExport.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -121,6 +123,27 @@ void SessionHub::published(const ChangeOutcome& outcome, const WebSocketSession*
         if (auto s = w.lock()) s->changeAvailable(change);
     }
     mRender->requestFrame();
+}
+
+void SessionHub::broadcastText(std::shared_ptr<const std::string> message) {
+    std::vector<std::weak_ptr<WebSocketSession>> targets;
+    for (WebSocketSession* c : mClients) targets.push_back(c->weak_from_this());
+    for (auto& w : targets) {
+        if (auto s = w.lock()) s->sendText(message);
+    }
+}
+
+void SessionHub::makeFinalRenders() {
+    // The hub outlives its final renders (it owns them): `this` in the callbacks stays valid.
+    auto exporter = [this](const Rig& rig, std::function<void(Result<std::string>)> done) {
+        const std::string scene = mSession->scenePath();
+        mRender->requestPickerJob([scene, rig, done = std::move(done)](const Picker&, const DeepBuffer&) {
+            done(scene.empty() ? Result<std::string>(makeError(ErrorCode::FileNotFound, "the session has no scene file"))
+                               : exportGltf(scene, rig));
+        });
+    };
+    auto notify = [this](const nlohmann::json& message) { broadcastText(std::make_shared<const std::string>(message.dump())); };
+    mFinals = std::make_unique<FinalRenders>(mIoc, *mShot, exporter, notify);
 }
 
 void SessionHub::broadcastPresence() {

@@ -57,4 +57,9 @@ constexpr int ENV_REFERENCE_OUTPUT_RAYS = 64;
 Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request,
                                   const ReferenceScene& reference = {});
 
+/// The 8-bit display image of a linear one (exposure already applied): `viewTransform` (sRGB, or
+/// the filmic curve of composite_tonemap.frag, then sRGB), alpha 255. The encodings of
+/// renderOutput and of final renders (GET .../final.png).
+Image8 displayImage(const ImageF& image, ViewTransform viewTransform);
+
 } // namespace dfb
