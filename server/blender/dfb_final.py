@@ -11,24 +11,15 @@ import os
 import sys
 
 import bpy
-import numpy
 from mathutils import Matrix, Vector
 
-# Debian's Blender 3.4 glTF importer still spells numpy's bool `np.bool`, an alias NumPy 1.24
-# (Debian 12's) removed: give it back so that the stock importer runs unchanged.
-if not hasattr(numpy, "bool"):
-    numpy.bool = bool
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from dfb_blender import fail, import_gltf  # noqa: E402 (beside this script, not on Blender's path)
 
 MAX_SIZE = 8192
 MAX_SAMPLES = 65536
 # glTF is Y-up, Blender Z-up; the importer maps glTF (x, y, z) to Blender (x, -z, y).
 GLTF_TO_BLENDER = Matrix(((1, 0, 0, 0), (0, 0, -1, 0), (0, 1, 0, 0), (0, 0, 0, 1)))
-
-
-def fail(message):
-    print("DFB_ERROR " + message, flush=True)
-    # sys.exit inside `blender -b --python` is caught by Blender, which then exits 0.
-    os._exit(1)
 
 
 def note(message):
@@ -126,6 +117,17 @@ def area(name, light):
         note("light %s: its pattern is not rendered" % name)
 
 
+# Rig type -> (conversion, what it stands in for: None when exact).
+CONVERSIONS = {
+    "spot": (spot, None),
+    "bendy": (spot, "a BendyLight, rendered as its unbent spot"),
+    "point": (point, None),
+    "directional": (sun, None),
+    "area": (area, None),
+    "bentArea": (area, "a bent area light, rendered as its unbent panel"),
+}
+
+
 def environment(lights, assets, nodes, links, world_out):
     # Every environment adds: one Background per light, summed by Add Shader nodes.
     shader = None
@@ -213,13 +215,7 @@ def main():
     if not isinstance(job.get("camera"), dict) or not isinstance(job.get("rig"), dict):
         fail("job fields 'camera' and 'rig': expected objects")
 
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    try:
-        result = bpy.ops.import_scene.gltf(filepath=job["scene"])
-    except Exception as e:  # RuntimeError from the operator, ImportError without numpy
-        fail("cannot import the scene: %s" % e)
-    if "FINISHED" not in result:
-        fail("cannot import the scene (%s)" % result)
+    import_gltf(job["scene"])
     # The file's lights are the rig's as KHR_lights_punctual stand-ins: the rig below is exact.
     for obj in [o for o in bpy.data.objects if o.type in ("LIGHT", "CAMERA")]:
         bpy.data.objects.remove(obj)
@@ -233,22 +229,13 @@ def main():
             continue
         if light.get("include") or light.get("exclude"):
             note("light %s: light linking is not rendered (Blender 3.4 has none): it lights everything" % name)
-        if kind == "spot":
-            spot(name, light)
-        elif kind == "bendy":
-            note("light %s: a BendyLight, rendered as its unbent spot" % name)
-            spot(name, light)
-        elif kind == "point":
-            point(name, light)
-        elif kind == "directional":
-            sun(name, light)
-        elif kind == "area":
-            area(name, light)
-        elif kind == "bentArea":
-            note("light %s: a bent area light, rendered as its unbent panel" % name)
-            area(name, light)
-        elif kind == "environment":
+        if kind == "environment":
             envs.append(light)
+        elif kind in CONVERSIONS:
+            convert, stand_in = CONVERSIONS[kind]
+            if stand_in:
+                note("light %s: %s" % (name, stand_in))
+            convert(name, light)
         else:
             note("light %s: type %s is not rendered" % (name, kind))
 

@@ -8,19 +8,9 @@ import os
 import sys
 
 import bpy
-import numpy
 
-# Debian's Blender 3.4 importer still spells numpy's bool `np.bool`, an alias NumPy 1.24 (Debian 12's)
-# removed: give it back so that the stock importer runs unchanged.
-if not hasattr(numpy, "bool"):
-    numpy.bool = bool
-
-
-def fail(message):
-    print("DFB_ERROR " + message, flush=True)
-    # sys.exit inside `blender -b --python` is caught by Blender, which then exits 0; os._exit
-    # gives the shell the status.
-    os._exit(1)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from dfb_blender import fail, import_gltf  # noqa: E402 (beside this script, not on Blender's path)
 
 
 def to_gltf(v):
@@ -33,14 +23,7 @@ def main():
     if len(argv) != 2:
         fail("usage: blender -b --python dfb_inspect_gltf.py -- FILE.glb OUT.json")
     source, out = argv
-    # Start empty: the factory scene's cube, camera and light would count as imported.
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    try:
-        result = bpy.ops.import_scene.gltf(filepath=source)  # default options: lighting mode 'SPEC'
-    except Exception as e:  # the importer raises RuntimeError, or ImportError without numpy
-        fail("%s: the glTF importer failed: %s" % (source, e))
-    if "FINISHED" not in result:
-        fail("%s: the glTF importer did not finish (%s)" % (source, result))
+    import_gltf(source)
     lights = []
     for obj in bpy.data.objects:
         if obj.type != "LIGHT":

@@ -1,6 +1,7 @@
 #include "net/FinalRenders.h"
 
 #include <dfb/server/ImageCodec.h>
+#include <dfb/server/Outputs.h>
 
 #include <boost/process.hpp>
 #include <boost/process/extend.hpp>
@@ -98,6 +99,8 @@ Result<nlohmann::json> FinalRenders::start(const Rig& rig, const FinalRenderOpti
     mError.clear();
     mLastLines.clear();
     mImage.reset();
+    mExr.reset();
+    mPng.reset();
     mStarted = std::chrono::steady_clock::now();
     const uint64_t generation = mGeneration;
     mExporter(rig, [this, generation](Result<std::string> glb) {
@@ -195,6 +198,17 @@ void FinalRenders::readLine() {
                                }
                                readLine();
                            });
+}
+
+Result<std::shared_ptr<const std::string>> FinalRenders::encoded(bool exr) {
+    if (mState != State::Done || !mImage) return std::shared_ptr<const std::string>();
+    std::shared_ptr<const std::string>& cached = exr ? mExr : mPng;
+    if (!cached) {
+        auto bytes = exr ? encodeExr({{"", *mImage}}) : encodePng(displayImage(*mImage, mRig.viewTransform));
+        if (!bytes) return bytes.error();
+        cached = std::make_shared<const std::string>(bytes->begin(), bytes->end());
+    }
+    return cached;
 }
 
 Result<nlohmann::json> FinalRenders::cancel() {

@@ -52,10 +52,11 @@ public:
     Result<nlohmann::json> cancel();
     /// The state as the `final` message has it.
     nlohmann::json status() const;
-    /// The finished image (linear, times the rig's exposure: as the beauty's EXR) and the rig it
-    /// rendered; null when none is done.
-    std::shared_ptr<const ImageF> image() const { return mState == State::Done ? mImage : nullptr; }
-    const Rig& imageRig() const { return mRig; }
+    /// The finished image encoded as EXR (linear, times the rig's exposure: as the beauty's EXR)
+    /// or PNG (the rig's view transform), encoded once per render; null when none is done.
+    Result<std::shared_ptr<const std::string>> encoded(bool exr);
+    /// The rig version of the finished image.
+    uint64_t imageVersion() const { return mRig.version; }
 
 private:
     struct Child;
@@ -82,6 +83,7 @@ private:
     std::chrono::steady_clock::time_point mStarted;
     double mSeconds = 0;
     std::shared_ptr<const ImageF> mImage;
+    std::shared_ptr<const std::string> mExr, mPng; ///< mImage encoded, when asked for
     std::unique_ptr<Child> mChild;
 };
 

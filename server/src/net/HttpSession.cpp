@@ -7,8 +7,6 @@
 #include <dfb/protocol/Schema.h>
 #include <dfb/server/Drag.h>
 #include <dfb/server/GltfExport.h>
-#include <dfb/server/ImageCodec.h>
-#include <dfb/server/Outputs.h>
 
 #include <cctype>
 #include <cstdlib>
@@ -582,17 +580,15 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
     }
     if (resource == "final.exr" || resource == "final.png") {
         if (!get) return notAllowed("GET, HEAD");
-        auto image = hub->finals().image();
-        if (!image) {
+        const bool exr = resource == "final.exr";
+        auto bytes = hub->finals().encoded(exr);
+        if (!bytes) return refuse(bytes.error(), http::status::internal_server_error);
+        if (!bytes.value()) {
             return refuse(makeError(ErrorCode::MissingData, "session '" + hub->id() + "' has no finished final render (POST .../final)"),
                           http::status::conflict);
         }
-        const bool exr = resource == "final.exr";
-        auto bytes = exr ? encodeExr({{"", *image}}) : encodePng(displayImage(*image, hub->finals().imageRig().viewTransform));
-        if (!bytes) return refuse(bytes.error(), http::status::internal_server_error);
-        auto res = makeResponse(req, http::status::ok, exr ? "image/x-exr" : "image/png",
-                                std::string(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
-        res.set(http::field::etag, etag(hub->finals().imageRig().version));
+        auto res = makeResponse(req, http::status::ok, exr ? "image/x-exr" : "image/png", *bytes.value());
+        res.set(http::field::etag, etag(hub->finals().imageVersion()));
         return send(std::move(res));
     }
     if (resource == "pick") {
