@@ -1,7 +1,7 @@
 // dfb-client: command-line client of dfb-server (protocol v1, docs/protocol.md).
 //
-//   dfb-client sessions | info | rig get|put | set | apply | frame | export | watch | pick | drag | undo | redo | bench |
-//              properties
+//   dfb-client sessions | info | rig get|put | set | apply | frame | export | final | watch | pick | drag | undo | redo |
+//              bench | properties
 //
 // Every subcommand takes --server URL (the links dfb-server prints carry the session and the
 // token), --session ID, --token T and --timeout S; DFB_SERVER, DFB_SESSION and DFB_TOKEN are the
@@ -119,6 +119,71 @@ void printProperties(bool asJson) {
     }
 }
 
+// ---- final -----------------------------------------------------------------------------------
+// POST .../final, then the `final` messages of the session's WebSocket until the render ends
+// (docs/protocol.md "Final render"). The socket is greeted before the POST so that no message of
+// this render is missed; a render of the same rig version already done answers at once.
+int finalRender(Client& cl, const std::string& out, int samples, bool directOnly) {
+    const std::string ext = std::filesystem::path(out).extension().string();
+    if (ext != ".exr" && ext != ".png") die(EXIT_USAGE, "final: " + out + ": the file must end in .exr or .png");
+    json welcome;
+    auto conn = cl.connect(&welcome);
+    auto post = cl.request("POST", cl.base() + "/final", json{{"samples", samples}, {"directOnly", directOnly}}.dump());
+    auto parsed = protocol::parseJson(post.body, protocol::MAX_TEXT_MESSAGE_BYTES, "POST final");
+    json state = parsed ? std::move(parsed.value()) : json();
+    if (!state.is_object()) die(EXIT_BROKEN, "POST final: unreadable answer");
+    const uint64_t version = state.value("rigVersion", uint64_t(0));
+    std::cerr << "final render of rig version " << version << ", " << samples << " samples" << (directOnly ? ", direct light only" : "")
+              << std::endl;
+    std::string lastLine;
+    auto report = [&](const json& m) {
+        const std::string st = m.value("state", "");
+        std::string line = "final: " + st;
+        if (m.contains("samples") && m["samples"].is_array() && m["samples"].size() == 2) {
+            char buf[96];
+            std::snprintf(buf, sizeof buf, " %d/%d samples (%.0f %%)", m["samples"][0].get<int>(), m["samples"][1].get<int>(),
+                          m.value("percent", 0.0));
+            line += buf;
+        }
+        if (line != lastLine) std::cerr << line << std::endl;
+        lastLine = line;
+    };
+    for (const json& n : state.value("notes", json::array())) std::cerr << "note: " << n.get<std::string>() << "\n";
+    bool notesShown = state.contains("notes");
+    while (state.value("state", "") == "exporting" || state.value("state", "") == "running") {
+        report(state);
+        auto m = conn->receive(cl.timeout());
+        if (!m) {
+            // Quiet for a whole --timeout (a long export or a slow sample): ask for the state
+            // instead of giving up; the server ends the render at its --final-timeout.
+            auto s = protocol::parseJson(cl.request("GET", cl.base() + "/final").body, protocol::MAX_TEXT_MESSAGE_BYTES, "GET final");
+            if (!s || !s.value().is_object()) die(EXIT_BROKEN, "GET final: unreadable answer");
+            state = std::move(s.value());
+            continue;
+        }
+        auto* t = std::get_if<client::TextMessage>(&m.value());
+        if (!t || t->json.value("type", "") != "final" || t->json.value("rigVersion", uint64_t(0)) != version) continue;
+        state = t->json;
+        if (!notesShown && state.contains("notes")) {
+            for (const json& n : state["notes"]) std::cerr << "note: " << n.get<std::string>() << "\n";
+            notesShown = true;
+        }
+    }
+    conn->close();
+    const std::string st = state.value("state", "");
+    if (st == "failed") die(EXIT_REFUSED, "the final render failed: " + state.value("error", std::string("(no reason given)")));
+    if (st != "done") die(EXIT_REFUSED, "the final render ended as '" + st + "'" + (st == "cancelled" ? " (DELETE .../final)" : ""));
+    report(state);
+    auto r = cl.request("GET", cl.base() + "/final" + ext);
+    if (r.etag != "\"" + std::to_string(version) + "\"") {
+        die(EXIT_REFUSED, "the session's kept final render is now of another rig version (ETag " + r.etag + "): run final again");
+    }
+    writeFile(out, r.body.data(), r.body.size());
+    std::printf("saved %s (rig version %llu, %.1f s in Cycles)\n", out.c_str(), static_cast<unsigned long long>(version),
+                state.value("seconds", 0.0));
+    return EXIT_OK;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -175,6 +240,16 @@ int main(int argc, char** argv) {
                                                  "every light exact in extras.dfb_light)");
     std::string exportOut;
     cExport->add_option("file", exportOut, "output file (.glb)")->required();
+    auto* cFinal = app.add_subcommand("final", "render the shot with the current rig in Cycles on the server (Blender) and save it; "
+                                               "progress on stderr (editor; --status and --cancel any role / editor)");
+    std::string finalOut;
+    int finalSamples = 64;
+    bool finalDirect = false, finalStatus = false, finalCancel = false;
+    cFinal->add_option("file", finalOut, "where to save the render: .exr (linear, the rig's exposure) or .png (the rig's view transform)");
+    cFinal->add_option("--samples", finalSamples, "Cycles samples per pixel")->check(CLI::Range(1, 4096));
+    cFinal->add_flag("--direct-only", finalDirect, "direct light only (no bounces), as the preview computes it");
+    auto* finalStatusFlag = cFinal->add_flag("--status", finalStatus, "print the session's final-render state (JSON) and exit");
+    cFinal->add_flag("--cancel", finalCancel, "cancel the session's running final render")->excludes(finalStatusFlag);
     auto* cWatch = app.add_subcommand("watch", "receive streamed frames and changes; count or save them");
     int watchCount = 0;
     double watchSeconds = 0;
@@ -270,6 +345,15 @@ int main(int argc, char** argv) {
             std::string version = r.etag; // "V"
             version.erase(std::remove(version.begin(), version.end(), '"'), version.end());
             std::cout << "saved " << exportOut << " (" << r.body.size() << " bytes, rig version " << version << ")" << std::endl;
+        } else if (cFinal->parsed()) {
+            if (finalStatus) {
+                std::cout << cl.request("GET", cl.base() + "/final").body << std::endl;
+            } else if (finalCancel) {
+                std::cout << cl.request("DELETE", cl.base() + "/final").body << std::endl;
+            } else {
+                if (finalOut.empty()) die(EXIT_USAGE, "final: give the file to save the render in (.exr or .png), or --status / --cancel");
+                return finalRender(cl, finalOut, finalSamples, finalDirect);
+            }
         } else if (cWatch->parsed()) {
             json welcome;
             auto conn = cl.connect(&welcome);

@@ -6,6 +6,7 @@ import { Cam } from "./camera.js";
 import { $, showMessage } from "./dom.js";
 import { flushLive, sendView, applyChange } from "./edits.js";
 import { endDrag } from "./drag.js";
+import { onFinal, onLiveFrame, refreshFinal } from "./final.js";
 import { abortIndirect, setDragModes } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { refreshUi, renderLights, renderView, setRig, updateEditable } from "./panels.js";
@@ -81,6 +82,7 @@ function onText(msg) {
   case "error": return onError(msg);
   case "presence": S.clients = msg.clients; renderClients(); renderLights(); scheduleOverlay(); return;
   case "pick": return onPick(msg);
+  case "final": return onFinal(msg);
   default: return; // newer servers may add message types: ignore what we do not know
   }
 }
@@ -109,6 +111,7 @@ function onWelcome(msg) {
   if (S.viewChanged && msg.view.output !== S.view.output && (S.view.output === "beauty" || findLight(S.view.output.split(":")[1]) || S.view.output.startsWith("layer:"))) view.output = S.view.output;
   if (S.viewChanged && msg.view.exposure !== S.view.exposure) view.exposure = S.view.exposure;
   if (S.viewChanged && msg.view.viewTransform !== S.view.viewTransform) view.viewTransform = S.view.viewTransform;
+  if (S.viewChanged && (msg.view.background ?? false) !== (S.view.background ?? false)) view.background = S.view.background;
   if (Object.keys(view).length) sendView(view);
   else S.view = { ...S.view, ...msg.view };
   S.shownOutput = msg.view.output;
@@ -117,6 +120,7 @@ function onWelcome(msg) {
   renderShare();
   updateEditable();
   refreshHistory();
+  refreshFinal();
 }
 
 /** A new sequence number for a message, remembered until its ack or error. */
@@ -199,6 +203,7 @@ function onFrame(buf) {
     S.objectUrl = url;
     img.dataset.rigVersion = rigVersion;
     img.dataset.output = output;
+    onLiveFrame();
   };
   img.src = url;
   if (w !== S.frameSize[0] || h !== S.frameSize[1]) { S.frameSize = [w, h]; img.width = w; img.height = h; }

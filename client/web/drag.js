@@ -9,8 +9,9 @@ import { Cam } from "./camera.js";
 import { scheduleRefetch } from "./connection.js";
 import { $ } from "./dom.js";
 import { beginGesture, endGesture, setLightProp, setPresence } from "./edits.js";
+import { dragSigns, draggedRotation } from "./envgizmo.js";
 import { V } from "./linalg.js";
-import { handlesOf } from "./overlay.js";
+import { envGizmoOf, handlesOf } from "./overlay.js";
 import { lightFrame, rangeOf, worldToFrame } from "./rig.js";
 import { S, evaluated, findLight } from "./state.js";
 import { eventToImage } from "./viewport.js";
@@ -30,6 +31,18 @@ export function startDrag(e, handle, index) {
   const raw = findLight(S.selected);
   if (!raw) return;
   const l = evaluated(raw);
+  if (handle === "envRotation") {
+    // An environment light's map turns under its gizmo's centre handle (envgizmo.js).
+    const g = envGizmoOf(l.name);
+    if (!g) return;
+    const rotation0 = (l.rotation ?? [0, 0, 0]).slice();
+    S.drag = { handle, index, name: l.name, env: { g, rotation0, signs: dragSigns(Cam, rotation0), x0: e.clientX, y0: e.clientY },
+               pointerId: e.pointerId, moved: false };
+    $("overlay").setPointerCapture?.(e.pointerId);
+    beginGesture();
+    setPresence(`${l.name}.rotation`);
+    return;
+  }
   const h = handlesOf(l);
   const areaProp = h.area ? AREA_HANDLES[handle] : undefined;
   const world = handle === "position" ? h.position : handle === "axis" ? h.axis : areaProp ? h.area.handles[handle]
@@ -89,6 +102,12 @@ export function moveDrag(e) {
   const raw = findLight(d.name);
   if (!raw) return endDrag(null);
   const l = evaluated(raw);
+  if (d.env) {
+    d.moved = true;
+    const { g, rotation0, signs, x0, y0 } = d.env;
+    setLightProp(d.name, "rotation", draggedRotation(rotation0, e.clientX - x0, e.clientY - y0, g.r, signs), { live: true });
+    return;
+  }
   if (d.area) return moveAreaHandle(e, d, l);
   const f = lightFrame(l);
   let world;

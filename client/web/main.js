@@ -6,6 +6,7 @@
 import { connect, loadSchema, renderStats, send } from "./connection.js";
 import { $, showMessage } from "./dom.js";
 import { addLight, canEdit, deleteLight, duplicateLight, redo, undo } from "./edits.js";
+import { initFinal } from "./final.js";
 import { cancelIndirect, dragModeKey, setDragMode } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { initPanels } from "./panels.js";
@@ -18,6 +19,7 @@ initPanels();
 initViewport();
 initTimeline();
 initPresence();
+initFinal();
 setInterval(renderStats, 500);
 
 $("keysHelp").onclick = () => showMessage($("keysHelp").title, "info");
@@ -43,6 +45,7 @@ document.addEventListener("keydown", (e) => {
   case "+": case "=": return zoomAt(S.zoom * 1.25, ...vpCenter());
   case "-": return zoomAt(S.zoom / 1.25, ...vpCenter());
   case "h": case "H": return $("handlesToggle").click();
+  case "b": case "B": return $("backdropToggle").click();
   case "k": return canEdit() && setKey();
   case "K": return canEdit() && deleteKey();
   case ",": return stepKey(-1);

@@ -5,6 +5,7 @@
 import { areaFrame, areaHandles, areaOutline, cornerChains } from "./area.js";
 import { Cam } from "./camera.js";
 import { $, SVGNS, svg } from "./dom.js";
+import { centreHandle, gizmoCurves, gizmoPlace } from "./envgizmo.js";
 import { pointsSelectable, selectedPoints } from "./indirect.js";
 import { V, bezier } from "./linalg.js";
 import { selectLight } from "./panels.js";
@@ -145,6 +146,53 @@ function drawAreaHandles(l, area, color, g) {
     titled(el, `roll = ${Number(l.roll ?? 0).toFixed(1)}°: drag around the centre to turn the light about its normal`);
   }
 }
+/** The gizmo of the k-th environment light of the rig (envgizmo.js), or null for another light. */
+export function envGizmoOf(name) {
+  const envs = (S.rig?.lights ?? []).filter((l) => l.type === "environment");
+  const k = envs.findIndex((l) => l.name === name);
+  return k < 0 ? null : gizmoPlace(k, $("viewport").clientWidth);
+}
+
+// Environment lights: a small sphere each in the top-right corner (envgizmo.js) with the map's
+// equator, centre meridian and top pole as the camera sees them; the selected one has the
+// rotation handle at the map's centre. Others select on a click.
+function drawEnvGizmo(l, color, selected, others, root) {
+  const g = envGizmoOf(l.name);
+  const rotation = l.rotation ?? [0, 0, 0];
+  const el = svg("g", { class: selected ? "env-gizmo" : "env-gizmo pickable", "data-env-gizmo": l.name, opacity: l.enabled ? 1 : 0.5,
+                         ...(selected ? { "data-light": l.name } : { "data-select": l.name }) }, root);
+  svg("circle", { cx: g.cx, cy: g.cy, r: g.r, fill: "rgba(20,20,24,0.55)", stroke: color, "stroke-width": selected ? 2 : 1.25 }, el);
+  const c = gizmoCurves(g, Cam, rotation);
+  // Each curve in runs of the same side: solid in front, dashed behind.
+  for (const curve of [c.equator, c.meridian]) {
+    let run = [curve[0]];
+    const flush = () => {
+      if (run.length > 1) {
+        svg("polyline", { points: run.map((p) => `${p.x},${p.y}`).join(" "), fill: "none", stroke: color, "stroke-width": 1,
+                          opacity: run[0].front ? 0.9 : 0.35, ...(run[0].front ? {} : { "stroke-dasharray": "2 2" }) }, el);
+      }
+    };
+    for (let i = 1; i < curve.length; i++) {
+      run.push(curve[i]);
+      if (curve[i].front !== run[0].front) { flush(); run = [curve[i]]; }
+    }
+    flush();
+  }
+  svg("circle", { cx: c.top.x, cy: c.top.y, r: 2.5, fill: color, opacity: c.top.front ? 1 : 0.4, class: "env-top" }, el);
+  svg("text", { x: g.cx - g.r, y: g.cy + g.r + 13, fill: color, ...(selected ? { "font-weight": "bold" } : {}) }, el).textContent =
+    l.name + (others.length ? ` (${others.map((o) => o.name).join(", ")})` : "");
+  const h = centreHandle(g, Cam, rotation);
+  if (!selected) {
+    el.addEventListener("pointerdown", (e) => { e.stopPropagation(); selectLight(l.name); });
+    return;
+  }
+  const hc = svg("circle", { cx: h.x, cy: h.y, r: 6, fill: h.front ? color : "#222", stroke: h.front ? "#000" : color, "stroke-width": 1.5,
+                             class: "handle", "data-handle": "envRotation" }, el);
+  const fmt = (v) => Number(v ?? 0).toFixed(1);
+  hc.append(Object.assign(document.createElementNS(SVGNS, "title"), {
+    textContent: `rotation = [${rotation.map(fmt).join(", ")}]: the map's centre; drag to turn the map (left/right: yaw, up/down: pitch)` }));
+}
+
 // The projected radius of a sphere of radius r at p: a circle around the handle.
 function radiusHandlePoint(p, r) { return V.add(p, V.scale(Cam.right, r)); }
 
@@ -169,7 +217,7 @@ function drawOverlay() {
   const lights = [...S.rig.lights].sort((p, q) => (p.name === S.selected) - (q.name === S.selected));
   const sel = findLight(S.selected);
   let selectedLabelY = null;
-  if (sel) {
+  if (sel && sel.type !== "environment") {
     const sp = toScreen(Cam.project(evaluated(sel).position));
     selectedLabelY = labelY(sp.x + 10, sp.y + 4);
   }
@@ -178,6 +226,7 @@ function drawOverlay() {
     const selected = l.name === S.selected;
     const others = editorsOf(l.name);
     const color = others.length ? clientColor(others[0].id) : selected ? "#f0b34a" : "#ccc";
+    if (l.type === "environment") { drawEnvGizmo(l, color, selected, others, root); continue; }
     const h = handlesOf(l);
     const P = Cam.project(h.position);
     const ps = toScreen(P);

@@ -4,6 +4,7 @@
 import { renderStats, scheduleRefetch } from "./connection.js";
 import { $, div, labelEl, numberInput, showMessage, unitEl } from "./dom.js";
 import { beginGesture, canEdit, edit, endGesture, sendView, sendViewThrottled, setLightProp, setPresence } from "./edits.js";
+import { onViewChanged, renderFinal } from "./final.js";
 import { hexToLinear, linearToHex, parseNumber } from "./format.js";
 import { renderDragModes } from "./indirect.js";
 import { V } from "./linalg.js";
@@ -42,6 +43,7 @@ export function refreshUi(rebuild = false) {
   renderDragModes();
   scheduleOverlay();
   renderStats();
+  renderFinal();
   updateEditable();
 }
 
@@ -455,13 +457,16 @@ export function renderView() {
   $("viewExposure").value = S.view.exposure;
   if (document.activeElement !== $("viewExposureN")) $("viewExposureN").value = S.view.exposure;
   $("viewTransform").value = S.view.viewTransform;
+  $("backdropToggle").classList.toggle("on", !!S.view.background);
   renderLights();
+  onViewChanged();
 }
 
 /** The view toolbar's controls. */
 export function initPanels() {
   $("output").addEventListener("change", (e) => sendView({ output: e.target.value }));
   $("viewTransform").addEventListener("change", (e) => sendView({ viewTransform: e.target.value }));
+  $("backdropToggle").addEventListener("click", () => sendView({ background: !S.view.background }));
   $("viewExposure").addEventListener("input", (e) => { $("viewExposureN").value = e.target.value; sendViewThrottled({ exposure: Number(e.target.value) }); });
   $("viewExposureN").addEventListener("change", (e) => {
     const r = parseNumber(e.target.value, "view exposure", -20, 20);

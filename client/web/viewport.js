@@ -7,6 +7,7 @@ import { Cam } from "./camera.js";
 import { nextSeq, send } from "./connection.js";
 import { $, div, showMessage } from "./dom.js";
 import { endDrag, moveDrag, startDrag } from "./drag.js";
+import { layoutCompare } from "./final.js";
 import { canEdit } from "./edits.js";
 import { beginIndirect, endIndirect, indirectActive, moveIndirect, pointsSelectable, togglePoint } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
@@ -17,6 +18,7 @@ export function applyTransform() {
   $("stage").style.transform = `translate(${S.panX}px, ${S.panY}px) scale(${S.zoom})`;
   $("frame").classList.toggle("pixelated", S.zoom >= 2);
   $("zoomLabel").textContent = `${Math.round(S.zoom * 100)}%`;
+  layoutCompare();
   scheduleOverlay();
 }
 /** Zooms to z keeping the viewport point (cx, cy) over the same image point. */

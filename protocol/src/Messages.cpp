@@ -84,7 +84,7 @@ const char* mimeType(Encoding e) {
 
 std::string ViewSettings::key() const {
     return output + "|" + encodingName(encoding) + "|" + std::to_string(quality) + "|" + dump(json(exposureStops)) +
-           "|" + viewTransform;
+           "|" + viewTransform + (background ? "|background" : "");
 }
 
 json toJson(const ViewSettings& v) {
@@ -92,7 +92,8 @@ json toJson(const ViewSettings& v) {
                 {"encoding", encodingName(v.encoding)},
                 {"quality", v.quality},
                 {"exposure", v.exposureStops},
-                {"viewTransform", v.viewTransform}};
+                {"viewTransform", v.viewTransform},
+                {"background", v.background}};
 }
 
 Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
@@ -131,6 +132,9 @@ Result<ViewSettings> applyViewJson(ViewSettings v, const json& j) {
                 return invalid("view.viewTransform: " + excerpt(x) + " is not \"rig\", \"srgb\" or \"filmic\"");
             }
             v.viewTransform = x.get<std::string>();
+        } else if (k == "background") {
+            if (!x.is_boolean()) return invalid("view.background: expected true or false");
+            v.background = x.get<bool>();
         } else {
             return invalid("view: unknown setting '" + k + "'");
         }
@@ -159,10 +163,15 @@ Result<ViewSettings> viewFromQuery(std::string_view query) {
             auto n = parseJson(val, 64, k);
             if (!n || !n->is_number()) return invalid(k + "=" + excerpt(json(val)) + ": expected a number");
             j[k] = n.value();
+        } else if (k == "background") {
+            if (val != "0" && val != "1" && val != "true" && val != "false") {
+                return invalid("background=" + excerpt(json(val)) + ": expected 0, 1, true or false");
+            }
+            j[k] = val == "1" || val == "true";
         } else if (k == "token") {
             // The access token travels in the query for browsers; it is not a view setting.
         } else {
-            return invalid("unknown query parameter '" + k + "' (output, format, quality, exposure, viewTransform)");
+            return invalid("unknown query parameter '" + k + "' (output, format, quality, exposure, viewTransform, background)");
         }
     }
     return applyViewJson(ViewSettings{}, j);
@@ -255,7 +264,7 @@ Result<ClientMessage> clientMessageFromJson(const json& j) {
         return ClientMessage{TimeMessage{seq.value(), j["t"].get<double>()}};
     }
     if (type == "view") {
-        if (auto s = onlyFields(j, type, {"type", "seq", "output", "encoding", "quality", "exposure", "viewTransform"}); !s) {
+        if (auto s = onlyFields(j, type, {"type", "seq", "output", "encoding", "quality", "exposure", "viewTransform", "background"}); !s) {
             return s.error();
         }
         auto seq = needSeq(j, type);

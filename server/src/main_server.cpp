@@ -159,6 +159,12 @@ int main(int argc, char** argv) {
     app.add_option("--port", port, "TCP port; 0 picks a free one")->check(CLI::Range(0, 65535));
     app.add_option("--bind", bind, "address to listen on (default loopback only)");
     app.add_option("--assets", assets, "folder of cookie images that lights name (default: each shot's folder)");
+    std::string defaultRigKind = "three-point";
+    app.add_option("--default-rig", defaultRigKind,
+                   "the rig of a scene without lights: three-point (key, fill, rim and a dome, calibrated so the shot's median "
+                   "covered pixel is mid-grey) or key-fill (a key and fill spot on the scene's bounds alone, uncalibrated)")
+        ->check(CLI::IsMember({"three-point", "key-fill"}))
+        ->capture_default_str();
     app.add_option("--refine-window", refineMs,
                    "ms: an edit within this time of the previous one renders with preview shadow maps, refined when "
                    "edits stop (0 = always full quality)")
@@ -303,8 +309,17 @@ int main(int argc, char** argv) {
         }
         bool imported = false;
         std::vector<std::string> importWarnings;
-        dfb::Rig rig = dfb::initialRig(loaded.value(), &imported, &importWarnings);
+        dfb::ShadowGeometry casters = dfb::shadowCasters(loaded.value());
+        dfb::Calibration calibration;
+        auto initial = defaultRigKind == "key-fill"
+                           ? dfb::Result<dfb::Rig>(dfb::initialRig(loaded.value(), &imported, &importWarnings))
+                           : dfb::sessionRig(loaded.value(), shot.value(), casters, &imported, &importWarnings, &calibration);
         for (const std::string& w : importWarnings) std::fprintf(stderr, "dfb-server: session %s: %s\n", spec.name.c_str(), w.c_str());
+        if (!initial) {
+            failSession(spec, dir, initial.error(), "its default rig cannot be rendered (see the server's log)", EXIT_INPUT);
+            continue;
+        }
+        dfb::Rig rig = std::move(initial.value());
         auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, rig, dir, snapshotEvery);
         if (!session) {
             // The journal's own message names the line and the reason; clients get it without
@@ -324,6 +339,9 @@ int main(int argc, char** argv) {
         if (imported && session.value()->rigVersion() == rig.version) {
             std::printf("dfb-server: session %s: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", spec.name.c_str(),
                         rig.lights.size());
+        } else if (!imported && session.value()->rigVersion() == rig.version && calibration.coveredPixels > 0) {
+            std::printf("dfb-server: session %s: default rig (key, fill, rim, dome) x %.4g: median covered-pixel luminance %.4g -> 0.18\n",
+                        spec.name.c_str(), double(calibration.factor), double(calibration.medianBefore));
         }
         const std::string assetDir = !assets.empty() ? assets : fs::path(spec.shotPath).parent_path().string();
         session.value()->setAssetDirectory(assetDir.empty() ? "." : assetDir);
@@ -332,7 +350,7 @@ int main(int argc, char** argv) {
         auto hub = std::make_shared<dfb::net::SessionHub>(ioc, state->metrics(), std::make_unique<dfb::DeepBuffer>(std::move(shot.value())),
                                                           std::move(session.value()), tokens);
         std::weak_ptr<dfb::net::SessionHub> weak = hub;
-        auto render = dfb::RenderService::start(hub->shot(), dfb::shadowCasters(loaded.value()), hub->session(),
+        auto render = dfb::RenderService::start(hub->shot(), std::move(casters), hub->session(),
                                                 [weak](uint64_t, uint64_t serial) {
                                                     if (auto h = weak.lock()) h->onNewImage(serial);
                                                 },

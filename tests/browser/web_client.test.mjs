@@ -45,7 +45,9 @@ const WAIT = { timeout: 30000 };
 // its URLs once it listens.
 function startServer(port) {
   return new Promise((resolve, reject) => {
-    const proc = spawn(opts.server, [opts.shot, "--port", String(port), "--state", stateDir, ...tlsArgs],
+    // The plain key and fill (the rig these checks' figures are of; the three-point default is
+    // tested by default_rig_test and server_client_integration).
+    const proc = spawn(opts.server, [opts.shot, "--port", String(port), "--state", stateDir, "--default-rig", "key-fill", ...tlsArgs],
                        { stdio: ["ignore", "pipe", "pipe"] });
     let out = "";
     serverLog = () => out; // the newest server's output, saved when a check fails
@@ -231,7 +233,7 @@ function assert(cond, message) { if (!cond) throw new Error(message); }
 const shot = (page, name) => page.screenshot({ path: join(opts.artifacts, name) });
 
 let browser;
-const deadline = setTimeout(() => { console.error("browser test timed out"); server?.proc.kill("SIGKILL"); process.exit(1); }, 240000);
+const deadline = setTimeout(() => { console.error("browser test timed out"); server?.proc.kill("SIGKILL"); process.exit(1); }, 290000);
 try {
   server = await startServer(0);
   const welcome = await http("");
@@ -1218,6 +1220,98 @@ try {
     await a.keyboard.press("1");
   });
 
+  await check("an environment light: its sphere gizmo's handle turns the map; Backdrop shows it behind the scene", async () => {
+    await a.keyboard.press("1");
+    if (!(await a.evaluate(() => document.getElementById("handlesToggle").classList.contains("on")))) await a.click("#handlesToggle");
+    await a.selectOption("#addType", "environment");
+    await a.click("#addLight");
+    const rig0 = await waitRig((r) => r.lights.some((l) => l.type === "environment"), "an added environment light");
+    const dome0 = rig0.lights.find((l) => l.type === "environment");
+    const gizmoSel = `#overlay [data-env-gizmo="${dome0.name}"]`;
+    // Select another light, then the environment light by a click on its sphere (anywhere on it:
+    // the curves belong to the same pickable group).
+    await a.click('#lights li[data-light="key"] .lname');
+    const g0 = await center(a, `${gizmoSel} > circle`);
+    await a.mouse.click(g0.x, g0.y);
+    await a.waitForFunction((n) => document.querySelector("#lights li.selected")?.dataset.light === n, dome0.name, WAIT);
+    const handleSel = '#overlay [data-handle="envRotation"]';
+    await a.waitForSelector(handleSel, WAIT);
+    // Where the handle is drawn, independently of the page's code: the gizmo's centre plus its
+    // radius times (c . right, -c . up) of the camera, c the map's centre (-Z) turned by yaw and
+    // pitch (lightmath::envRotation: Ry(yaw) Rx(pitch) Rz(roll); roll leaves -Z).
+    const w2c = welcome.session.camera.worldToCamera;
+    const row = (r) => [w2c[r], w2c[4 + r], w2c[8 + r]];
+    const camRight = row(0), camUp = row(1);
+    const dot = (p, q) => p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+    const centreOf = ([yaw, pitch]) => {
+      const y = yaw * Math.PI / 180, p = pitch * Math.PI / 180;
+      return [-Math.cos(p) * Math.sin(y), Math.sin(p), -Math.cos(p) * Math.cos(y)];
+    };
+    const drawn = () => a.evaluate(([g, h]) => {
+      const c = document.querySelector(`${g} > circle`), k = document.querySelector(h);
+      return { cx: +c.getAttribute("cx"), cy: +c.getAttribute("cy"), r: +c.getAttribute("r"), x: +k.getAttribute("cx"), y: +k.getAttribute("cy") };
+    }, [gizmoSel, handleSel]);
+    const expectAt = (d, rot, what) => {
+      const c = centreOf(rot);
+      const want = { x: d.cx + d.r * dot(c, camRight), y: d.cy - d.r * dot(c, camUp) };
+      assert(Math.hypot(d.x - want.x, d.y - want.y) < 0.5, `${what}: handle drawn at (${d.x}, ${d.y}), expected (${want.x}, ${want.y})`);
+    };
+    const d0 = await drawn();
+    expectAt(d0, dome0.rotation ?? [0, 0, 0], "unturned");
+    // A drag of 10 px to the right and 6 up: the handle follows the pointer (about a pixel per
+    // pixel near the sphere's middle), the rig's rotation turns by yaw and pitch, roll kept.
+    const p = await center(a, handleSel);
+    await a.mouse.move(p.x, p.y);
+    await a.mouse.down();
+    await a.mouse.move(p.x + 10, p.y - 6, { steps: 5 });
+    await a.mouse.up();
+    const rig1 = await waitRig((r) => {
+      const rot = r.lights.find((l) => l.name === dome0.name).rotation ?? [0, 0, 0];
+      return rot[0] !== (dome0.rotation?.[0] ?? 0) && rot[1] !== (dome0.rotation?.[1] ?? 0);
+    }, "the map turned by the drag");
+    const rot1 = rig1.lights.find((l) => l.name === dome0.name).rotation;
+    assert(rot1[2] === (dome0.rotation?.[2] ?? 0), `roll changed: ${rot1}`);
+    await a.waitForFunction(([h, x0]) => Math.abs(+document.querySelector(h)?.getAttribute("cx") - x0) > 1, [handleSel, d0.x], WAIT);
+    const d1 = await drawn();
+    expectAt(d1, rot1, `turned to ${rot1}`);
+    assert(d1.x - d0.x > 7 && d1.x - d0.x < 11 && d0.y - d1.y > 4 && d0.y - d1.y < 7,
+           `the handle moved by (${d1.x - d0.x}, ${d1.y - d0.y}) for a drag of (10, -6)`);
+    await shot(a, "18-env-gizmo.png");
+
+    // Backdrop: where the G-buffer covers nothing (black in the coverage layer) the beauty turns
+    // from black to the dome's radiance; covered pixels keep their level.
+    await a.selectOption("#output", "layer:A");
+    await a.waitForFunction(() => document.getElementById("frame").dataset.output === "layer:A" && document.getElementById("frame").complete, null, WAIT);
+    const cov = await framePixels(a);
+    await a.selectOption("#output", "beauty");
+    await a.waitForFunction(() => document.getElementById("frame").dataset.output === "beauty" && document.getElementById("frame").complete, null, WAIT);
+    const empty = [], full = [];
+    for (let i = 0; i < cov.length; i += 4) (cov[i] === 0 ? empty : cov[i] === 255 ? full : []).push(i);
+    assert(empty.length > 200, `the shot shows background at ${empty.length} pixels`);
+    const before = await framePixels(a);
+    const meanAt = (px, idx) => idx.reduce((s, i) => s + px[i] + px[i + 1] + px[i + 2], 0) / idx.length / 3;
+    assert(meanAt(before, empty) < 2, `the background is black without the backdrop (${meanAt(before, empty)})`);
+    await a.click("#backdropToggle");
+    await a.waitForFunction(() => document.getElementById("backdropToggle").classList.contains("on"), null, WAIT);
+    let after = null;
+    for (const end = Date.now() + WAIT.timeout; Date.now() < end;) {
+      after = await framePixels(a);
+      if (meanAt(after, empty) > 20) break;
+      await new Promise((r) => setTimeout(r, 100));
+    }
+    const covered = full.reduce((t, i) => t + Math.abs(before[i] - after[i]) + Math.abs(before[i + 1] - after[i + 1]) +
+                                          Math.abs(before[i + 2] - after[i + 2]), 0) / full.length / 3;
+    assert(meanAt(after, empty) > 20, `the backdrop shows the dome behind the scene (mean ${meanAt(after, empty)})`);
+    assert(covered < 3, `covered pixels changed by ${covered} levels with the backdrop`);
+    await shot(a, "19-backdrop.png");
+    await a.click("#backdropToggle");
+    await a.waitForFunction(() => !document.getElementById("backdropToggle").classList.contains("on"), null, WAIT);
+    await a.click(`#lights li[data-light="${dome0.name}"] .lname`);
+    await a.click("#delLight");
+    await waitRig((r) => !r.lights.some((l) => l.name === dome0.name), "the environment light deleted");
+    await a.click('#lights li[data-light="key"] .lname');
+  });
+
   await check("after the server restarts the page reconnects and shows the same rig", async () => {
     const rigBefore = await getRig();
     restarting = true;
@@ -1238,6 +1332,106 @@ try {
                                           Number(document.getElementById("cp-2-0").value)]);
     assert(shown[0] === "BendyLight" && Math.abs(shown[1] - key.controlPoints[1][0]) < 1e-3, `page shows ${shown}`);
     await shot(a, "12-reconnected.png");
+  });
+
+  await check("a final render in Cycles is shown beside the preview: final, wipe and difference", async () => {
+    await a.keyboard.press("1");
+    if (await a.evaluate(() => document.getElementById("handlesToggle").classList.contains("on"))) await a.click("#handlesToggle");
+    await a.keyboard.press("Escape");
+    // Every state the status line shows, in order (to see that progress was reported).
+    await a.evaluate(() => {
+      window.finalStates = [];
+      const box = document.getElementById("finalStatus");
+      new MutationObserver(() => window.finalStates.push(`${box.dataset.state}: ${box.textContent}`)).observe(box, { childList: true, characterData: true, subtree: true, attributes: true });
+    });
+    await a.fill("#finalSamples", "4");
+    await a.check("#finalDirect");
+    await a.click("#finalRender");
+    await a.waitForFunction(() => ["done", "failed"].includes(document.getElementById("finalStatus").dataset.state), null, { timeout: 90000 });
+    const status = await a.evaluate(() => ({ text: document.getElementById("finalStatus").textContent, states: window.finalStates,
+                                             notes: [...document.querySelectorAll("#finalNotes li")].map((li) => li.textContent) }));
+    assert(/^Final of rig version \d+ \(4 samples, direct only/.test(status.text), `status: ${status.text}`);
+    assert(status.states.some((t) => /^running: Rendering rig version \d+: [0-3] \/ 4 samples/.test(t)), `no progress shown: ${status.states.join(" | ")}`);
+    assert(status.notes.some((n) => /BendyLight/.test(n)), `the BendyLight's note is listed: ${status.notes}`);
+    await a.waitForFunction(() => !document.getElementById("compareMode").disabled && document.getElementById("finalImg").naturalWidth === 320, null, WAIT);
+
+    // The composited image as the page shows it (#stage at 1:1, handles off), the live frame and
+    // the final as decoded images; differences over the pixels the final covers.
+    const stagePixels = async () => {
+      await a.evaluate(() => document.querySelectorAll("#messages .msg").forEach((m) => m.remove()));
+      const png = await a.locator("#stage").screenshot();
+      return a.evaluate(async (b64) => {
+        const img = new Image();
+        img.src = `data:image/png;base64,${b64}`;
+        await img.decode();
+        const c = Object.assign(document.createElement("canvas"), { width: 320, height: 180 });
+        c.getContext("2d").drawImage(img, 0, 0, 320, 180);
+        return Array.from(c.getContext("2d").getImageData(0, 0, 320, 180).data);
+      }, png.toString("base64"));
+    };
+    const finalPixels = () => a.evaluate(() => {
+      const c = Object.assign(document.createElement("canvas"), { width: 320, height: 180 });
+      c.getContext("2d").drawImage(document.getElementById("finalImg"), 0, 0);
+      return Array.from(c.getContext("2d").getImageData(0, 0, 320, 180).data);
+    });
+    const fin = await finalPixels();
+    const diff = (p, q, x0 = 0, x1 = 320) => {
+      let sum = 0, n = 0;
+      for (let y = 0; y < 180; y++) {
+        for (let x = x0; x < x1; x++) {
+          const i = 4 * (y * 320 + x);
+          if (fin[i + 3] < 255) continue;
+          sum += Math.abs(p[i] - q[i]) + Math.abs(p[i + 1] - q[i + 1]) + Math.abs(p[i + 2] - q[i + 2]);
+          n++;
+        }
+      }
+      return sum / n / 3;
+    };
+    const mean = (p) => diff(p, p.map(() => 0));
+    const live = await framePixels(a);
+    const apart = diff(live, fin);
+    assert(apart > 1, `preview and final are too alike to tell apart (${apart.toFixed(2)} levels)`);
+
+    await a.selectOption("#compareMode", "final");
+    let shown = await stagePixels();
+    assert(diff(shown, fin) < Math.min(2, apart / 2), `'final' shows the final: ${diff(shown, fin).toFixed(2)} levels from it, ${diff(shown, live).toFixed(2)} from the preview`);
+    await shot(a, "18-final.png");
+
+    await a.selectOption("#compareMode", "wipe");
+    const bar = await center(a, "#wipeBar");
+    const to = await imageToScreen(a, 80, 90);
+    await a.mouse.move(bar.x, bar.y);
+    await a.mouse.down();
+    await a.mouse.move(to.x, to.y, { steps: 5 });
+    await a.mouse.up();
+    const clip = await a.evaluate(() => document.getElementById("finalImg").style.clipPath);
+    const left = Number(/inset\(0(?:px)? 0(?:px)? 0(?:px)? ([\d.]+)%\)/.exec(clip)?.[1]);
+    assert(Math.abs(left - 25) < 1, `the wipe follows the pointer to a quarter of the image: ${clip}`);
+    shown = await stagePixels();
+    const wl = [diff(shown, live, 0, 76), diff(shown, fin, 0, 76)], wr = [diff(shown, live, 84, 320), diff(shown, fin, 84, 320)];
+    assert(wl[0] < wl[1] / 2 && wr[1] < wr[0] / 2, `wipe: left of the line the preview (${wl.map((d) => d.toFixed(2))}), right the final (${wr.map((d) => d.toFixed(2))})`);
+    assert((await a.evaluate(() => document.getElementById("lights").children.length)) > 0, "the page still works");
+    await shot(a, "19-final-wipe.png");
+
+    await a.selectOption("#compareMode", "difference");
+    await a.selectOption("#diffGain", "1");
+    await a.waitForFunction(() => document.getElementById("compareStats").dataset.relative !== undefined, null, WAIT);
+    shown = await stagePixels();
+    const d0 = mean(shown), rel0 = await a.evaluate(() => Number(document.getElementById("compareStats").dataset.relative));
+    assert(Math.abs(d0 - apart) < 1 + 0.2 * apart, `the difference image is |preview - final|: mean ${d0.toFixed(2)} levels, expected ${apart.toFixed(2)}`);
+    // Two stops more on the live rig: the preview is four times brighter, the final (of the rig
+    // it rendered) is not, and both the image and the figure show it.
+    const rig = await getRig();
+    const { rigVersion } = await postEdit([{ path: "exposure", value: rig.exposure + 2 }]);
+    await frameAtLeast(a, rigVersion);
+    await a.waitForFunction((r) => Number(document.getElementById("compareStats").dataset.relative) > Math.max(0.5, 2 * r), rel0, WAIT);
+    shown = await stagePixels();
+    assert(mean(shown) > 2 * d0 + 5, `the difference grows with the preview's exposure: ${d0.toFixed(2)} -> ${mean(shown).toFixed(2)} levels`);
+    assert(/the live rig is at version/.test(await a.textContent("#finalStatus")), "the status says the final is of an older version");
+    await shot(a, "20-final-difference.png");
+    await postEdit([{ path: "exposure", value: rig.exposure }]);
+    await a.selectOption("#compareMode", "live");
+    await a.click("#handlesToggle");
   });
 
   await check("no errors in the page console", async () => {

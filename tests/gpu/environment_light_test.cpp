@@ -20,6 +20,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 
 using namespace dfb;
@@ -494,6 +495,91 @@ TEST(EnvironmentLight, ASunIsExtractedAndShadowsSharply) {
     ASSERT_TRUE(s.engine->render(rig, &st).ok());
     EXPECT_EQ(st.shadowMapsRendered, 1);
     EXPECT_EQ(st.lightsShaded, 1);
+}
+
+} // namespace
+
+namespace {
+
+// The backdrop (a viewer's `background` view setting; docs/protocol.md "view"): where the shot
+// covers nothing, the 8-bit beauty shows the environment along the camera ray, turned and scaled
+// like the light; covered pixels are the beauty as before.
+TEST(EnvironmentLight, TheBackdropShowsTheMapBehindTheScene) {
+    const fs::path dir = mapFolder();
+    // A smooth map (linear in the direction): bilinear lookup is exact up to the texel grid's
+    // curvature.
+    const auto f = [](const glm::dvec3& d) { return glm::vec3(0.5 + 0.5 * d.x, 0.5 + 0.5 * d.y, 0.5 + 0.5 * d.z); };
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "smooth.exr", 512, 256, f));
+    Shot s;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, true));
+    Rig rig;
+    rig.lights = {environment("dome", "smooth.exr")};
+    rig.lights[0].envRotationDeg = {30.f, 10.f, -5.f};
+    rig.lights[0].intensityCd = 0.5f;
+    rig.lights[0].color = {1.f, 0.5f, 0.25f};
+    auto back = environmentBackground(s.g, rig, dir.string());
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    const glm::dmat4 fromNdc = glm::inverse(glm::dmat4(s.g.camera.worldToNDC));
+    const glm::dmat3 R = lightmath::envRotation(rig.lights[0].envRotationDeg);
+    size_t uncovered = 0, covered = 0;
+    double worst = 0;
+    for (int y = 0; y < s.g.height; ++y)
+        for (int x = 0; x < s.g.width; ++x) {
+            const float* px = &back->rgba[(size_t(y) * size_t(s.g.width) + size_t(x)) * 4];
+            const float a = s.g.coverage(x, y);
+            if (a >= 1.f) {
+                EXPECT_EQ(px[0] + px[1] + px[2], 0.f) << x << ", " << y;
+                ++covered;
+                continue;
+            }
+            if (a > 0.f) continue; // edges: the uncovered share
+            ++uncovered;
+            // The camera ray, from the camera's position through the pixel centre's far point.
+            const double nx = (x + 0.5) / s.g.width * 2 - 1, ny = 1 - (y + 0.5) / s.g.height * 2;
+            const glm::dvec4 far = fromNdc * glm::dvec4(nx, ny, 1, 1);
+            const glm::dvec3 ray = glm::normalize(glm::dvec3(far) / far.w - glm::dvec3(s.g.camera.position()));
+            const glm::vec3 want = 0.5f * glm::vec3(1.f, 0.5f, 0.25f) * f(glm::transpose(R) * ray);
+            for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(px[c]) - want[c]) / double(want[c]));
+        }
+    std::printf("backdrop: %zu uncovered pixels, worst relative error %.2g against the map along the camera ray\n", uncovered, worst);
+    ASSERT_GT(uncovered, 1000u) << "the shot has sky above the ground";
+    ASSERT_GT(covered, 1000u);
+    EXPECT_LT(worst, 2e-3);
+
+    // Through renderOutput: the PNG with the backdrop against the plain one, decoded.
+    auto decode = [&](const EncodedImage& e, const char* name) {
+        const fs::path p = dir / name;
+        std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(e.bytes.data()), std::streamsize(e.bytes.size()));
+        auto img = readLinearImage(p.string());
+        EXPECT_TRUE(img.ok());
+        return img.value();
+    };
+    s.engine->setAssetDirectory(dir.string());
+    OutputRequest req;
+    req.format = "png";
+    auto plain = renderOutput(*s.engine, s.g, rig, req, ReferenceScene{nullptr, 6.f, dir.string()});
+    req.background = true;
+    auto withBack = renderOutput(*s.engine, s.g, rig, req, ReferenceScene{nullptr, 6.f, dir.string()});
+    ASSERT_TRUE(plain.ok() && withBack.ok());
+    const ImageF a = decode(plain.value(), "plain.png"), b = decode(withBack.value(), "back.png");
+    double coveredDiff = 0, skyPlain = 0, skyBack = 0;
+    for (int y = 0; y < s.g.height; ++y)
+        for (int x = 0; x < s.g.width; ++x) {
+            const size_t i = (size_t(y) * size_t(s.g.width) + size_t(x)) * 4;
+            const float cov = s.g.coverage(x, y);
+            if (cov >= 1.f) {
+                for (int c = 0; c < 3; ++c) coveredDiff = std::max(coveredDiff, double(std::abs(a.rgba[i + c] - b.rgba[i + c])));
+            } else if (cov <= 0.f) {
+                skyPlain = std::max(skyPlain, double(a.rgba[i + 1]));
+                skyBack += b.rgba[i + 1];
+            }
+        }
+    skyBack /= double(uncovered);
+    std::printf("backdrop PNG: covered pixels within %.3g (linear), sky %.3g without, mean green %.3g with\n", coveredDiff, skyPlain, skyBack);
+    EXPECT_LT(coveredDiff, 0.01); // an 8-bit step near white (the GPU's and the CPU's view transform)
+    EXPECT_EQ(skyPlain, 0.0);
+    EXPECT_GT(skyBack, 0.05);
+    fs::remove_all(dir);
 }
 
 } // namespace

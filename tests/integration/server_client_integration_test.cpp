@@ -411,3 +411,18 @@ TEST(BadInput, ProgramsExitWithClearMessages) {
     }
     std::filesystem::remove_all(dir);
 }
+
+// A server on a scene without lights starts with the three-point rig and dome (issue 19 point 6;
+// docs/lighting.md "Default rig"), calibrated on the shot at start: the log names the factor and
+// the served rig has key, fill, rim and the environment light "dome".
+TEST(DefaultRig, TheServerStartsThreePointWithADomeCalibratedToMidGrey) {
+    test::Server server({SHOT, "--default-rig", "three-point"});
+    ASSERT_TRUE(server.up()) << server.process->output();
+    const std::string out = server.process->output();
+    EXPECT_NE(out.find("default rig (key, fill, rim, dome) x "), std::string::npos) << out;
+    EXPECT_NE(out.find("-> 0.18"), std::string::npos) << out;
+    const nlohmann::json rig = server.rig(server.onlySession());
+    std::vector<std::string> names;
+    for (const auto& l : rig["lights"]) names.push_back(l["name"].get<std::string>() + ":" + l["type"].get<std::string>());
+    EXPECT_EQ(names, (std::vector<std::string>{"key:spot", "fill:spot", "rim:spot", "dome:environment"})) << rig.dump();
+}

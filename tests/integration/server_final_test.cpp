@@ -151,3 +151,42 @@ TEST_F(ServerFinal, AMissingBlenderIsAClearError) {
     ASSERT_EQ(failed["state"], "failed");
     EXPECT_NE(failed["error"].get<std::string>().find("cannot start Blender"), std::string::npos) << failed.dump();
 }
+
+TEST_F(ServerFinal, TheCommandLineClientRendersAndSaves) {
+    dfb::test::Server server({SHOT});
+    ASSERT_TRUE(server.up()) << server.process->output();
+    const std::string id = server.onlySession();
+    const auto& tk = server.tokens[id];
+    const std::string url = "http://127.0.0.1:" + server.port + "/?session=" + id + "&token=" + tk.editor;
+    const std::string out = (std::filesystem::temp_directory_path() / ("dfb_cli_final_" + std::to_string(::getpid()) + ".exr")).string();
+
+    auto [rc, text] = dfb::test::run({DFB_CLIENT_EXE, "final", out, "--samples", "4", "--direct-only", "--server", url});
+    ASSERT_EQ(rc, 0) << text;
+    EXPECT_NE(text.find("final: running"), std::string::npos) << "progress on stderr: " << text;
+    EXPECT_NE(text.find("saved " + out + " (rig version 1"), std::string::npos) << text;
+    auto img = dfb::readLinearImage(out);
+    std::filesystem::remove(out);
+    ASSERT_TRUE(img.ok()) << img.error().toString();
+    EXPECT_EQ(img->width, 320);
+    EXPECT_EQ(img->height, 180);
+
+    // The same version again: the kept render, saved as PNG without rendering.
+    const std::string png = out + ".png";
+    auto [rc2, text2] = dfb::test::run({DFB_CLIENT_EXE, "final", png, "--samples", "4", "--direct-only", "--server", url});
+    ASSERT_EQ(rc2, 0) << text2;
+    EXPECT_EQ(text2.find("final: running"), std::string::npos) << "no second render: " << text2;
+    std::ifstream in(png, std::ios::binary);
+    char magic[4] = {};
+    in.read(magic, 4);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+    std::filesystem::remove(png);
+
+    auto [rc3, status] = dfb::test::run({DFB_CLIENT_EXE, "final", "--status", "--server", url});
+    ASSERT_EQ(rc3, 0) << status;
+    EXPECT_NE(status.find("\"done\""), std::string::npos) << status;
+    auto [rc4, bad] = dfb::test::run({DFB_CLIENT_EXE, "final", out + ".tif", "--server", url});
+    EXPECT_EQ(rc4, 1) << bad;
+    EXPECT_NE(bad.find("must end in .exr or .png"), std::string::npos) << bad;
+    auto [rc5, none] = dfb::test::run({DFB_CLIENT_EXE, "final", "--cancel", "--server", url});
+    EXPECT_EQ(rc5, 3) << "nothing runs: the server's refusal: " << none;
+}

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <memory>
@@ -25,6 +26,10 @@ struct Server {
     explicit Server(std::vector<std::string> args) {
         args.insert(args.begin(), DFB_SERVER_EXE);
         args.insert(args.end(), {"--port", "0"});
+        // The figures of these tests (lit areas, shadow shares, light groups) are of the plain key
+        // and fill on the tabletop's bounds; the default three-point rig is tested where it is
+        // asked for ("--default-rig three-point") and in default_rig_test.
+        if (std::find(args.begin(), args.end(), "--default-rig") == args.end()) args.insert(args.end(), {"--default-rig", "key-fill"});
         process = std::make_unique<Process>(args);
         auto m = process->waitForLine(std::regex(R"(listening on https?://127\.0\.0\.1:(\d+)/)"), std::chrono::seconds(60));
         if (!m) return;

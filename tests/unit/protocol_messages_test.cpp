@@ -61,6 +61,7 @@ TEST(Messages, RefusesMalformedMessagesNamingTheProblem) {
                           Case{R"({"type":"view","seq":1,"output":"light:"})", ErrorCode::InvalidValue, "view.output"},
                           Case{R"({"type":"view","seq":1,"viewTransform":"linear"})", ErrorCode::InvalidValue, "viewTransform"},
                           Case{R"({"type":"view","seq":1,"output":"layer:N","encoding":"exr"})", ErrorCode::InvalidValue, "layer"},
+                          Case{R"({"type":"view","seq":1,"background":1})", ErrorCode::InvalidValue, "view.background"},
                           Case{R"({"type":"pick","seq":1,"x":1.5,"y":2})", ErrorCode::Protocol, "pick.x"},
                           Case{R"({"type":"pick","seq":1,"x":1})", ErrorCode::Protocol, "pick.y"},
                           Case{R"({"type":"presence","editing":[1]})", ErrorCode::Protocol, "presence.editing"},
@@ -105,7 +106,18 @@ TEST(Messages, ViewSettingsFromJsonAndQuery) {
     EXPECT_EQ(viewFromQuery("format=gif").error().code, ErrorCode::InvalidValue);
     EXPECT_EQ(viewFromQuery("quality=lots").error().code, ErrorCode::InvalidValue);
     EXPECT_NE(viewFromQuery("size=4").error().message.find("size"), std::string::npos);
-    EXPECT_EQ(toJson(ViewSettings{}), json::parse(R"({"output":"beauty","encoding":"jpeg","quality":85,"exposure":0.0,"viewTransform":"rig"})"));
+    EXPECT_EQ(toJson(ViewSettings{}),
+              json::parse(R"({"output":"beauty","encoding":"jpeg","quality":85,"exposure":0.0,"viewTransform":"rig","background":false})"));
+    // The backdrop: its own frames (not the shared default image), a key of its own.
+    auto b = viewFromQuery("background=1");
+    ASSERT_TRUE(b.ok());
+    EXPECT_TRUE(b->background);
+    EXPECT_FALSE(b->isDefaultImage());
+    EXPECT_NE(b->key(), ViewSettings{}.key());
+    EXPECT_FALSE(viewFromQuery("background=false")->background);
+    EXPECT_NE(viewFromQuery("background=yes").error().message.find("background"), std::string::npos);
+    auto m = parseClientMessage(R"({"type":"view","seq":2,"background":true})");
+    ASSERT_TRUE(m.ok()) << m.error().message;
 }
 
 TEST(Messages, ServerMessagesCarryTheDocumentedFields) {

@@ -11,6 +11,7 @@
 #include <dfb/protocol/Codec.h>
 #include <dfb/protocol/Schema.h>
 #include <dfb/lightmath/AreaLight.h>
+#include <dfb/lightmath/Environment.h>
 #include <dfb/server/BendyChain.h>
 #include <dfb/server/BentArea.h>
 
@@ -144,7 +145,7 @@ json vecJson(const glm::dvec3& v) { return json{v.x, v.y, v.z}; }
 TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
     json out{{"about", "written by tests/unit/protocol_parity_cases_test.cpp; read by tests/web/parity.test.mjs"},
              {"keyframes", json::array()}, {"lightFrames", json::array()}, {"areaFrames", json::array()}, {"bentCorners", json::array()},
-             {"schema", protocol::schemaJson()}};
+             {"envRotations", json::array()}, {"schema", protocol::schemaJson()}};
     for (const KeyCase& c : keyCases()) {
         auto rig = protocol::rigFromJson(json{{"lights", {c.light}}});
         ASSERT_TRUE(rig.ok()) << c.name << ": " << rig.error().toString();
@@ -215,6 +216,18 @@ TEST(ProtocolParityCases, WritesKeyframeAndLightFrameCases) {
             }
             out["bentCorners"].push_back({{"light", protocol::toJson(b)}, {"corners", corners}});
         }
+    }
+
+    // An environment light's map turned (lightmath::envRotation of lightmath::envDirection):
+    // client/web/envgizmo.js draws the gizmo's equator, meridian and centre handle with them.
+    for (const std::array<float, 3> rot : {std::array<float, 3>{0, 0, 0}, {90, 0, 0}, {-35, 20, 0}, {0, -60, 45}, {170, 80, -120},
+                                           {-360, 360, 10}, {12.5f, -89, 200}}) {
+        const glm::dmat3 R = lightmath::envRotation(rot);
+        json dirs = json::array();
+        for (const auto& [u, v] : {std::pair{0.5, 0.5}, {0.0, 0.5}, {0.25, 0.3}, {0.8, 0.9}, {0.5, 0.0}, {0.1, 0.7}}) {
+            dirs.push_back({{"u", u}, {"v", v}, {"world", vecJson(R * lightmath::envDirection(u, v))}});
+        }
+        out["envRotations"].push_back({{"rotation", {rot[0], rot[1], rot[2]}}, {"directions", dirs}});
     }
 
     for (const auto& [path, j] : {std::pair{CASES, out}, std::pair{SCHEMA, protocol::schemaJson()}}) {

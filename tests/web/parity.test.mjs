@@ -15,6 +15,7 @@ import { readFileSync } from "node:fs";
 import { test } from "node:test";
 
 import { areaFrame, cornerChains } from "../../client/web/area.js";
+import { envDirection, envRotation } from "../../client/web/envgizmo.js";
 import { evaluateLight, lightFrame } from "../../client/web/rig.js";
 import { propertyRows } from "../../client/web/rows.js";
 import { serverSchema } from "./schema.mjs";
@@ -98,5 +99,13 @@ test("the light frame is dfb::lightFrame's, near vertical included", { skip: !fi
     same(f.uL, uL, `uL of ${JSON.stringify(direction)}`);
     same(f.vL, vL, `vL of ${JSON.stringify(direction)}`);
     same(f.wL, wL, `wL of ${JSON.stringify(direction)}`);
+  }
+});
+
+test("an environment map's turn is lightmath::envRotation of lightmath::envDirection", { skip: !file && "DFB_PARITY_CASES is not set" }, () => {
+  assert.ok(cases.envRotations.length >= 7, `${cases.envRotations.length} rotations`);
+  for (const { rotation, directions } of cases.envRotations) {
+    const R = envRotation(rotation);
+    for (const { u, v, world } of directions) same(R(envDirection(u, v)), world, `(${u}, ${v}) turned by ${JSON.stringify(rotation)}`);
   }
 });

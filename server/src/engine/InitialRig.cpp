@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <glm/glm.hpp>
+#include <vector>
 
 namespace dfb {
 
@@ -97,6 +98,115 @@ Rig initialRig(const Scene& scene, bool* imported, std::vector<std::string>* war
     if (!rig.lights.empty()) return rig;
     const Bounds& b = scene.bounds;
     return defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
+}
+
+Rig threePointRig(const Bounds& bounds, const CameraInfo& camera) {
+    const glm::vec3 size = bounds.empty() ? glm::vec3(1.f) : bounds.max - bounds.min;
+    const glm::vec3 lo = bounds.empty() ? glm::vec3(-0.5f) : bounds.min;
+    const float radius = std::max(0.5f * glm::length(size), 1e-3f);
+    // Aimed a little below the bounds' centre, like defaultRig: most subjects stand on something.
+    const glm::vec3 target = lo + glm::vec3(0.5f, 0.35f, 0.5f) * size;
+    // The camera's frame on the ground plane: the layout turns with the shot, +Y up as in glTF.
+    const glm::vec3 up(0.f, 1.f, 0.f);
+    glm::vec3 forward = camera.forward();
+    forward.y = 0.f;
+    forward = glm::length(forward) > 1e-3f ? glm::normalize(forward) : glm::vec3(0.f, 0.f, -1.f); // looking straight down
+    const glm::vec3 right = glm::normalize(glm::cross(forward, up));
+
+    Rig rig;
+    rig.version = 1;
+    // A spot `distance` bounds radii from the target, `azimuth` degrees from the direction
+    // towards the camera (positive: to the camera's right) and `elevation` degrees up, aimed at
+    // the target, with `lux` of irradiance there (inverse square; docs/lighting.md, "Spot light").
+    auto spot = [&](const char* name, float azimuthDeg, float elevationDeg, float distance, float lux, const Vec3& color,
+                    float cone, float penumbra, bool shadow) {
+        const float az = glm::radians(azimuthDeg), el = glm::radians(elevationDeg);
+        const glm::vec3 dir = std::cos(el) * (-forward * std::cos(az) + right * std::sin(az)) + up * std::sin(el);
+        const glm::vec3 p = target + dir * (distance * radius);
+        Light l;
+        l.name = name;
+        l.position = {p.x, p.y, p.z};
+        l.direction = {-dir.x, -dir.y, -dir.z};
+        const float d = distance * radius;
+        l.intensityCd = lux * d * d;
+        l.color = color;
+        l.coneAngleDeg = cone;
+        l.penumbraDeg = penumbra;
+        l.shadow = shadow;
+        return l;
+    };
+    // Two radii away, a half-angle of asin(1/2) = 30 degrees just holds the bounding sphere: the
+    // key's cone (36, 10 of penumbra) lights all of it, fading at the rim.
+    rig.lights.push_back(spot("key", -40.f, 40.f, 2.f, 1.f, {1.f, 0.95f, 0.88f}, 36.f, 10.f, true));
+    // Key to fill 4:1, from the other side and low, unshadowed: it opens the key's shadows.
+    rig.lights.push_back(spot("fill", 50.f, 15.f, 2.f, 0.25f, {0.85f, 0.9f, 1.f}, 50.f, 20.f, false));
+    // The rim from behind and above outlines the silhouette; it reaches few pixels the camera sees.
+    rig.lights.push_back(spot("rim", 165.f, 50.f, 2.f, 0.8f, {1.f, 0.97f, 0.92f}, 36.f, 10.f, true));
+    // The dome: constant radiance L gives an unoccluded up-facing surface pi L of irradiance
+    // (docs/lighting.md, "Environment light"), here a fifth of the key's; it is what lights metal
+    // and what the spots miss.
+    Light dome;
+    dome.name = "dome";
+    dome.type = LightType::Environment;
+    dome.color = {1.f, 1.f, 1.f};
+    dome.intensityCd = 0.2f / 3.14159265358979f;
+    dome.shadow = true;
+    rig.lights.push_back(dome);
+    return rig;
+}
+
+Result<Calibration> calibrateRig(Engine& engine, const DeepBuffer& shot, Rig& rig, float target) {
+    if (!(target > 0.f) || !std::isfinite(target)) return makeError(ErrorCode::InvalidValue, "calibration target must be > 0");
+    auto image = engine.renderLinear(rig);
+    if (!image) return image.error();
+    if (image->width != shot.width || image->height != shot.height) {
+        return makeError(ErrorCode::InvalidValue, "calibration: the engine's image is not the shot's size");
+    }
+    const float exposure = std::exp2(rig.exposureStops);
+    std::vector<float> lum;
+    lum.reserve(shot.pixelCount());
+    for (int y = 0; y < shot.height; ++y) {
+        for (int x = 0; x < shot.width; ++x) {
+            const float a = shot.coverage(x, y);
+            if (a < 0.5f) continue;
+            const float* c = &image->rgba[(size_t(y) * size_t(shot.width) + size_t(x)) * 4];
+            lum.push_back(exposure * (0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]) / a); // Rec. 709 luminance
+        }
+    }
+    if (lum.empty()) return makeError(ErrorCode::InvalidValue, "calibration: no pixel of the shot is covered");
+    const auto mid = lum.begin() + std::ptrdiff_t(lum.size() / 2);
+    std::nth_element(lum.begin(), mid, lum.end());
+    const float median = *mid;
+    if (!(median > 0.f) || !std::isfinite(median)) {
+        return makeError(ErrorCode::InvalidValue, "calibration: the rig leaves the median covered pixel black");
+    }
+    Calibration c;
+    c.factor = target / median;
+    c.medianBefore = median;
+    c.coveredPixels = lum.size();
+    for (Light& l : rig.lights) l.intensityCd *= c.factor;
+    return c;
+}
+
+Result<Rig> sessionRig(const Scene& scene, const DeepBuffer& shot, const ShadowGeometry& casters, bool* imported,
+                       std::vector<std::string>* warnings, Calibration* calibration) {
+    bool fromScene = false;
+    Rig rig = initialRig(scene, &fromScene, warnings);
+    if (imported) *imported = fromScene;
+    if (calibration) *calibration = Calibration{};
+    if (fromScene) return rig;
+    rig = threePointRig(scene.bounds, shot.camera);
+    auto engine = Engine::create(shot, casters);
+    if (!engine) return engine.error();
+    auto c = calibrateRig(*engine.value(), shot, rig);
+    if (!c) {
+        // A shot the rig cannot light (all background, or every surface black): keep the layout
+        // at its relative levels rather than refuse the session.
+        if (warnings) warnings->push_back("default rig not calibrated: " + c.error().message);
+        return rig;
+    }
+    if (calibration) *calibration = c.value();
+    return rig;
 }
 
 } // namespace dfb

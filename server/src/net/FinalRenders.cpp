@@ -200,8 +200,18 @@ void FinalRenders::readLine() {
                            });
 }
 
-Result<std::shared_ptr<const std::string>> FinalRenders::encoded(bool exr) {
+Result<std::shared_ptr<const std::string>> FinalRenders::encoded(bool exr, float extraStops, std::optional<ViewTransform> viewTransform) {
     if (mState != State::Done || !mImage) return std::shared_ptr<const std::string>();
+    if (!exr && (extraStops != 0.f || (viewTransform && *viewTransform != mRig.viewTransform))) {
+        ImageF view = *mImage;
+        const float scale = std::exp2(extraStops);
+        for (size_t i = 0; i < view.rgba.size(); i += 4) {
+            for (size_t c = 0; c < 3; ++c) view.rgba[i + c] *= scale;
+        }
+        auto bytes = encodePng(displayImage(view, viewTransform.value_or(mRig.viewTransform)));
+        if (!bytes) return bytes.error();
+        return std::make_shared<const std::string>(bytes->begin(), bytes->end());
+    }
     std::shared_ptr<const std::string>& cached = exr ? mExr : mPng;
     if (!cached) {
         auto bytes = exr ? encodeExr({{"", *mImage}}) : encodePng(displayImage(*mImage, mRig.viewTransform));

@@ -20,6 +20,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,8 +54,11 @@ public:
     /// The state as the `final` message has it.
     nlohmann::json status() const;
     /// The finished image encoded as EXR (linear, times the rig's exposure: as the beauty's EXR)
-    /// or PNG (the rig's view transform), encoded once per render; null when none is done.
-    Result<std::shared_ptr<const std::string>> encoded(bool exr);
+    /// or PNG (the rig's view transform), encoded once per render; null when none is done. A PNG
+    /// in a viewer's own view (extra stops, another transform: what the browser compares with its
+    /// live frames) is encoded per request and not kept.
+    Result<std::shared_ptr<const std::string>> encoded(bool exr, float extraStops = 0.f,
+                                                       std::optional<ViewTransform> viewTransform = std::nullopt);
     /// The rig version of the finished image.
     uint64_t imageVersion() const { return mRig.version; }
 

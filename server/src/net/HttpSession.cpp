@@ -581,7 +581,17 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
     if (resource == "final.exr" || resource == "final.png") {
         if (!get) return notAllowed("GET, HEAD");
         const bool exr = resource == "final.exr";
-        auto bytes = hub->finals().encoded(exr);
+        // final.png?exposure=S&viewTransform=T: in a viewer's own view, as its live frames.
+        auto view = protocol::viewFromQuery(query);
+        if (!view) return refuse(view.error());
+        if (view->output != "beauty" || (exr && !view->isDefaultImage())) {
+            return refuse(makeError(ErrorCode::InvalidValue, resource + ": only final.png takes query parameters, and only exposure "
+                                                                        "and viewTransform"));
+        }
+        std::optional<ViewTransform> transform;
+        if (view->viewTransform == "srgb") transform = ViewTransform::Srgb;
+        if (view->viewTransform == "filmic") transform = ViewTransform::Filmic;
+        auto bytes = hub->finals().encoded(exr, view->exposureStops, transform);
         if (!bytes) return refuse(bytes.error(), http::status::internal_server_error);
         if (!bytes.value()) {
             return refuse(makeError(ErrorCode::MissingData, "session '" + hub->id() + "' has no finished final render (POST .../final)"),

@@ -107,8 +107,10 @@ Result<std::shared_ptr<const EncodedFrame>> RenderService::encode(Engine& engine
         req.output = view.output;
         req.format = protocol::encodingName(view.encoding);
         req.jpegQuality = view.quality;
+        req.background = view.background;
         engine.setPreview(false);
         ReferenceScene reference;
+        reference.assetDir = mSession.assetDirectory();
         if (mPicker) reference = {&mPicker->casters(), mSceneRadius, mSession.assetDirectory()};
         auto out = renderOutput(engine, mShot, r, req, reference);
         if (!out) return out.error();

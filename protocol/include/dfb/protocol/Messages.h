@@ -53,10 +53,14 @@ struct ViewSettings {
     float exposureStops = 0.f;      ///< added to the rig's exposure, stops, [-20, 20]
     /// "rig" (the rig's view transform), "srgb" or "filmic": overrides the rig's for this client.
     std::string viewTransform = "rig";
+    /// Shows the rig's environment lights behind the scene where the G-buffer is empty (the
+    /// uncovered share of each pixel; 8-bit beauty only: light:, shadow: and layer: outputs and
+    /// the EXR beauty, whose alpha is the coverage for compositing, are unchanged).
+    bool background = false;
 
     /// True when the image is the rig's own beauty (any encoding but EXR shares the engine's
     /// 8-bit frame, the fast path every client starts on).
-    bool isDefaultImage() const { return output == "beauty" && exposureStops == 0.f && viewTransform == "rig"; }
+    bool isDefaultImage() const { return output == "beauty" && exposureStops == 0.f && viewTransform == "rig" && !background; }
     /// A string that is equal for equal settings (frames are encoded once per key and version).
     std::string key() const;
     bool operator==(const ViewSettings&) const = default;

@@ -27,6 +27,9 @@ struct OutputRequest {
     /// "jpeg" (or "jpg"), "png" or "exr".
     std::string format = "png";
     int jpegQuality = 92;
+    /// 8-bit beauty only: the rig's enabled environment lights seen along each pixel's camera ray
+    /// fill the share of the pixel the G-buffer does not cover (environmentBackground).
+    bool background = false;
 };
 
 struct EncodedImage {
@@ -56,6 +59,13 @@ struct ReferenceScene {
 constexpr int ENV_REFERENCE_OUTPUT_RAYS = 64;
 Result<EncodedImage> renderOutput(Engine& engine, const DeepBuffer& shot, const Rig& rig, const OutputRequest& request,
                                   const ReferenceScene& reference = {});
+
+/// The radiance of the rig's enabled environment lights (colour x intensity x the map, turned by
+/// rotation: lightmath::envRotation) along the camera ray through each pixel's centre, times the
+/// share of the pixel the shot does not cover (1 - coverage), RGBA with A = 0; black without
+/// environment lights. Maps are read from `assetDir` (bilinear, wrapping in u) and kept for the
+/// next call while their file is unchanged. The backdrop of OutputRequest::background.
+Result<ImageF> environmentBackground(const DeepBuffer& shot, const Rig& rig, const std::string& assetDir);
 
 /// The 8-bit display image of a linear one (exposure already applied): `viewTransform` (sRGB, or
 /// the filmic curve of composite_tonemap.frag, then sRGB), alpha 255. The encodings of
