@@ -145,6 +145,14 @@ export function addLight(type) {
     const dist = V.len(V.sub(target, position));
     const l = { name, type, enabled: true, position, direction: dir, color: [1, 1, 1],
                 intensity: type === "directional" ? 2 : 2 * dist ** 2, coneAngle: 30, penumbra: 6, shadow: true };
+    if (type === "environment") {
+      // A constant dome (no map) of radiance 0.1: irradiance pi x 0.1 on an open floor, a fill
+      // under the other lights (docs/lighting.md "Environment light"); position and cone do not
+      // apply to it.
+      rig.lights.push({ name, type, enabled: true, color: [1, 1, 1], intensity: 0.1, rotation: [0, 0, 0], shadow: true });
+      S.selectAfterPut = name;
+      return rig;
+    }
     if (type === "area" || type === "bentArea") {
       // A square panel a fifth of its distance across, as bright as the point light above would
       // be head-on (radiance x area = its candela: docs/lighting.md "Area light").

@@ -1231,7 +1231,7 @@ try {
     // Select another light, then the environment light by a click on its sphere (anywhere on it:
     // the curves belong to the same pickable group).
     await a.click('#lights li[data-light="key"] .lname');
-    const g0 = await center(a, `${gizmoSel} > circle`);
+    const g0 = await center(a, `${gizmoSel} > circle:first-of-type`);
     await a.mouse.click(g0.x, g0.y);
     await a.waitForFunction((n) => document.querySelector("#lights li.selected")?.dataset.light === n, dome0.name, WAIT);
     const handleSel = '#overlay [data-handle="envRotation"]';
@@ -1409,7 +1409,10 @@ try {
     assert(Math.abs(left - 25) < 1, `the wipe follows the pointer to a quarter of the image: ${clip}`);
     shown = await stagePixels();
     const wl = [diff(shown, live, 0, 76), diff(shown, fin, 0, 76)], wr = [diff(shown, live, 84, 320), diff(shown, fin, 84, 320)];
-    assert(wl[0] < wl[1] / 2 && wr[1] < wr[0] / 2, `wipe: left of the line the preview (${wl.map((d) => d.toFixed(2))}), right the final (${wr.map((d) => d.toFixed(2))})`);
+    // Each side is nearer the image it should show by a clear margin; not by 2x, because the
+    // 4-sample final's speckle keeps the screenshot ~2 levels from the decoded PNG (the same
+    // margin 'final' allows above) while the two images are only ~4 levels apart.
+    assert(wl[0] < 0.6 * wl[1] && wr[1] < 0.6 * wr[0], `wipe: left of the line the preview (${wl.map((d) => d.toFixed(2))}), right the final (${wr.map((d) => d.toFixed(2))})`);
     assert((await a.evaluate(() => document.getElementById("lights").children.length)) > 0, "the page still works");
     await shot(a, "19-final-wipe.png");
 

@@ -185,6 +185,27 @@ TEST(Sessions, TwoEditorsAndAViewerSeeTheSameChangesAndFrames) {
     EXPECT_EQ(roles, (std::multiset<std::string>{"editor", "editor", "viewer"}));
 }
 
+TEST(Sessions, AViewMessageIsAlwaysFollowedByAFrameEvenWithTheSameSettings) {
+    // The command-line client's `watch` sends its view and counts only the frames after the ack;
+    // when the view equals the one it had, the frame encodes to the same bytes as the one already
+    // sent, and must still come (CI once timed out waiting for it).
+    Server server({SHOT});
+    ASSERT_TRUE(server.up()) << server.process->output();
+    const std::string id = sessionOf(SHOT);
+    test::WsClient c(server.port, id, server.tokens[id].editor);
+    const json welcome = c.nextText();
+    ASSERT_EQ(welcome["type"], "welcome");
+    c.frameAtLeast(welcome["rig"]["version"]);
+    for (uint64_t seq = 1; seq <= 2; ++seq) {
+        c.send(json{{"type", "view"}, {"seq", seq}, {"encoding", "jpeg"}});
+        const json ack = c.nextText();
+        ASSERT_EQ(ack["type"], "ack") << ack;
+        const size_t before = c.frames().size();
+        while (c.frames().size() == before) c.readOne(); // the socket's 60 s timeout fails the test
+        EXPECT_EQ(c.frames().back().rigVersion, welcome["rig"]["version"].get<uint64_t>());
+    }
+}
+
 TEST(Sessions, ASlowClientGetsTheNewestFrameAndNoBacklog) {
     Server server({SHOT, "--refine-window", "0"});
     ASSERT_TRUE(server.up()) << server.process->output();

@@ -176,6 +176,9 @@ void WebSocketSession::handleText(const std::string& text) {
                 // Every frame after the ack is in the new view: one not yet written is dropped.
                 ++mViewGeneration;
                 mPendingFrame.reset();
+                // A client waits for a frame after this ack, even when the new view encodes to
+                // the bytes it already has (the same settings again): never skip that one.
+                mLastMessage.reset();
                 reply(protocol::encodeAck(m.seq, session.rigVersion(), {{"view", protocol::toJson(mView)}}));
                 pumpFrames();
             } else if constexpr (std::is_same_v<T, protocol::PickMessage>) {
