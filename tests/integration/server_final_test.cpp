@@ -36,6 +36,17 @@ int blenderRenders() {
     return n;
 }
 
+// The Blender renders still running after up to 5 s: a killed child takes a moment to go away
+// on a loaded machine (0 at once is the usual case).
+int blenderRendersAfterAWhile() {
+    int n = blenderRenders();
+    for (int i = 0; i < 50 && n != 0; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        n = blenderRenders();
+    }
+    return n;
+}
+
 // Reads `final` messages until one in `state` (or a failure) arrives.
 json untilState(dfb::test::WsClient& ws, const std::string& state, std::vector<json>* seen = nullptr) {
     for (;;) {
@@ -101,7 +112,7 @@ TEST_F(ServerFinal, RendersWithProgressAndServesTheResult) {
     // Asking again for the same version gives the kept result.
     auto cached = dfb::test::http(server.port, "POST", base, tk.editor, R"({"samples": 8, "directOnly": true})");
     EXPECT_EQ(cached.json()["state"], "done");
-    EXPECT_EQ(blenderRenders(), 0);
+    EXPECT_EQ(blenderRendersAfterAWhile(), 0);
 }
 
 TEST_F(ServerFinal, CancelAndATimeLimitLeaveNoBlenderBehind) {
@@ -124,8 +135,7 @@ TEST_F(ServerFinal, CancelAndATimeLimitLeaveNoBlenderBehind) {
     ASSERT_EQ(cancel.status, 200) << cancel.body;
     EXPECT_EQ(cancel.json()["state"], "cancelled");
     EXPECT_EQ(untilState(editor, "cancelled")["state"], "cancelled");
-    std::this_thread::sleep_for(200ms);
-    EXPECT_EQ(blenderRenders(), 0) << "the child was killed";
+    EXPECT_EQ(blenderRendersAfterAWhile(), 0) << "the child was killed";
     EXPECT_EQ(dfb::test::http(server.port, "DELETE", base, tk.editor).status, 409) << "nothing to cancel";
 
     // Full global illumination at 4096 samples takes far over 3 s here: stopped at the limit.
@@ -134,8 +144,7 @@ TEST_F(ServerFinal, CancelAndATimeLimitLeaveNoBlenderBehind) {
     ASSERT_EQ(failed["state"], "failed") << failed.dump();
     EXPECT_NE(failed["error"].get<std::string>().find("--final-timeout"), std::string::npos) << failed.dump();
     EXPECT_EQ(failed["rigVersion"], 2);
-    std::this_thread::sleep_for(200ms);
-    EXPECT_EQ(blenderRenders(), 0);
+    EXPECT_EQ(blenderRendersAfterAWhile(), 0);
     // The session kept serving.
     EXPECT_EQ(server.get("/v1/sessions/" + id + "/rig", tk.viewer).status, 200);
 }
