@@ -25,6 +25,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -606,12 +607,7 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_flag("--json", opt.json,
                  "one JSON object on stdout (the human-readable lines go to stderr)");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        const int rc = app.exit(e);
-        return rc == 0 ? EXIT_OK : EXIT_USAGE;
-    }
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-load-bench"); rc >= 0) return rc;
     std::string why;
     const auto parsedUrl = parseUrl(opt.server, why);
     if (!parsedUrl) {

@@ -4,12 +4,18 @@
 
 #include "Connection.h"
 
+#include <dfb/core/CommandLine.h>
+
 #include <dfb/protocol/Json.h>
 #include <dfb/protocol/Messages.h>
 
 #include <nlohmann/json.hpp>
 
+#include <pwd.h>
+#include <unistd.h>
+
 #include <chrono>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -18,13 +24,28 @@ namespace dfb::cli {
 
 using json = nlohmann::json;
 
-constexpr int EXIT_OK = 0, EXIT_USAGE = 1, EXIT_UNREACHABLE = 2, EXIT_REFUSED = 3, EXIT_BROKEN = 4, EXIT_FILE = 5;
+constexpr int EXIT_OK = 0, EXIT_USAGE = dfb::EXIT_COMMAND_LINE, EXIT_UNREACHABLE = 2, EXIT_REFUSED = 3, EXIT_BROKEN = 4, EXIT_FILE = 5;
+
+/// The user's login name (the default --name: the author of edits in the history and presence).
+inline std::string loginName() {
+    if (const passwd* pw = ::getpwuid(::geteuid()); pw && pw->pw_name && *pw->pw_name) return pw->pw_name;
+    if (const char* u = std::getenv("USER"); u && *u) return u;
+    return "dfb-client";
+}
+
+/// A server's refusal as the client prints it: "error CODE: message" (docs/operations.md).
+inline std::string serverErrorText(const json& j, const std::string& fallback) {
+    if (j.is_object() && j["code"].is_string() && j["message"].is_string()) {
+        return "error " + j["code"].get<std::string>() + ": " + j["message"].get<std::string>();
+    }
+    return "error: " + fallback;
+}
 
 struct Options {
     std::string server = "http://127.0.0.1:8080";
     std::string session;
     std::string token;
-    std::string name = "dfb-client";
+    std::string name = loginName();
     double timeoutS = 30.0;
     std::string caCert;
 };
@@ -51,14 +72,18 @@ public:
     }
     std::chrono::milliseconds timeout() const { return std::chrono::milliseconds(long(mOpt.timeoutS * 1000)); }
 
-    /// One request; a refusal (non-2xx) prints the server's error verbatim and exits 3.
+    const std::string& name() const { return mOpt.name; }
+
+    /// One request; a refusal (non-2xx) prints "error CODE: message" (the server's words) and
+    /// exits 3.
     client::HttpResponse request(const std::string& method, const std::string& target, const std::string& body = "",
                                  const std::string& ifMatch = "") {
-        auto r = client::httpRequest(mUrl, method, target, mToken, body, ifMatch, timeout());
+        auto r = client::httpRequest(mUrl, method, target, mToken, body, ifMatch, timeout(), mOpt.name);
         if (!r) fail(r.error());
         if (r->status / 100 != 2) {
-            die(EXIT_REFUSED, "server refused " + method + " " + target.substr(0, target.find('?')) + " (HTTP " +
-                                  std::to_string(r->status) + "): " + r->body);
+            auto parsed = protocol::parseJson(r->body, 1 << 20, "the server's answer");
+            const std::string where = " (HTTP " + std::to_string(r->status) + ", " + method + " " + target.substr(0, target.find('?')) + ")";
+            die(EXIT_REFUSED, serverErrorText(parsed ? parsed.value() : json(), r->body) + where);
         }
         return r.value();
     }
@@ -68,7 +93,7 @@ public:
             const bool unreachable = e.message.rfind("connecting", 0) == 0 || e.message.rfind("resolving", 0) == 0;
             die(unreachable ? EXIT_UNREACHABLE : EXIT_BROKEN, e.message);
         }
-        die(EXIT_REFUSED, "server refused: " + e.message);
+        die(EXIT_REFUSED, std::string("error ") + dfb::toString(e.code) + ": " + e.message);
     }
 
     /// The session to talk to: --session, the URL's, or the only one the token opens.
@@ -101,7 +126,7 @@ public:
                     *welcome = t->json;
                     return std::move(c.value());
                 }
-                if (t->json.value("type", "") == "error") die(EXIT_REFUSED, "server refused: " + t->json.dump());
+                if (t->json.value("type", "") == "error") die(EXIT_REFUSED, serverErrorText(t->json, t->json.dump()));
             }
         }
     }

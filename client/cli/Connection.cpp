@@ -102,12 +102,18 @@ beast::error_code runFor(asio::io_context& ioc, tcp::socket& socket, std::chrono
     beast::error_code result = asio::error::would_block;
     start([&](beast::error_code e, size_t) { result = e; });
     ioc.restart();
-    ioc.run_for(timeout);
+    // One handler at a time until ours ran: other work (the WebSocket's keep-alive timer,
+    // Connection::keepAlive) may stay pending, so running until the context is out of work would
+    // wait for the whole timeout.
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (result == asio::error::would_block && ioc.run_one_until(deadline) != 0) {
+    }
     if (result == asio::error::would_block) {
         beast::error_code ignored;
         socket.cancel(ignored);
         ioc.restart();
-        ioc.run();
+        while (result == asio::error::would_block && ioc.run_one() != 0) {
+        }
         return asio::error::timed_out;
     }
     return result;
@@ -195,7 +201,8 @@ Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::
         const nlohmann::json j = parsed ? std::move(parsed.value()) : nlohmann::json();
         const std::string code = j.is_object() ? j.value("code", "") : "";
         const ErrorCode c = code == "unauthorized" ? ErrorCode::Unauthorized : code == "missing_data" ? ErrorCode::MissingData : ErrorCode::Protocol;
-        return makeError(c, "HTTP " + std::to_string(res.result_int()) + ": " + res.body());
+        const std::string message = j.is_object() && j["message"].is_string() ? j["message"].get<std::string>() : res.body();
+        return makeError(c, message + " (HTTP " + std::to_string(res.result_int()) + ")");
     }
     if (ec) return netError("WebSocket handshake with " + url.host + ":" + url.port, ec);
     return std::unique_ptr<Connection>(new Connection(std::move(impl)));
@@ -232,6 +239,16 @@ Result<ServerMessage> Connection::receive(std::chrono::milliseconds timeout) {
     return ServerMessage{std::move(f)};
 }
 
+void Connection::keepAlive(std::chrono::milliseconds idle) {
+    mImpl->withWs([&](auto& ws) {
+        websocket::stream_base::timeout opt{};
+        opt.handshake_timeout = mImpl->timeout;
+        opt.idle_timeout = idle;
+        opt.keep_alive_pings = true;
+        ws.set_option(opt);
+    });
+}
+
 void Connection::shutdown() {
     if (!mImpl) return;
     ::shutdown(mImpl->socket().native_handle(), SHUT_RDWR);
@@ -244,7 +261,8 @@ void Connection::close() {
 }
 
 Result<HttpResponse> httpRequest(const Url& url, const std::string& method, const std::string& target, const std::string& token,
-                                 const std::string& body, const std::string& ifMatch, std::chrono::milliseconds timeout) {
+                                 const std::string& body, const std::string& ifMatch, std::chrono::milliseconds timeout,
+                                 const std::string& name) {
     asio::io_context ioc;
     beast::error_code ec;
     tcp::resolver resolver(ioc);
@@ -273,6 +291,7 @@ Result<HttpResponse> httpRequest(const Url& url, const std::string& method, cons
     req.set(http::field::user_agent, "dfb-client");
     if (!token.empty()) req.set(http::field::authorization, "Bearer " + token);
     if (!ifMatch.empty()) req.set(http::field::if_match, ifMatch);
+    if (!name.empty()) req.set("X-Dfb-Name", name);
     if (!body.empty()) {
         req.set(http::field::content_type, "application/json");
         req.body() = body;

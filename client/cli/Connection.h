@@ -50,6 +50,10 @@ public:
     /// Fails with Network on timeout or close, Protocol on garbage.
     Result<ServerMessage> receive();
     Result<ServerMessage> receive(std::chrono::milliseconds timeout);
+    /// From now on the connection pings the server when it has been quiet for half of `idle` and
+    /// a receive fails (Network, "timed out") only when nothing, not even the answer to a ping,
+    /// came for `idle`: an idle session is not a dead server (`watch`).
+    void keepAlive(std::chrono::milliseconds idle);
     void close();
     /// Ends a receive() blocked in another thread (it fails with Network). Thread-safe.
     void shutdown();
@@ -66,9 +70,11 @@ struct HttpResponse {
     std::string etag;
     std::string rigVersion; ///< X-Rig-Version of frames
 };
-/// One HTTP request with an optional bearer token, body and If-Match. Any status is a value; only
-/// failing to talk to the server is an error (Network).
+/// One HTTP request with an optional bearer token, body, If-Match and the user's name (header
+/// X-Dfb-Name: the author of an edit in the history, docs/protocol.md). Any status is a value;
+/// only failing to talk to the server is an error (Network).
 Result<HttpResponse> httpRequest(const Url& url, const std::string& method, const std::string& target, const std::string& token,
-                                 const std::string& body, const std::string& ifMatch, std::chrono::milliseconds timeout);
+                                 const std::string& body, const std::string& ifMatch, std::chrono::milliseconds timeout,
+                                 const std::string& name = "");
 
 } // namespace dfb::client

@@ -5,9 +5,7 @@
 //
 // Every subcommand takes --server URL (the links dfb-server prints carry the session and the
 // token), --session ID, --token T and --timeout S; DFB_SERVER, DFB_SESSION and DFB_TOKEN are the
-// defaults. Exit codes (also in --help and docs/operations.md): 0 success; 1 bad command line;
-// 2 cannot reach the server; 3 the server refused (its error is printed verbatim); 4 timed out or
-// the connection broke; 5 cannot read or write a local file.
+// defaults. Exit codes: Client.h EXIT_* (listed in --help's footer and docs/operations.md).
 
 #include "Bench.h"
 #include "Client.h"
@@ -19,6 +17,7 @@
 #include <dfb/protocol/Messages.h>
 #include <dfb/protocol/Schema.h>
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -63,17 +62,24 @@ struct ViewArgs {
     void add(CLI::App* c) {
         c->add_option("--output", output, "beauty, light:NAME (one light alone), shadow:NAME (its shadow mask) or layer:NAME "
                                           "(a G-buffer layer: P, N, albedo, ...); a beauty EXR holds one float layer per light");
-        c->add_option("--format", format, "jpeg, png or exr (default: from the file name, else jpeg)");
+        c->add_option("--format", format, "jpeg, png or exr (default: from the file name, else jpeg)")->check(CLI::IsMember({"jpeg", "png", "exr"}));
         c->add_option("--quality", quality, "JPEG quality")->check(CLI::Range(1, 100));
         c->add_option("--exposure", exposure, "stops added to the rig's exposure")->check(CLI::Range(-20.0, 20.0));
         c->add_option("--view-transform", viewTransform, "rig (the rig's), srgb or filmic")->check(CLI::IsMember({"rig", "srgb", "filmic"}));
     }
+    /// The format of `path`: its extension (.jpg/.jpeg, .png, .exr) or --format; refused (exit 1)
+    /// when the extension is another or disagrees with --format (`frame out.tif` wrote JPEG bytes).
     std::string formatFor(const std::string& path) const {
-        if (!format.empty()) return format;
         const std::string ext = std::filesystem::path(path).extension().string();
-        if (ext == ".png") return "png";
-        if (ext == ".exr") return "exr";
-        return "jpeg";
+        std::string byName;
+        if (ext == ".jpg" || ext == ".jpeg") byName = "jpeg";
+        else if (ext == ".png") byName = "png";
+        else if (ext == ".exr") byName = "exr";
+        else if (!ext.empty()) die(EXIT_USAGE, path + ": cannot write '" + ext + "' files: name it .jpg, .png or .exr");
+        if (!format.empty() && !byName.empty() && format != byName) {
+            die(EXIT_USAGE, path + ": the name says " + byName + " but --format says " + format);
+        }
+        return !byName.empty() ? byName : !format.empty() ? format : "jpeg";
     }
     json settings(const std::string& fmt) const {
         return json{{"output", output}, {"encoding", fmt}, {"quality", quality}, {"exposure", exposure}, {"viewTransform", viewTransform}};
@@ -91,6 +97,142 @@ std::string urlEncode(const std::string& s) {
         }
     }
     return out;
+}
+
+// ---- human-readable answers ------------------------------------------------------------------
+// What the subcommands print unless --json is given (then: the server's JSON as it sent it).
+
+std::string valueText(const json& v) { return v.dump(); }
+
+// "key.intensity = 66, key.position = [1,4,2]" (the first few of many).
+std::string changesText(const json& changes) {
+    if (!changes.is_array()) return "";
+    std::string out;
+    size_t n = 0;
+    for (const json& c : changes) {
+        if (n == 6) {
+            out += ", ... (" + std::to_string(changes.size()) + " changes)";
+            break;
+        }
+        out += (n++ ? ", " : "") + c.value("path", std::string("?")) + " = " + (c.contains("value") ? valueText(c["value"]) : "?");
+    }
+    return out;
+}
+
+std::string str(const json& j, const char* key, const std::string& fallback = "") {
+    return j.is_object() && j.contains(key) ? (j[key].is_string() ? j[key].get<std::string>() : j[key].dump()) : fallback;
+}
+
+std::string clientText(const json& c) {
+    std::string t = str(c, "name", "?") + " (" + str(c, "role", "?");
+    if (c.contains("editing") && c["editing"].is_string()) t += ", editing " + c["editing"].get<std::string>();
+    return t + ")";
+}
+
+std::string clientsText(const json& clients) {
+    std::string out;
+    if (clients.is_array()) {
+        for (const json& c : clients) out += (out.empty() ? "" : ", ") + clientText(c);
+    }
+    return out.empty() ? "none" : out;
+}
+
+std::string changeMessageText(const json& m) {
+    std::string t = "rig version " + str(m, "rigVersion", "?") + " by " + str(m, "byName", "?") + " (" + str(m, "kind", "?") + ")";
+    if (m.contains("changes")) t += ": " + changesText(m["changes"]);
+    return t;
+}
+
+std::string finalText(const json& m) {
+    std::string t = "final render: " + str(m, "state", "?");
+    if (m.contains("rigVersion")) t += ", rig version " + str(m, "rigVersion");
+    if (m.contains("samples") && m["samples"].is_array() && m["samples"].size() == 2) {
+        t += ", " + m["samples"][0].dump() + "/" + m["samples"][1].dump() + " samples";
+    }
+    if (m.contains("seconds")) t += ", " + str(m, "seconds") + " s";
+    if (m.contains("error")) t += ": " + str(m, "error");
+    return t;
+}
+
+// One line per message of `watch` (docs/protocol.md names them).
+std::string messageText(const json& m) {
+    const std::string type = str(m, "type");
+    if (type == "change") return "change: " + changeMessageText(m);
+    if (type == "presence") return "presence: " + clientsText(m["clients"]);
+    if (type == "ack") return "ack " + str(m, "seq", "?") + ": rig version " + str(m, "rigVersion", "?");
+    if (type == "final") return finalText(m);
+    if (type == "drag") return "drag: " + str(m, "state", "?");
+    return type + ": " + m.dump();
+}
+
+// The answer of an edit (set, apply, rig put, undo, redo, drag).
+void printEditAnswer(const json& a) {
+    std::cout << "rig version " << str(a, "rigVersion", "?");
+    if (a.contains("kind")) std::cout << " (" << str(a, "kind") << ")";
+    std::cout << "\n";
+    for (const json& o : a.value("overwrote", json::array())) {
+        std::cout << "overwrote " << str(o, "path", "?") << " of rig version " << str(o, "version", "?") << " (client " << str(o, "by", "?") << ")\n";
+    }
+    if (a.contains("drag")) std::cout << "drag: " << a["drag"].dump() << "\n";
+}
+
+void printSessions(const json& j) {
+    for (const json& s : j.value("sessions", json::array())) {
+        if (str(s, "state") == "failed") {
+            std::cout << str(s, "id") << "  " << str(s, "role") << "  failed: " << str(s, "error") << "\n";
+            continue;
+        }
+        std::cout << str(s, "id") << "  " << str(s, "role") << "  " << str(s, "width") << "x" << str(s, "height") << "  rig version "
+                  << str(s, "rigVersion") << "  " << str(s, "clients") << " client(s)  " << str(s, "shot") << "\n";
+    }
+}
+
+void printInfo(const json& j) {
+    const json& d = j.contains("session") ? j["session"] : json::object();
+    std::cout << "session " << str(j, "id") << " (you: " << str(j, "role") << "), rig version " << str(j, "rigVersion") << ", undo "
+              << str(j["history"], "undo", "0") << " / redo " << str(j["history"], "redo", "0")
+              << (j.value("persistent", false) ? ", journaled" : ", not journaled") << "\n";
+    std::cout << "shot " << str(d, "shot") << " (" << str(d, "width") << "x" << str(d, "height") << ", scene " << str(d, "source", "?")
+              << ", camera " << str(d.contains("camera") ? d["camera"] : json(), "name", "?") << ")\n";
+    std::string objects;
+    for (const json& o : d.value("objects", json::array())) objects += (objects.empty() ? "" : ", ") + o.get<std::string>();
+    std::cout << "objects: " << (objects.empty() ? "none" : objects) << "\n";
+    std::cout << "clients: " << clientsText(j["clients"]) << "\n";
+}
+
+void printPick(const json& j) {
+    std::cout << "pixel (" << str(j, "x") << ", " << str(j, "y") << "): ";
+    if (!j.value("hit", false)) {
+        std::cout << "background\n";
+        return;
+    }
+    std::cout << "object " << str(j, "object", "?") << " (id " << str(j, "objectId", "?") << ") at " << str(j, "position") << ", normal "
+              << str(j, "normal") << "\n";
+    std::string lights;
+    for (const json& l : j.value("lights", json::array())) lights += (lights.empty() ? "" : ", ") + str(l, "name") + " " + str(l, "radiance");
+    std::cout << "lights: " << (lights.empty() ? "none reach it" : lights) << "\n";
+}
+
+void printHistory(const json& j) {
+    const json& entries = j.value("entries", json::array());
+    for (const json& e : entries) {
+        std::cout << "v" << str(e, "version", "?") << "  " << str(e, "kind", "?") << " by " << str(e, "byName", "?");
+        if (e.contains("changes")) std::cout << ": " << changesText(e["changes"]);
+        std::cout << "\n";
+    }
+    std::cout << entries.size() << " change(s); rig version " << str(j, "rigVersion", "?") << "\n";
+}
+
+// Prints the answer `body`: verbatim with --json, else through `human` (verbatim too when the
+// answer is not the JSON expected).
+template <typename F> void printAnswer(const std::string& body, bool asJson, F human) {
+    auto parsed = protocol::parseJson(body, 256u << 20, "the answer");
+    if (asJson || !parsed || !parsed.value().is_object()) {
+        std::cout << body << std::endl;
+        return;
+    }
+    human(parsed.value());
+    std::cout.flush();
 }
 
 // ---- properties ------------------------------------------------------------------------------
@@ -191,8 +333,8 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version",
                          dfb::versionText("dfb-client") +
                              " (protocol " + std::to_string(dfb::protocol::PROTOCOL_VERSION) + ")");
-    app.footer("Exit codes: 0 ok, 1 bad command line, 2 server unreachable, 3 the server refused (its error is printed "
-               "verbatim), 4 timed out or connection lost, 5 cannot read or write a local file.\n"
+    app.footer("Exit codes: 0 ok, 1 bad command line, 2 server unreachable, 3 the server refused (printed as "
+               "'error CODE: message'), 4 timed out or connection lost, 5 cannot read or write a local file.\n"
                "Example: dfb-client set key.position=1,4,2 --server 'http://127.0.0.1:8080/?session=shot&token=...'");
     app.require_subcommand(1);
     app.fallthrough();
@@ -206,14 +348,20 @@ int main(int argc, char** argv) {
     app.add_option("--token", opt.token, "editor or viewer token (env DFB_TOKEN)");
     app.add_option("--ca-cert", opt.caCert, "PEM certificate(s) to trust for an https:// server besides the system's, e.g. its "
                                             "self-signed one (env DFB_CA_CERT)");
-    app.add_option("--timeout", opt.timeoutS, "seconds to wait for each answer")->check(CLI::Range(0.1, 3600.0));
-    app.add_option("--name", opt.name, "name shown to the other clients (watch, bench)");
+    app.add_option("--timeout", opt.timeoutS, "seconds to wait for each answer (watch: how long the server may stay silent, "
+                                              "answers to pings included, before the connection counts as lost)")
+        ->check(CLI::Range(0.1, 3600.0));
+    app.add_option("--name", opt.name, "your name: the author of your edits in the history, shown to the other clients (default: "
+                                       "the login name)");
+    bool asJson = false;
+    app.add_flag("--json", asJson, "print the server's JSON answers (machine-readable) instead of text; watch: one JSON object per "
+                                   "message and frame, its own lines on stderr");
 
-    auto* cSessions = app.add_subcommand("sessions", "list the sessions the token opens (JSON)");
-    auto* cInfo = app.add_subcommand("info", "the session: shot, camera, objects, rig version, clients (JSON)");
+    auto* cSessions = app.add_subcommand("sessions", "list the sessions the token opens");
+    auto* cInfo = app.add_subcommand("info", "the session: shot, camera, objects, rig version, clients");
     auto* cRig = app.add_subcommand("rig", "read or replace the whole rig");
     cRig->require_subcommand(1);
-    auto* cRigGet = cRig->add_subcommand("get", "print the rig (JSON), or save it with -o");
+    auto* cRigGet = cRig->add_subcommand("get", "print the rig (always JSON: the document rig put reads), or save it with -o");
     std::string rigOut;
     cRigGet->add_option("-o,--out", rigOut, "write the rig to this file");
     auto* cRigPut = cRig->add_subcommand("put", "replace the rig with a JSON file (editor)");
@@ -248,18 +396,19 @@ int main(int argc, char** argv) {
     cFinal->add_option("file", finalOut, "where to save the render: .exr (linear, the rig's exposure) or .png (the rig's view transform)");
     cFinal->add_option("--samples", finalSamples, "Cycles samples per pixel")->check(CLI::Range(1, 4096));
     cFinal->add_flag("--direct-only", finalDirect, "direct light only (no bounces), as the preview computes it");
-    auto* finalStatusFlag = cFinal->add_flag("--status", finalStatus, "print the session's final-render state (JSON) and exit");
+    auto* finalStatusFlag = cFinal->add_flag("--status", finalStatus, "print the session's final-render state and exit");
     cFinal->add_flag("--cancel", finalCancel, "cancel the session's running final render")->excludes(finalStatusFlag);
     auto* cWatch = app.add_subcommand("watch", "receive streamed frames and changes; count or save them");
     int watchCount = 0;
     double watchSeconds = 0;
     std::string watchDir;
     ViewArgs watchView;
-    cWatch->add_option("--count", watchCount, "stop after this many frames (default: run until --duration or forever)");
+    cWatch->add_option("--count", watchCount, "stop after this many frames (default: run until --duration or forever; an idle "
+                                              "rig sends none, so this waits for edits)");
     cWatch->add_option("--duration", watchSeconds, "stop after this many seconds");
     cWatch->add_option("--save", watchDir, "save each frame as DIR/frame_NNNNNN.EXT");
     watchView.add(cWatch);
-    auto* cPick = app.add_subcommand("pick", "what is at a pixel: position, normal, object, lights reaching it (JSON)");
+    auto* cPick = app.add_subcommand("pick", "what is at a pixel: position, normal, object, lights reaching it");
     int pickX = 0, pickY = 0;
     cPick->add_option("x", pickX, "pixel column (0 = left)")->required();
     cPick->add_option("y", pickY, "pixel row (0 = top)")->required();
@@ -274,7 +423,7 @@ int main(int argc, char** argv) {
     cDrag->add_option("--light", dragLight, "the light (default: the rig's first light the mode applies to)");
     auto* cUndo = app.add_subcommand("undo", "undo the session's most recent edit (editor)");
     auto* cRedo = app.add_subcommand("redo", "redo the most recently undone edit (editor)");
-    auto* cHistory = app.add_subcommand("history", "the session's recorded changes (JSON)");
+    auto* cHistory = app.add_subcommand("history", "the session's recorded changes: version, kind, author, what changed");
     uint64_t since = 0;
     cHistory->add_option("--since", since, "only changes after this rig version");
     auto* cBench = app.add_subcommand("bench", "edit-to-frame latency percentiles as this client sees them (editor)");
@@ -285,20 +434,18 @@ int main(int argc, char** argv) {
     cBench->add_option("--light", benchLight, "light to drag (default: the first)");
     cBench->add_option("--warmup", benchWarmup, "untimed edits first")->check(CLI::Range(0, 1000));
     auto* cProperties = app.add_subcommand("properties", "the rig's property paths, their values and ranges (no server needed)");
-    bool propertiesJson = false;
-    cProperties->add_flag("--json", propertiesJson, "print the schema as the server serves it (GET /v1/schema)");
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-client"); rc >= 0) return rc;
 
     if (cProperties->parsed()) {
-        printProperties(propertiesJson);
+        printProperties(asJson); // --json: the schema as the server serves it (GET /v1/schema)
         return 0;
     }
     try {
         Client cl(opt);
         if (cSessions->parsed()) {
-            std::cout << cl.request("GET", "/v1/sessions").body << std::endl;
+            printAnswer(cl.request("GET", "/v1/sessions").body, asJson, printSessions);
         } else if (cInfo->parsed()) {
-            std::cout << cl.request("GET", cl.base()).body << std::endl;
+            printAnswer(cl.request("GET", cl.base()).body, asJson, printInfo);
         } else if (cRigGet->parsed()) {
             auto r = cl.request("GET", cl.base() + "/rig");
             if (rigOut.empty()) std::cout << r.body << std::endl;
@@ -306,7 +453,7 @@ int main(int argc, char** argv) {
         } else if (cRigPut->parsed()) {
             const std::string body = readFile(rigIn);
             auto r = cl.request("PUT", cl.base() + "/rig", body, ifMatchOpt->count() ? "\"" + std::to_string(ifMatch) + "\"" : "");
-            std::cout << r.body << std::endl;
+            printAnswer(r.body, asJson, printEditAnswer);
         } else if (cSet->parsed() || cApply->parsed()) {
             json body = json::object();
             if (cSet->parsed()) {
@@ -329,7 +476,7 @@ int main(int argc, char** argv) {
                 if (applyIfOpt->count()) body["ifVersion"] = ifVersion;
             }
             auto r = cl.request("POST", cl.base() + "/edits", body.dump());
-            std::cout << r.body << std::endl;
+            printAnswer(r.body, asJson, printEditAnswer);
         } else if (cFrame->parsed()) {
             const std::string fmt = frameView.formatFor(frameOut);
             std::string q = "?output=" + urlEncode(frameView.output) + "&format=" + fmt + "&quality=" + std::to_string(frameView.quality) +
@@ -347,9 +494,9 @@ int main(int argc, char** argv) {
             std::cout << "saved " << exportOut << " (" << r.body.size() << " bytes, rig version " << version << ")" << std::endl;
         } else if (cFinal->parsed()) {
             if (finalStatus) {
-                std::cout << cl.request("GET", cl.base() + "/final").body << std::endl;
+                printAnswer(cl.request("GET", cl.base() + "/final").body, asJson, [](const json& j) { std::cout << finalText(j) << "\n"; });
             } else if (finalCancel) {
-                std::cout << cl.request("DELETE", cl.base() + "/final").body << std::endl;
+                printAnswer(cl.request("DELETE", cl.base() + "/final").body, asJson, [](const json& j) { std::cout << finalText(j) << "\n"; });
             } else {
                 if (finalOut.empty()) die(EXIT_USAGE, "final: give the file to save the render in (.exr or .png), or --status / --cancel");
                 return finalRender(cl, finalOut, finalSamples, finalDirect);
@@ -357,50 +504,64 @@ int main(int argc, char** argv) {
         } else if (cWatch->parsed()) {
             json welcome;
             auto conn = cl.connect(&welcome);
-            std::cout << "watching session " << welcome.value("sessionId", "") << " as " << welcome.value("role", "") << ", rig version "
-                      << welcome["rig"].value("version", uint64_t(0)) << std::endl;
+            // An idle rig sends nothing: wait as long as the server answers pings; only silence
+            // for a whole --timeout means the connection is lost.
+            conn->keepAlive(cl.timeout());
+            // With --json stdout carries one JSON object per line and nothing else.
+            std::ostream& human = asJson ? std::cerr : std::cout;
+            human << "watching session " << welcome.value("sessionId", "") << " as " << welcome.value("role", "") << ", rig version "
+                  << welcome["rig"].value("version", uint64_t(0)) << std::endl;
             const std::string fmt = watchView.format.empty() ? "jpeg" : watchView.format;
-            const json settings = watchView.settings(fmt);
             // Frames before the ack of the view settings are in the old view: not counted.
-            bool viewSet = settings == protocol::toJson(protocol::ViewSettings{});
-            if (!viewSet) {
-                protocol::ViewMessage v{1, settings};
-                if (auto s = conn->sendText(protocol::encode(v)); !s) cl.fail(s.error());
-            }
+            protocol::ViewMessage v{1, watchView.settings(fmt)};
+            if (auto st = conn->sendText(protocol::encode(v)); !st) cl.fail(st.error());
+            bool viewSet = false;
             if (!watchDir.empty()) std::filesystem::create_directories(watchDir);
             const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(long(watchSeconds * 1000));
             int frames = 0;
             uint64_t lastVersion = 0;
             while ((watchCount == 0 || frames < watchCount) && (watchSeconds == 0 || std::chrono::steady_clock::now() < end)) {
-                auto wait = cl.timeout();
-                bool untilDeadline = false; // this receive waits no longer than --duration has left
+                auto wait = std::chrono::milliseconds(std::chrono::hours(24));
                 if (watchSeconds > 0) {
                     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
-                    untilDeadline = left <= wait;
-                    wait = std::max(std::chrono::milliseconds(1), std::min(wait, left));
+                    wait = std::max(std::chrono::milliseconds(1), left);
                 }
                 auto m = conn->receive(wait);
                 if (!m) {
-                    // The deadline of --duration is reached as a receive timeout at the latest (the
-                    // timer may fire a little before the steady clock says the deadline passed).
-                    if (untilDeadline || (watchSeconds > 0 && std::chrono::steady_clock::now() >= end)) break;
-                    cl.fail(m.error());
+                    // The deadline of --duration is reached as a receive timeout (the timer may
+                    // fire a little before the steady clock says the deadline passed).
+                    if (watchSeconds > 0 && std::chrono::steady_clock::now() + std::chrono::milliseconds(50) >= end) break;
+                    die(EXIT_BROKEN, "watch: " + m.error().message + " (no answer from the server for --timeout " +
+                                         json(cl.timeout().count() / 1000.0).dump() + " s, pings included)");
                 }
                 if (auto* t = std::get_if<client::TextMessage>(&m.value())) {
                     const std::string type = t->json.value("type", "");
-                    if (type == "error" && t->json.value("seq", uint64_t(0)) == 1) die(EXIT_REFUSED, "server refused the view settings: " + t->json.dump());
-                    if (type == "ack" && t->json.value("seq", uint64_t(0)) == 1) viewSet = true;
-                    if (type == "error") std::cerr << "dfb-client: server: " << t->json.dump() << "\n";
-                    else std::cout << t->json.dump() << std::endl;
+                    const bool ours = t->json.value("seq", uint64_t(0)) == 1;
+                    if (type == "error" && ours) die(EXIT_REFUSED, "the view settings: " + serverErrorText(t->json, t->json.dump()));
+                    if (type == "ack" && ours) {
+                        viewSet = true;
+                        continue; // the ack of our own view settings is not news
+                    }
+                    if (asJson) std::cout << t->json.dump() << std::endl;
+                    else if (type == "error") std::cerr << "dfb-client: " << serverErrorText(t->json, t->json.dump()) << "\n";
+                    else std::cout << messageText(t->json) << std::endl;
                     continue;
                 }
                 if (!viewSet) continue;
                 auto& f = std::get<client::FrameMessage>(m.value());
                 ++frames;
                 lastVersion = f.header.rigVersion;
-                std::cout << "frame " << f.header.frameNumber << " rig version " << f.header.rigVersion << " " << f.header.width << "x"
-                          << f.header.height << " " << protocol::encodingName(f.header.encoding) << " " << f.image.size() << " bytes"
-                          << std::endl;
+                const std::string encoding = protocol::encodingName(f.header.encoding);
+                if (asJson) {
+                    std::cout << json{{"type", "frame"}, {"frameNumber", f.header.frameNumber}, {"rigVersion", f.header.rigVersion},
+                                      {"width", f.header.width}, {"height", f.header.height}, {"encoding", encoding},
+                                      {"bytes", f.image.size()}}
+                                     .dump()
+                              << std::endl;
+                } else {
+                    std::cout << "frame " << f.header.frameNumber << " rig version " << f.header.rigVersion << " " << f.header.width << "x"
+                              << f.header.height << " " << encoding << " " << f.image.size() << " bytes" << std::endl;
+                }
                 if (!watchDir.empty()) {
                     char name[64];
                     std::snprintf(name, sizeof name, "frame_%06d.%s", frames, f.header.encoding == protocol::Encoding::Png ? "png"
@@ -408,10 +569,10 @@ int main(int argc, char** argv) {
                     writeFile((std::filesystem::path(watchDir) / name).string(), f.image.data(), f.image.size());
                 }
             }
-            std::cout << "received " << frames << " frame(s); last rig version " << lastVersion << std::endl;
+            human << "received " << frames << " frame(s); last rig version " << lastVersion << std::endl;
             conn->close();
         } else if (cPick->parsed()) {
-            std::cout << cl.request("GET", cl.base() + "/pick?x=" + std::to_string(pickX) + "&y=" + std::to_string(pickY)).body << std::endl;
+            printAnswer(cl.request("GET", cl.base() + "/pick?x=" + std::to_string(pickX) + "&y=" + std::to_string(pickY)).body, asJson, printPick);
         } else if (cDrag->parsed()) {
             auto mode = protocol::parseDragMode(dragMode);
             if (!mode) die(EXIT_USAGE, mode.error().message);
@@ -433,11 +594,11 @@ int main(int argc, char** argv) {
             }
             json body{{"mode", dragMode}, {"light", dragLight}, {"from", dragFrom}, {"to", dragTo}};
             if (!dragPoints.empty()) body["points"] = dragPoints;
-            std::cout << cl.request("POST", cl.base() + "/drag", body.dump()).body << std::endl;
+            printAnswer(cl.request("POST", cl.base() + "/drag", body.dump()).body, asJson, printEditAnswer);
         } else if (cUndo->parsed() || cRedo->parsed()) {
-            std::cout << cl.request("POST", cl.base() + (cUndo->parsed() ? "/undo" : "/redo")).body << std::endl;
+            printAnswer(cl.request("POST", cl.base() + (cUndo->parsed() ? "/undo" : "/redo")).body, asJson, printEditAnswer);
         } else if (cHistory->parsed()) {
-            std::cout << cl.request("GET", cl.base() + "/history?since=" + std::to_string(since)).body << std::endl;
+            printAnswer(cl.request("GET", cl.base() + "/history?since=" + std::to_string(since)).body, asJson, printHistory);
         } else if (cBench->parsed()) {
             return bench(cl, benchEdits, benchClients, benchLight, benchWarmup);
         }

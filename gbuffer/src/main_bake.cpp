@@ -15,6 +15,7 @@
 #include <dfb/gbuffer/LayerImage.h>
 #include <dfb/gbuffer/Scene.h>
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 #include <OpenImageIO/imageio.h>
 
@@ -146,7 +147,7 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--info", infoPath, "print what a baked EXR holds and exit");
     app.add_option("--layer", layer, "write one layer of the baked EXR given as input as a viewable image (-o)");
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-bake"); rc >= 0) return rc;
     if (envRays < 0 || envRays > dfb::MAX_ENV_RAYS) {
         std::cerr << "dfb-bake: --env-rays " << envRays << " is out of range: 0 (no environment transfer) to "
                   << dfb::MAX_ENV_RAYS << " rays per sample\n";

@@ -1,5 +1,10 @@
 #include <dfb/protocol/Json.h>
 
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
 #include <utility>
 
 namespace dfb::protocol {
@@ -88,5 +93,24 @@ std::string excerpt(const json& v, size_t maxChars) {
     default: return v.dump(-1, ' ', true, json::error_handler_t::replace); // a scalar: short by nature
     }
 }
+
+namespace {
+void shortestFloatsAt(json& v, int depth) {
+    if (v.is_number_float()) {
+        const double d = v.get<double>();
+        const float f = float(d);
+        if (!std::isfinite(d) || double(f) != d) return; // not a float's value: keep every digit
+        char buf[32];
+        auto [end, ec] = std::to_chars(buf, buf + sizeof buf, f); // shortest text that reads back as f
+        if (ec != std::errc()) return;
+        v = std::strtod(std::string(buf, end).c_str(), nullptr);
+        return;
+    }
+    if (depth >= MAX_JSON_DEPTH || !(v.is_array() || v.is_object())) return;
+    for (auto& e : v) shortestFloatsAt(e, depth + 1);
+}
+} // namespace
+
+void shortestFloats(json& value) { shortestFloatsAt(value, 0); }
 
 } // namespace dfb::protocol

@@ -3,6 +3,7 @@
 
 #include <dfb/protocol/Json.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cctype>
 #include <cstdlib>
@@ -208,13 +209,7 @@ Result<ClientMessage> clientMessageFromJson(const json& j) {
         }
         if (j.contains("name")) {
             if (!j["name"].is_string()) return protocolError("hello.name: expected a string");
-            std::string name = j["name"].get<std::string>();
-            if (name.size() > 64) {
-                size_t cut = 64;
-                while (cut > 0 && (static_cast<unsigned char>(name[cut]) & 0xC0) == 0x80) --cut; // not inside a character
-                name.resize(cut);
-            }
-            m.name = name;
+            m.name = clientName(j["name"].get<std::string>());
         }
         return ClientMessage{m};
     }
@@ -405,6 +400,17 @@ std::string encode(const DragMessage& m) {
 std::string encode(const PickMessage& m) { return dump(json{{"type", "pick"}, {"seq", m.seq}, {"x", m.x}, {"y", m.y}}); }
 std::string encode(const PresenceMessage& m) {
     return dump(json{{"type", "presence"}, {"editing", m.editing ? json(*m.editing) : json(nullptr)}});
+}
+
+std::string clientName(std::string name) {
+    name.erase(std::remove_if(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }),
+               name.end());
+    if (name.size() > MAX_CLIENT_NAME_BYTES) {
+        size_t cut = MAX_CLIENT_NAME_BYTES;
+        while (cut > 0 && (static_cast<unsigned char>(name[cut]) & 0xC0) == 0x80) --cut; // not inside a character
+        name.resize(cut);
+    }
+    return name;
 }
 
 json toJson(const ClientInfo& c) {

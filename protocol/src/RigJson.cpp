@@ -3,6 +3,7 @@
 #include "Validate.h"
 
 #include <dfb/protocol/Codec.h>
+#include <dfb/protocol/Json.h>
 #include <dfb/protocol/Schema.h>
 
 #include <set>
@@ -47,17 +48,21 @@ json toJson(const Light& l) {
     for (const Property& p : lightProperties()) {
         if (p.get && (!p.present || p.present(l))) j[p.path] = p.get(l);
     }
+    shortestFloats(j); // 0.95, not 0.949999988079071 (the rig's numbers are floats)
     return j;
 }
 
 json toJson(const Rig& rig) {
     json lights = json::array();
     for (const Light& l : rig.lights) lights.push_back(toJson(l));
-    return json{{"version", rig.version},
-                {"exposure", rig.exposureStops},
-                {"viewTransform", rig.viewTransform == ViewTransform::Filmic ? "filmic" : "srgb"},
-                {"time", rig.time},
-                {"lights", lights}};
+    json r{{"version", rig.version},
+           {"exposure", rig.exposureStops},
+           {"viewTransform", rig.viewTransform == ViewTransform::Filmic ? "filmic" : "srgb"},
+           {"time", rig.time},
+           {"lights", std::move(lights)}};
+    shortestFloats(r["exposure"]);
+    shortestFloats(r["time"]);
+    return r;
 }
 
 Result<Rig> rigFromJson(const json& j) {

@@ -17,6 +17,7 @@
 #include <dfb/gbuffer/Scene.h>
 #include <dfb/server/InitialRig.h>
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -207,7 +208,7 @@ int main(int argc, char** argv) {
     auto* keyOpt = app.add_option("--tls-key", tlsKey, "PEM private key of --tls-cert")->check(CLI::ExistingFile);
     certOpt->needs(keyOpt);
     keyOpt->needs(certOpt);
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-server"); rc >= 0) return rc;
     rigLimits.maxLightMemoryBytes = lightMemoryMb << 20;
 
     std::vector<SessionSpec> specs;

@@ -25,6 +25,7 @@
 #include <dfb/gbuffer/Scene.h>
 #include <dfb/server/Engine.h>
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include "support/CpuRelight.h"
@@ -271,7 +272,7 @@ int main(int argc, char** argv) {
     app.add_option("--width", width, "bake width")->check(CLI::Range(16, 4096));
     app.add_option("--height", height, "bake height")->check(CLI::Range(16, 4096));
     app.add_option("--spp", spp, "bake samples per pixel")->check(CLI::Range(1, 64));
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-fidelity-bench"); rc >= 0) return rc;
     if (scenes.empty()) scenes = {DFB_SOURCE_DIR "/scenes/tabletop.glb", DFB_SOURCE_DIR "/tests/assets/stanford-dragon-48k.glb"};
     int rc = 0;
     for (const std::string& s : scenes) rc |= benchScene(s, width, height, spp);

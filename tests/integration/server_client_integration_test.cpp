@@ -17,6 +17,8 @@
 #include <boost/beast/websocket.hpp>
 
 #include <OpenImageIO/imageio.h>
+#include <pwd.h>
+#include <unistd.h>
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -26,6 +28,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 using namespace dfb;
 using namespace std::chrono_literals;
@@ -369,6 +372,96 @@ TEST_F(ServerClient, BendyLightOutputsAndSelfIntersectionWarning) {
     EXPECT_NE(out.find("intersect"), std::string::npos) << out;
     std::tie(rc, out) = client({"frame", mask});
     EXPECT_EQ(rc, 0) << out;
+}
+
+// The user's login name, as the default --name of dfb-client should be.
+std::string loginName() {
+    const passwd* pw = ::getpwuid(::geteuid());
+    return pw && pw->pw_name ? pw->pw_name : "";
+}
+
+// dfb-client behaves like the tools TDs use (issue 20 point 6; docs/operations.md "dfb-client").
+TEST_F(ServerClient, CommandLineConventions) {
+    // Usage errors exit 1 and say what was wrong; an unknown subcommand is named with the ones
+    // there are.
+    auto [rc, out] = client({"nosuch"});
+    EXPECT_EQ(rc, 1) << out;
+    EXPECT_NE(out.find("unknown subcommand 'nosuch'"), std::string::npos) << out;
+    EXPECT_NE(out.find("sessions, info, rig"), std::string::npos) << out;
+    std::tie(rc, out) = client({"rig", "fetch"});
+    EXPECT_EQ(rc, 1) << out;
+    EXPECT_NE(out.find("unknown subcommand 'fetch' (dfb-client rig has: get, put)"), std::string::npos) << out;
+    std::tie(rc, out) = client({"pick", "x", "1"});
+    EXPECT_EQ(rc, 1) << out;
+    // The file's extension is the format; one it cannot write is refused before asking.
+    const std::string tif = (mDir / "out.tif").string();
+    std::tie(rc, out) = client({"frame", tif});
+    EXPECT_EQ(rc, 1) << out;
+    EXPECT_NE(out.find("cannot write '.tif'"), std::string::npos) << out;
+    EXPECT_FALSE(std::filesystem::exists(tif));
+    std::tie(rc, out) = client({"frame", (mDir / "out.jpg").string(), "--format", "png"});
+    EXPECT_EQ(rc, 1) << out;
+    EXPECT_NE(out.find("--format says png"), std::string::npos) << out;
+    const std::string png = (mDir / "out.png").string();
+    std::tie(rc, out) = client({"frame", png});
+    ASSERT_EQ(rc, 0) << out;
+    std::ifstream pngIn(png, std::ios::binary);
+    char magic[4] = {};
+    pngIn.read(magic, 4);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+
+    // Edits carry the user's name: --name, else the login name.
+    std::tie(rc, out) = client({"set", "fill.color=0.95,0.9,0.8", "--name", "alice"});
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("rig version "), std::string::npos) << out; // text, not JSON
+    EXPECT_EQ(out.find('{'), std::string::npos) << out;
+    std::tie(rc, out) = client({"set", "key.intensity=66"});
+    ASSERT_EQ(rc, 0) << out;
+    std::tie(rc, out) = client({"history"});
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("edit by alice: fill.color = [0.95,0.9,0.8]"), std::string::npos) << out;
+    EXPECT_NE(out.find("edit by " + loginName() + ": key.intensity = 66"), std::string::npos) << out;
+    auto h = test::http(mPort, "GET", "/v1/sessions/" + mSession + "/history", mToken);
+    EXPECT_NE(h.body.find("\"byName\": \"alice\""), std::string::npos) << h.body;
+    // Floats in their shortest form: 0.95, not 0.949999988079071.
+    std::tie(rc, out) = client({"rig", "get"});
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("0.95,"), std::string::npos) << out;
+    EXPECT_EQ(out.find("0.9499999"), std::string::npos) << out;
+    // Human text by default, the server's JSON with --json.
+    std::tie(rc, out) = client({"pick", "160", "150"});
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find("pixel (160, 150): object table"), std::string::npos) << out;
+    std::tie(rc, out) = client({"--json", "pick", "160", "150"});
+    ASSERT_EQ(rc, 0) << out;
+    EXPECT_EQ(nlohmann::json::parse(out, nullptr, false).value("object", ""), "table") << out;
+    // Server refusals read "error CODE: message".
+    std::tie(rc, out) = client({"set", "key.coneAngle=400"});
+    EXPECT_EQ(rc, 3) << out;
+    EXPECT_NE(out.find("dfb-client: error invalid_value: key.coneAngle"), std::string::npos) << out;
+
+    // watch on an idle rig: no time-out while the server answers pings (--timeout 1 here, idle
+    // for 4 s), then the frame of an edit; with --json stdout is JSON lines only.
+    const std::string cmd = std::string(DFB_CLIENT_EXE) + " --server '" + mUrl + "' --json --timeout 1 watch --duration 8 2>/dev/null";
+    test::Process watcher({"/bin/sh", "-c", cmd});
+    std::this_thread::sleep_for(4s);
+    std::tie(rc, out) = client({"--json", "set", "key.intensity=67"});
+    ASSERT_EQ(rc, 0) << out;
+    const uint64_t edited = nlohmann::json::parse(out, nullptr, false).value("rigVersion", uint64_t(0));
+    ASSERT_GT(edited, 0u) << out;
+    EXPECT_EQ(watcher.wait(60s), 0) << "watch timed out on an idle rig? " << watcher.output();
+    std::istringstream lines(watcher.output());
+    std::string line;
+    bool sawFrame = false, sawChange = false;
+    while (std::getline(lines, line)) {
+        auto j = nlohmann::json::parse(line, nullptr, false);
+        EXPECT_TRUE(j.is_object()) << "not a JSON line: " << line;
+        if (!j.is_object()) continue;
+        sawFrame |= j.value("type", "") == "frame" && j.value("rigVersion", uint64_t(0)) == edited;
+        sawChange |= j.value("type", "") == "change" && j.value("byName", "") == loginName();
+    }
+    EXPECT_TRUE(sawFrame) << watcher.output();
+    EXPECT_TRUE(sawChange) << watcher.output();
 }
 
 TEST(BadInput, ProgramsExitWithClearMessages) {

@@ -192,7 +192,7 @@ TEST_F(ServerFinal, TheCommandLineClientRendersAndSaves) {
 
     auto [rc3, status] = dfb::test::run({DFB_CLIENT_EXE, "final", "--status", "--server", url});
     ASSERT_EQ(rc3, 0) << status;
-    EXPECT_NE(status.find("\"done\""), std::string::npos) << status;
+    EXPECT_NE(status.find("final render: done, rig version 1"), std::string::npos) << status;
     auto [rc4, bad] = dfb::test::run({DFB_CLIENT_EXE, "final", out + ".tif", "--server", url});
     EXPECT_EQ(rc4, 1) << bad;
     EXPECT_NE(bad.find("must end in .exr or .png"), std::string::npos) << bad;

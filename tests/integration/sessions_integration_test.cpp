@@ -619,10 +619,14 @@ TEST(Sessions, ClientSubcommands) {
     };
     auto [rc, out] = client({"sessions"}, editorUrl);
     EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find(id + "  editor  320x180"), std::string::npos) << out;
+    std::tie(rc, out) = client({"--json", "sessions"}, editorUrl);
+    EXPECT_EQ(rc, 0) << out;
     EXPECT_NE(out.find("\"" + id + "\""), std::string::npos) << out;
     std::tie(rc, out) = client({"info"}, viewerUrl);
     EXPECT_EQ(rc, 0) << out;
-    EXPECT_NE(out.find("\"viewer\""), std::string::npos) << out;
+    EXPECT_NE(out.find("session " + id + " (you: viewer)"), std::string::npos) << out;
+    EXPECT_NE(out.find("objects: table, bunny"), std::string::npos) << out;
     std::tie(rc, out) = client({"set", "key.position=1,4,2", "key.intensity=70"}, editorUrl);
     EXPECT_EQ(rc, 0) << out;
     const std::string edits = (dir / "edits.json").string();
@@ -660,10 +664,10 @@ TEST(Sessions, ClientSubcommands) {
     EXPECT_GT(std::filesystem::file_size(exr), 1000u);
     std::tie(rc, out) = client({"pick", "160", "150"}, viewerUrl);
     EXPECT_EQ(rc, 0) << out;
-    EXPECT_NE(out.find("\"table\""), std::string::npos) << out;
+    EXPECT_NE(out.find("object table"), std::string::npos) << out;
     std::tie(rc, out) = client({"history"}, viewerUrl);
     EXPECT_EQ(rc, 0) << out;
-    EXPECT_NE(out.find("fill.enabled"), std::string::npos) << out;
+    EXPECT_NE(out.find("fill.enabled = false"), std::string::npos) << out;
     std::tie(rc, out) = client({"watch", "--count", "1", "--save", (dir / "frames").string(), "--format", "png"}, viewerUrl);
     EXPECT_EQ(rc, 0) << out;
     EXPECT_TRUE(std::filesystem::exists(dir / "frames" / "frame_000001.png")) << out;

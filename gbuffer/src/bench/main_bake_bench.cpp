@@ -10,6 +10,7 @@
 #include <dfb/gbuffer/Baker.h>
 #include <dfb/gbuffer/ExrIO.h>
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -52,7 +53,7 @@ int main(int argc, char** argv) {
     app.add_option("--env-rays", envRays, "rays per sample for the environment transfer (0 = none)")
         ->check(CLI::Range(0, dfb::MAX_ENV_RAYS))
         ->capture_default_str();
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-bake-bench"); rc >= 0) return rc;
     o.envRays = envRays;
 
     std::vector<fs::path> scenes;

@@ -23,6 +23,7 @@
 
 #include "BenchShot.h"
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -89,7 +90,7 @@ int main(int argc, char** argv) {
     bool uniformOnly = false;
     app.add_flag("--uniform", uniformOnly, "errors of the uniform disk and rectangle only (one-shot and LTC)");
     app.add_option("--cells", cells, "the reference's cells per side")->check(CLI::Range(1, MAX_AREA_REFERENCE_CELLS));
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-area-bench"); rc >= 0) return rc;
     keepFreedMemoryForFrames();
 
     bench::BenchShot opened;

@@ -12,6 +12,7 @@
 
 #include "BenchShot.h"
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -99,7 +100,7 @@ int main(int argc, char** argv) {
     app.add_option("--assets", assets, "folder of the asset scenes for the triangles table");
     std::string only;
     app.add_option("--only", only, "time only the edit kinds whose name contains this text (skips the lights table)");
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-bench"); rc >= 0) return rc;
 
     bench::BenchShot opened;
     if (int rc = bench::openBenchShot("dfb-bench", shotPath, scenePath, opened)) return rc;

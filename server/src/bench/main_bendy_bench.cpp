@@ -17,6 +17,7 @@
 #include <dfb/server/Engine.h>
 #include <dfb/server/ImageCodec.h>
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -70,7 +71,7 @@ int main(int argc, char** argv) {
     app.add_option("--edits", edits, "edits per measurement")->check(CLI::Range(3, 10000));
     int only = 0;
     app.add_option("--only", only, "run only section 1, 2 or 3")->check(CLI::Range(0, 3));
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-bendy-bench"); rc >= 0) return rc;
 
     // 1. Shadow pass versus triangles and map size.
     if (only == 0 || only == 1) {

@@ -21,6 +21,7 @@
 
 #include "BenchShot.h"
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -109,7 +110,7 @@ int main(int argc, char** argv) {
     app.add_flag("--no-errors", skipErrors, "only the edit -> frame times");
     bool unshadowed = false;
     app.add_flag("--unshadowed", unshadowed, "without visibility on both sides (the split sum and the irradiance alone)");
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-env-bench"); rc >= 0) return rc;
     keepFreedMemoryForFrames();
 
     bench::BenchShot opened;

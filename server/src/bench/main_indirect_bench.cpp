@@ -16,6 +16,7 @@
 
 #include "BenchShot.h"
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -75,7 +76,7 @@ int main(int argc, char** argv) {
     app.add_option("--scene", scenePath, "shadow casters (default: the shot's source scene)");
     app.add_option("--updates", updates, "drag updates per mode")->check(CLI::Range(1, 10000));
     app.add_option("--quality", quality, "JPEG quality")->check(CLI::Range(1, 100));
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-indirect-bench"); rc >= 0) return rc;
 
     bench::BenchShot opened;
     if (int rc = bench::openBenchShot("dfb-indirect-bench", shotPath, scenePath, opened)) return rc;

@@ -17,6 +17,7 @@
 
 #include "support/BentDownLight.h"
 
+#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -53,7 +54,7 @@ int main(int argc, char** argv) {
     app.add_option("--paper-iterations", paperIterations, "the paper's iteration cap")->check(CLI::Range(1, 1000000));
     app.add_option("--paper-alpha", alpha, "the paper's coefficient alpha, in units of L^2")->check(CLI::Range(1e-9, 10.0));
     app.add_option("--paper-step", step, "the paper's step D, in units of L")->check(CLI::Range(1e-12, 1.0));
-    CLI11_PARSE(app, argc, argv);
+    if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-local-shadow-bench"); rc >= 0) return rc;
 
     const Light light = test::bentDownLight();
     const auto ch = chainFromLight<double>(light);

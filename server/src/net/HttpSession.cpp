@@ -335,7 +335,9 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         res.set(http::field::etag, etag(out.info.rigVersion));
         send(std::move(res));
     };
-    const Author author{0, "http"};
+    // The author of HTTP changes: the X-Dfb-Name header (dfb-client sends --name), else "http".
+    std::string byName = protocol::clientName(std::string(req["X-Dfb-Name"]));
+    const Author author{0, byName.empty() ? std::string("http") : byName};
     auto editorOnly = [&]() {
         if (role == protocol::Role::Editor) return true;
         refuse(makeError(ErrorCode::Forbidden, "a viewer token cannot change session '" + hub->id() + "'"));
@@ -479,7 +481,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         start.points = m.points;
         const int toX = xy[1][0], toY = xy[1][1];
         const std::optional<uint64_t> ifVersion = expected;
-        hub->render().requestPickerJob([self = shared_from_this(), hub, start, toX, toY, ifVersion, version, keepAlive](
+        hub->render().requestPickerJob([self = shared_from_this(), hub, start, toX, toY, ifVersion, version, keepAlive, author](
                                            const Picker& picker, const DeepBuffer& shot) {
             // Solved here (render thread); applied and answered on the connection's strand.
             Result<std::pair<json, std::vector<protocol::Change>>> solved = [&]() -> Result<std::pair<json, std::vector<protocol::Change>>> {
@@ -489,7 +491,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
                 if (!step) return step.error();
                 return std::make_pair(json{{"grab", toJson(g.value())}, {"step", toJson(step.value())}}, step->changes);
             }();
-            asio::post(self->mStream.get_executor(), [self, hub, solved = std::move(solved), ifVersion, version, keepAlive]() mutable {
+            asio::post(self->mStream.get_executor(), [self, hub, solved = std::move(solved), ifVersion, version, keepAlive, author]() mutable {
                 auto fail = [&](const Error& e) {
                     hub->metrics().editRefused(hub->id());
                     self->send(errorResponse(version, keepAlive, makeError(e.code, self->mState->redact(e.message)),
@@ -499,7 +501,7 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
                 json answer{{"drag", solved->first}};
                 uint64_t rigVersion = hub->session().rigVersion();
                 if (!solved->second.empty()) {
-                    auto out = hub->session().edit(solved->second, Author{0, "http"}, std::nullopt, ifVersion);
+                    auto out = hub->session().edit(solved->second, author, std::nullopt, ifVersion);
                     if (!out) return fail(out.error());
                     hub->published(out.value(), nullptr);
                     rigVersion = out->info.rigVersion;

@@ -173,6 +173,7 @@ Result<nlohmann::json> RenderService::pick(Engine& engine, const Rig& rig, int x
         if (r + g + b > 0.f) lights.push_back({{"name", l.name}, {"radiance", {r, g, b}}});
     }
     j["lights"] = lights;
+    protocol::shortestFloats(j); // positions and radiance are floats: their shortest digits
     return j;
 }
 

@@ -32,4 +32,11 @@ Result<nlohmann::json> parseJson(std::string_view text, size_t maxBytes, std::st
 /// members". Never recurses, so it is safe on any value.
 std::string excerpt(const nlohmann::json& value, size_t maxChars = 40);
 
+/// Rewrites every number of `value` that is exactly a 32-bit float as the double nearest to its
+/// shortest decimal form, so that dumping prints 0.95 rather than 0.949999988079071 (the double
+/// of the float 0.95f). Reading the text back as float gives the same float: nothing changes but
+/// the digits. The rig, pick results and the session's camera go through it. At most
+/// MAX_JSON_DEPTH levels are visited (deeper ones are left as they are).
+void shortestFloats(nlohmann::json& value);
+
 } // namespace dfb::protocol

@@ -79,6 +79,12 @@ const char* encodingName(Encoding e);
 const char* mimeType(Encoding e);
 
 // ---- client -> server ---------------------------------------------------------------------------
+/// Longest client name kept (bytes); a longer one is cut at a character boundary.
+constexpr size_t MAX_CLIENT_NAME_BYTES = 64;
+/// A client's name as the server keeps it (hello.name, the X-Dfb-Name header of HTTP edits):
+/// control characters dropped, cut to MAX_CLIENT_NAME_BYTES without splitting a UTF-8 character.
+std::string clientName(std::string name);
+
 /// Optional first message: the client's display name and protocol version.
 struct HelloMessage {
     int protocol = PROTOCOL_VERSION;
