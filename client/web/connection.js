@@ -33,8 +33,10 @@ function setStatus(text, cls) {
 /** Opens the WebSocket of the page's session (and again after every loss of it). */
 export function connect() {
   if (!S.sessionId || !S.token) {
+    // Nothing to retry: say what to open instead of "Disconnected".
     setStatus("no session", "disconnected");
-    $("retryText").textContent = "Open the link dfb-server printed: it carries ?session=…&token=…";
+    $("offlineTitle").textContent = "This address opens no session";
+    $("retryText").textContent = "Open the editor or viewer link dfb-server printed when it started: it ends in ?session=…&token=…";
     return;
   }
   const ws = new WebSocket(wsUrl());
@@ -67,6 +69,7 @@ export function connect() {
     const delay = Math.min(5000, 500 * 2 ** Math.min(S.attempts, 4));
     S.attempts++;
     setStatus("disconnected", "disconnected");
+    $("offlineTitle").textContent = "Disconnected from the server";
     $("retryText").textContent = `${wasConnected ? "The connection was lost" : "Cannot reach the server"}` +
       `${ev.code && ev.code !== 1006 ? ` (code ${ev.code})` : ""}. Reconnecting (attempt ${S.attempts})…`;
     updateEditable();
@@ -221,7 +224,8 @@ function onFrame(buf) {
 export function renderStats() {
   const now = performance.now();
   const recent = S.frameTimes.filter((t) => now - t <= 1000).length;
-  $("stats").textContent = `${recent} fps · latency ${S.latency === null ? "–" : `${Math.round(S.latency)} ms`}` +
+  // The rate only while frames arrive: an idle session is not "0 fps".
+  $("stats").textContent = `${recent > 0 ? `${recent} fps · ` : ""}latency ${S.latency === null ? "–" : `${Math.round(S.latency)} ms`}` +
     ` · rig v${S.rig?.version ?? "–"} · frame v${S.frameVersion} · ${S.frameSize[0]}×${S.frameSize[1]}`;
 }
 

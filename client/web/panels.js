@@ -159,7 +159,7 @@ function buildProps() {
       row.append(sel, unitEl(unit));
       update = (x) => { sel.value = String(x[prop]); };
     } else if (kind === "color") {
-      const pick = Object.assign(document.createElement("input"), { type: "color", value: linearToHex(e.color), title: "Colour (shown in sRGB; stored linear)" });
+      const pick = Object.assign(document.createElement("input"), { type: "color", value: linearToHex(e.color), title: "Color (shown in sRGB; stored linear)" });
       pick.dataset.edit = ""; pick.id = "prop-color";
       pick.addEventListener("input", () => setLightProp(l.name, "color", hexToLinear(pick.value), { live: true }));
       pick.addEventListener("change", () => setLightProp(l.name, "color", hexToLinear(pick.value)));
@@ -237,7 +237,7 @@ function buildChain(box, l, e) {
 
   const table = document.createElement("table");
   table.className = "cps";
-  table.innerHTML = "<tr><th>#</th><th>a</th><th>b</th><th>c</th><th>radius</th><th>colour</th></tr>";
+  table.innerHTML = "<tr><th>#</th><th>a</th><th>b</th><th>c</th><th>radius</th><th>color</th></tr>";
   const cells = [];
   for (let i = 0; i <= 2 * K; i++) {
     const tr = document.createElement("tr");
@@ -257,7 +257,7 @@ function buildChain(box, l, e) {
     r.id = `r-${i}`;
     rtd.append(r);
     const ctd = document.createElement("td");
-    const col = Object.assign(document.createElement("input"), { type: "color", value: linearToHex(e.colors[i]), title: `colour multiplier at p${i}` });
+    const col = Object.assign(document.createElement("input"), { type: "color", value: linearToHex(e.colors[i]), title: `color multiplier at p${i}` });
     col.dataset.edit = "";
     col.addEventListener("change", () => setLightProp(l.name, `cpColor[${i}]`, hexToLinear(col.value)));
     ctd.append(col);

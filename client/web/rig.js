@@ -139,7 +139,10 @@ export function setProp(l, prop, v) {
  * degrees of vertical), else +Y. At |uL.y| = 0.99 exactly, +Y (web_parity has that case).
  */
 export function lightFrame(l) {
-  const uL = V.norm(l.direction);
+  // The server keeps the rig's numbers as 32-bit floats and writes them in their shortest decimal
+  // form (0.95, not 0.949999988...): Math.fround gives back the very floats the engine uses, so
+  // that the near-vertical threshold decides alike here and there.
+  const uL = V.norm(l.direction.map(Math.fround));
   const up = Math.abs(uL[1]) > 0.99 ? [1, 0, 0] : [0, 1, 0];
   const wL = V.norm(V.cross(uL, up));
   const vL = V.cross(wL, uL);

@@ -310,7 +310,7 @@ Status setRadii(const Property& p, Light& l, const json& v, const std::string& p
 Status setColors(const Property& p, Light& l, const json& v, const std::string& path, int) {
     if (auto s = needsChain(l, p, path); !s) return s;
     const size_t n = size_t(2 * l.segments() + 1);
-    if (!v.is_array() || v.size() != n) return invalid(path + ": expected " + std::to_string(n) + " colours");
+    if (!v.is_array() || v.size() != n) return invalid(path + ": expected " + std::to_string(n) + " colors");
     std::vector<Vec3> colors(n);
     for (size_t i = 0; i < n; ++i) {
         auto c = getVec3(v[i], path + "[" + std::to_string(i) + "]", p.min, p.max);
@@ -515,7 +515,7 @@ const std::vector<Property> LIGHT_PROPERTIES = {
      .keyframable = true, .invalidates = Shadow, .appliesTo = AIMED, .valueDoc = "[x, y, z]",
      .doc = "where the light points, world space; normalised by the server; not zero", .set = setDirection,
      .same = sameField<&Light::direction>, .get = getField<&Light::direction>},
-    {.path = "color", .label = "Colour", .type = Color, .unit = "linear RGB", .min = 0, .max = 1e6, .uiMin = 0, .uiMax = 1,
+    {.path = "color", .label = "Color", .type = Color, .unit = "linear RGB", .min = 0, .max = 1e6, .uiMin = 0, .uiMax = 1,
      .step = 0.01, .keyframable = true, .invalidates = Scale, .valueDoc = "[r, g, b]", .doc = "linear RGB, each in [0, 1e6]",
      .set = setVec3<&Light::color>, .same = sameField<&Light::color>, .get = getField<&Light::color>},
     {.path = "intensity", .label = "Intensity", .type = Number, .unit = "cd (lux for directional, cd/m² for area)", .min = 0, .max = 1e12,
@@ -554,7 +554,7 @@ const std::vector<Property> LIGHT_PROPERTIES = {
     {.path = "cookie", .label = "Cookie", .type = String, .unit = "", .invalidates = Shade, .appliesTo = APPLIES_SPOT,
      .valueDoc = "string",
      .doc = "spot lights: an image file in the server's asset folder (`--assets`, default the shot's folder) projected across "
-            "the cone, multiplying the colour; `\"\"` = none. Relative, no `..`, at most 255 characters; an edit naming a file "
+            "the cone, multiplying the color; `\"\"` = none. Relative, no `..`, at most 255 characters; an edit naming a file "
             "that is not a readable image is refused (`invalid_value`)",
      .set = setCookie, .same = sameField<&Light::cookie>, .present = [](const Light& l) { return !l.cookie.empty(); },
      .get = getField<&Light::cookie>},
@@ -575,7 +575,7 @@ const std::vector<Property> LIGHT_PROPERTIES = {
     {.path = "pattern", .label = "Pattern", .type = String, .unit = "", .invalidates = Shade, .appliesTo = APPLIES_AREA,
      .valueDoc = "string",
      .doc = "area lights: an RGB image in the asset folder across the emitter (its top row at the emitter's up edge), "
-            "multiplying the colour (linear for float files, sRGB decoded otherwise); `\"\"` = uniform. Relative, no `..`, "
+            "multiplying the color (linear for float files, sRGB decoded otherwise); `\"\"` = uniform. Relative, no `..`, "
             "at most 255 characters; an edit naming a file that is not a readable image is refused (`invalid_value`)",
      .set = setPattern, .same = sameField<&Light::pattern>, .present = [](const Light& l) { return !l.pattern.empty(); },
      .get = getField<&Light::pattern>},
@@ -583,7 +583,7 @@ const std::vector<Property> LIGHT_PROPERTIES = {
      .values = "auto,oneShot,ltc", .valueDoc = "string",
      .doc = "area lights: `\"oneShot\"` (one-shot approximate local shading, Wang et al. 2008: any pattern at the cost of two "
             "point lights), `\"ltc\"` (linearly transformed cosines, Heitz et al. 2016 and 2017: the uniform emitter integrated "
-            "under the fitted GGX lobe, accurate; with a pattern it uses the pattern's mean colour) or `\"auto\"` (the default: "
+            "under the fitted GGX lobe, accurate; with a pattern it uses the pattern's mean color) or `\"auto\"` (the default: "
             "`oneShot` when the light has a `pattern`, `ltc` otherwise); docs/lighting.md",
      .set = setAreaShading, .same = sameField<&Light::areaShading>, .present = isArea, .get = getAreaShading},
     {.path = "shadowGrid", .label = "Shadow grid", .type = Numbers, .unit = "shadow maps", .min = 1,
@@ -638,11 +638,11 @@ const std::vector<Property> LIGHT_PROPERTIES = {
     {.path = "r[]", .label = "Radius", .type = Number, .unit = "scene units", .min = 0, .max = MAX_COORD, .keyframable = true,
      .invalidates = Shadow, .appliesTo = APPLIES_BENDY, .indexOf = "radii", .valueDoc = "number",
      .doc = "BendyLight: one radius, i = 0..2K", .set = setR},
-    {.path = "colors", .label = "Chain colours", .type = Colors, .unit = "linear RGB", .min = 0, .max = 1e6,
+    {.path = "colors", .label = "Chain colors", .type = Colors, .unit = "linear RGB", .min = 0, .max = 1e6,
      .invalidates = Shade, .appliesTo = APPLIES_BENDY, .valueDoc = "[[r, g, b], ...]",
-     .doc = "BendyLight: 2K+1 linear colour multipliers along the chain", .set = setColors, .same = sameField<&Light::colors>,
+     .doc = "BendyLight: 2K+1 linear color multipliers along the chain", .set = setColors, .same = sameField<&Light::colors>,
      .present = hasChain, .get = getField<&Light::colors>},
-    {.path = "cpColor[]", .label = "Chain colour", .type = Color, .unit = "linear RGB", .min = 0, .max = 1e6,
+    {.path = "cpColor[]", .label = "Chain color", .type = Color, .unit = "linear RGB", .min = 0, .max = 1e6,
      .keyframable = true, .invalidates = Shade, .appliesTo = APPLIES_BENDY, .indexOf = "colors", .valueDoc = "[r, g, b]",
      .doc = "BendyLight: one of them", .set = setCpColor},
     {.path = "exactDirection", .label = "Exact direction", .type = Boolean, .unit = "", .invalidates = Shade,

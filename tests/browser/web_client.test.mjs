@@ -267,8 +267,29 @@ try {
     const lights = await a.$$eval("#lights li", (lis) => lis.map((li) => li.dataset.light));
     assert(lights.includes("key") && lights.includes("fill"), `lights listed: ${lights}`);
     await a.waitForFunction(() => /connected · editor/.test(document.getElementById("status").textContent), null, WAIT);
-    await a.waitForFunction(() => /fps/.test(document.getElementById("stats").textContent), null, WAIT);
+    await a.waitForFunction(() => /latency/.test(document.getElementById("stats").textContent), null, WAIT);
     await shot(a, "01-loaded.png");
+    // Idle (no frame for a second): no rate is shown, not "0 fps".
+    await a.waitForFunction(() => !/fps/.test(document.getElementById("stats").textContent), null, WAIT);
+  });
+
+  await check("a page opened without a token says which link to open, with no broken image", async () => {
+    const p = await ctxA.newPage();
+    try {
+      await p.goto(server.base);
+      await p.waitForFunction(() => document.getElementById("status").textContent === "no session", null, WAIT);
+      const seen = await p.evaluate(() => ({
+        title: document.getElementById("offlineTitle").textContent,
+        retry: document.getElementById("retryText").textContent,
+        frame: getComputedStyle(document.getElementById("frame")).visibility,
+      }));
+      assert(/opens no session/.test(seen.title), `the notice says "${seen.title}"`);
+      assert(/session=.*token=/.test(seen.retry), `the notice does not say which link to open: "${seen.retry}"`);
+      assert(seen.frame === "hidden", `the empty frame is shown (a broken-image icon): visibility ${seen.frame}`);
+      await shot(p, "01b-no-token.png");
+    } finally {
+      await p.close();
+    }
   });
 
   await check("zoom and pan keep the image's pixels; 1:1 is native size", async () => {
@@ -1439,6 +1460,12 @@ try {
 
   await check("no errors in the page console", async () => {
     assert(consoleErrors.length === 0, consoleErrors.join("; "));
+  });
+  await check("pages that connected and went away are not logged as server errors", async () => {
+    // Pages were closed and reloaded above; a normal close (or a TLS peer without close_notify)
+    // is no error ("websocket read: Transport endpoint is not connected" was logged per close).
+    const errors = serverLog().split("\n").filter((l) => /^dfb-server: (websocket|http) (read|write|accept|handshake)/.test(l));
+    assert(errors.length === 0, errors.slice(0, 5).join("; "));
   });
 } catch (e) {
   results.push(["setup", false]);

@@ -19,7 +19,7 @@ const schema = {
     row("enabled", "boolean"),
     row("position", "vec3", { unit: "scene units", min: -1e7, max: 1e7, appliesTo: ["spot", "point", "bendy"] }),
     row("direction", "direction", { min: -1e7, max: 1e7, appliesTo: ["spot", "bendy", "directional"] }),
-    row("color", "color", { label: "Colour", unit: "linear RGB", min: 0, max: 1e6 }),
+    row("color", "color", { label: "Color", unit: "linear RGB", min: 0, max: 1e6 }),
     row("intensity", "number", { unit: "cd (lux for directional)", min: 0, max: 1e12, uiMin: 0, uiMax: 1000, step: 0.1 }),
     row("coneAngle", "number", { label: "Cone angle", unit: "degrees", min: 0.1, max: 85, uiMin: 1, uiMax: 85, step: 0.5, appliesTo: ["spot", "bendy"] }),
     row("penumbra", "number", { unit: "degrees", min: 0, max: 85, uiMin: 0, uiMax: 30, step: 0.5, appliesTo: ["spot", "bendy"] }),
@@ -60,7 +60,7 @@ describe("rows from the schema", () => {
     assert.deepEqual(r.type.o.values, ALL); // the schema's order of light types
     assert.equal(r.enabled.kind, "bool");
     assert.deepEqual([r.position.kind, r.position.o.names, r.position.unit, r.position.o.min], ["vec", ["x", "y", "z"], "u", -1e7]);
-    assert.deepEqual([r.color.kind, r.color.label], ["color", "colour"]);
+    assert.deepEqual([r.color.kind, r.color.label], ["color", "color"]);
     assert.deepEqual([r.coneAngle.label, r.coneAngle.unit], ["cone angle", "°"]);
     assert.deepEqual([r.shadowMapSize.kind, r.shadowMapSize.o.values.length], ["choice", 8]);
     assert.deepEqual([r.barnDoors.kind, r.barnDoors.o.names, r.barnDoors.o.max], ["vec", ["left", "right", "top", "bottom"], 90]);

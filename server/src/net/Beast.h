@@ -16,6 +16,8 @@ namespace asio = boost::asio;
 using tcp = boost::asio::ip::tcp;
 using error_code = boost::beast::error_code;
 
-/// Reports a failed async operation, ignoring the ones that only mean "closed" or "cancelled".
+/// Whether `ec` only means that the peer closed or the operation was cancelled.
+bool isNormalClose(error_code ec);
+/// Reports a failed async operation on stderr, ignoring isNormalClose ones.
 void fail(error_code ec, const char* what);
 } // namespace dfb::net

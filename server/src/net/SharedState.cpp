@@ -5,17 +5,25 @@
 #include <dfb/server/GltfExport.h>
 
 #include <algorithm>
+#include <boost/asio/ssl/error.hpp>
+
 #include <cstdio>
 #include <filesystem>
 #include <vector>
 
 namespace dfb::net {
 
+bool isNormalClose(error_code ec) {
+    // A client going away is not an error: a close handshake, EOF, a reset, a socket already shut
+    // down (ENOTCONN after the peer's close), or a TLS peer that closes without close_notify
+    // (browsers do; "stream truncated").
+    return ec == asio::error::operation_aborted || ec == websocket::error::closed || ec == asio::error::eof ||
+           ec == beast::error::timeout || ec == asio::error::connection_reset || ec == asio::error::broken_pipe ||
+           ec == asio::error::not_connected || ec == asio::ssl::error::stream_truncated || ec == http::error::end_of_stream;
+}
+
 void fail(error_code ec, const char* what) {
-    if (ec == asio::error::operation_aborted || ec == websocket::error::closed || ec == asio::error::eof ||
-        ec == beast::error::timeout || ec == asio::error::connection_reset || ec == asio::error::broken_pipe) {
-        return;
-    }
+    if (isNormalClose(ec)) return;
     std::fprintf(stderr, "dfb-server: %s: %s\n", what, ec.message().c_str());
 }
 
