@@ -72,8 +72,6 @@ public:
     }
     std::chrono::milliseconds timeout() const { return std::chrono::milliseconds(long(mOpt.timeoutS * 1000)); }
 
-    const std::string& name() const { return mOpt.name; }
-
     /// One request; a refusal (non-2xx) prints "error CODE: message" (the server's words) and
     /// exits 3.
     client::HttpResponse request(const std::string& method, const std::string& target, const std::string& body = "",

@@ -199,8 +199,7 @@ Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::
         // The server said why (no token, unknown session): its JSON error, verbatim.
         auto parsed = protocol::parseJson(res.body(), 1 << 20, "the server's answer");
         const nlohmann::json j = parsed ? std::move(parsed.value()) : nlohmann::json();
-        const std::string code = j.is_object() ? j.value("code", "") : "";
-        const ErrorCode c = code == "unauthorized" ? ErrorCode::Unauthorized : code == "missing_data" ? ErrorCode::MissingData : ErrorCode::Protocol;
+        const ErrorCode c = errorCodeFromString(j.is_object() ? j.value("code", "") : "").value_or(ErrorCode::Protocol);
         const std::string message = j.is_object() && j["message"].is_string() ? j["message"].get<std::string>() : res.body();
         return makeError(c, message + " (HTTP " + std::to_string(res.result_int()) + ")");
     }

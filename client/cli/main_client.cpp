@@ -17,7 +17,6 @@
 #include <dfb/protocol/Messages.h>
 #include <dfb/protocol/Schema.h>
 
-#include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -102,8 +101,6 @@ std::string urlEncode(const std::string& s) {
 // ---- human-readable answers ------------------------------------------------------------------
 // What the subcommands print unless --json is given (then: the server's JSON as it sent it).
 
-std::string valueText(const json& v) { return v.dump(); }
-
 // "key.intensity = 66, key.position = [1,4,2]" (the first few of many).
 std::string changesText(const json& changes) {
     if (!changes.is_array()) return "";
@@ -114,7 +111,7 @@ std::string changesText(const json& changes) {
             out += ", ... (" + std::to_string(changes.size()) + " changes)";
             break;
         }
-        out += (n++ ? ", " : "") + c.value("path", std::string("?")) + " = " + (c.contains("value") ? valueText(c["value"]) : "?");
+        out += (n++ ? ", " : "") + c.value("path", std::string("?")) + " = " + (c.contains("value") ? c["value"].dump() : "?");
     }
     return out;
 }

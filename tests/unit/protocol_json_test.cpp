@@ -165,3 +165,22 @@ TEST(RigLimits, LightsKeysAndMemoryAreLimited) {
     ASSERT_FALSE(cp.ok());
     EXPECT_EQ(cp.error().code, ErrorCode::LimitExceeded);
 }
+
+// Error codes read back by name (dfb-client maps a refused WebSocket upgrade's `code` so).
+TEST(Json, ErrorCodesRoundTripByName) {
+    for (int c = int(ErrorCode::Ok); c <= int(ErrorCode::Unavailable); ++c) {
+        EXPECT_EQ(errorCodeFromString(toString(ErrorCode(c))), ErrorCode(c)) << toString(ErrorCode(c));
+    }
+    EXPECT_FALSE(errorCodeFromString("no_such_code").has_value());
+    EXPECT_STREQ(toString(ErrorCode(int(ErrorCode::Unavailable) + 1)), "unknown"); // nothing after the last
+}
+
+// The rig's floats are written in their shortest form and read back as the same floats.
+TEST(Json, ShortestFloatsKeepTheFloat) {
+    nlohmann::json j = {{"a", double(0.95f)}, {"b", {double(1e-7f), 3.0, 0.1}}, {"n", 7}};
+    shortestFloats(j);
+    EXPECT_EQ(j["a"].dump(), "0.95");
+    EXPECT_EQ(float(j["b"][0].get<double>()), 1e-7f);
+    EXPECT_EQ(j["b"][2].get<double>(), 0.1); // already shortest (not a float's value): kept
+    EXPECT_TRUE(j["n"].is_number_integer());
+}

@@ -2,6 +2,7 @@
 // Expected failures are values (OpenEXR Core's exr_result_t): a Result<T> holds either a value or
 // an Error with a code and a message naming the file or object and what was wrong.
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -24,7 +25,7 @@ enum class ErrorCode {
     Forbidden,     ///< the token is valid but its role may not do this (a viewer editing; HTTP 403)
     Conflict,      ///< a precondition on the rig version failed (If-Match, `ifVersion`; HTTP 412)
     LimitExceeded, ///< an input or a rig is over a configured limit; the message names it and its value
-    Unavailable,   ///< the session cannot serve now (its journal is damaged, it failed to load; HTTP 503)
+    Unavailable,   ///< (last: errorCodeFromString walks up to it) the session cannot serve now (its journal is damaged, it failed to load; HTTP 503)
 };
 
 /// Short stable name of an error code (used in protocol error messages).
@@ -46,6 +47,14 @@ inline const char* toString(ErrorCode code) {
     case ErrorCode::Unavailable: return "unavailable";
     }
     return "unknown";
+}
+
+/// The code named `name` (as toString writes it); nullopt for an unknown name.
+inline std::optional<ErrorCode> errorCodeFromString(std::string_view name) {
+    for (int c = int(ErrorCode::Ok); c <= int(ErrorCode::Unavailable); ++c) {
+        if (name == toString(ErrorCode(c))) return ErrorCode(c);
+    }
+    return std::nullopt;
 }
 
 /// An expected failure: a code and a human-readable message naming the object and the problem.
