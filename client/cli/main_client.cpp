@@ -170,6 +170,8 @@ void printEditAnswer(const json& a) {
     for (const json& o : a.value("overwrote", json::array())) {
         std::cout << "overwrote " << str(o, "path", "?") << " of rig version " << str(o, "version", "?") << " (client " << str(o, "by", "?") << ")\n";
     }
+    // An edit that would have folded a BendyLight's tube was limited (docs/protocol.md).
+    for (const json& l : a.value("limited", json::array())) std::cout << "limited " << str(l, "message", "?") << "\n";
     if (a.contains("drag")) std::cout << "drag: " << a["drag"].dump() << "\n";
 }
 
@@ -372,6 +374,10 @@ int main(int argc, char** argv) {
     uint64_t baseVersion = 0, ifVersion = 0;
     auto* baseOpt = cSet->add_option("--base", baseVersion, "the rig version edited from: the answer lists what this edit overwrote");
     auto* ifVersionOpt = cSet->add_option("--if-version", ifVersion, "refuse unless the rig is at this version");
+    bool allowFold = false;
+    cSet->add_flag("--allow-fold", allowFold,
+                   "apply a BendyLight chain change as given even if the tube folds (default: stop before the fold; the "
+                   "answer says where)");
     auto* cApply = app.add_subcommand("apply", "apply a JSON file of changes as one edit (editor)");
     std::string applyFile;
     cApply->add_option("file", applyFile, "{\"changes\": [{\"path\": P, \"value\": V}, ...]} or just the array")->required();
@@ -463,6 +469,7 @@ int main(int argc, char** argv) {
                 body["changes"] = changes;
                 if (baseOpt->count()) body["base"] = baseVersion;
                 if (ifVersionOpt->count()) body["ifVersion"] = ifVersion;
+                if (allowFold) body["allowFold"] = true;
             } else {
                 auto parsed = protocol::parseJson(readFile(applyFile), protocol::MAX_TEXT_MESSAGE_BYTES, applyFile);
                 if (!parsed) die(EXIT_USAGE, parsed.error().message);

@@ -155,6 +155,16 @@ function onAck(msg) {
       const who = (id) => S.clients.find((c) => c.id === id)?.name ?? (id ? `client ${id}` : "http");
       showMessage(`your edit overwrote changes made meanwhile: ${others.map((o) => `${o.path} by ${who(o.by)} (v${o.version})`).join(", ")}`, "info");
     }
+    // A chain change that would have folded a BendyLight's tube stopped short of the fold: the
+    // server's values replace ours (the handle lands where it stopped) and the page says why.
+    if (msg.limited?.length) {
+      for (const l of msg.limited) for (const c of l.changes) applyChange(S.rig, c, true);
+      // Once per drag: every step past the fold is limited again.
+      const g = p.live ? S.live.gesture : null;
+      if (!g?.limitShown) showMessage(msg.limited.map((l) => l.message).join("; "), "info");
+      if (g) g.limitShown = true;
+      refreshUi();
+    }
     refreshHistory();
   }
   if (p.live) { S.live.inFlight = false; flushLive(); }

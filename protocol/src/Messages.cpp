@@ -214,7 +214,8 @@ Result<ClientMessage> clientMessageFromJson(const json& j) {
         return ClientMessage{m};
     }
     if (type == "edit") {
-        if (auto s = onlyFields(j, type, {"type", "seq", "changes", "base", "ifVersion", "merge"}); !s) return s.error();
+        if (auto s = onlyFields(j, type, {"type", "seq", "changes", "base", "ifVersion", "merge", "allowFold"}); !s)
+            return s.error();
         EditMessage m;
         auto seq = needSeq(j, type);
         if (!seq) return seq.error();
@@ -228,6 +229,10 @@ Result<ClientMessage> clientMessageFromJson(const json& j) {
         if (j.contains("merge")) {
             if (!j["merge"].is_boolean()) return protocolError("edit.merge: expected true or false");
             m.merge = j["merge"].get<bool>();
+        }
+        if (j.contains("allowFold")) {
+            if (!j["allowFold"].is_boolean()) return protocolError("edit.allowFold: expected true or false");
+            m.allowFold = j["allowFold"].get<bool>();
         }
         if (!j.contains("changes") || !j["changes"].is_array() || j["changes"].empty()) {
             return protocolError("edit.changes: expected a non-empty array");
@@ -362,6 +367,7 @@ std::string encode(const EditMessage& m) {
     if (m.base) j["base"] = *m.base;
     if (m.ifVersion) j["ifVersion"] = *m.ifVersion;
     if (m.merge) j["merge"] = true;
+    if (m.allowFold) j["allowFold"] = true;
     return dump(j);
 }
 std::string encode(const UndoMessage& m) { return dump(json{{"type", "undo"}, {"seq", m.seq}}); }

@@ -328,7 +328,7 @@ Status setCp(const Property& p, Light& l, const json& v, const std::string& path
     if (index < 1 || index > 2 * K) return invalid(path + ": index out of range 1.." + std::to_string(2 * K));
     auto q = getVec3(v, path, p.min, p.max);
     if (!q) return q.error();
-    l.controlPoints[size_t(index - 1)] = q.value();
+    l.controlPoints[size_t(index - p.indexBase)] = q.value();
     return ok();
 }
 
@@ -629,7 +629,7 @@ const std::vector<Property> LIGHT_PROPERTIES = {
      .set = setControlPoints, .same = sameField<&Light::controlPoints>, .present = hasChain,
      .get = getField<&Light::controlPoints>},
     {.path = "cp[]", .label = "Control point", .type = Vec3, .unit = "scene units", .min = -MAX_COORD, .max = MAX_COORD,
-     .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_BENDY, .indexOf = "controlPoints", .valueDoc = "[a, b, c]",
+     .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_BENDY, .indexOf = "controlPoints", .indexBase = 1, .valueDoc = "[a, b, c]",
      .doc = "BendyLight: one control point, i = 1..2K (cp[0] is the light's position)", .set = setCp},
     {.path = "radii", .label = "Radii", .type = Numbers, .unit = "scene units", .min = 0, .max = MAX_COORD,
      .keyframable = true, .invalidates = Shadow, .appliesTo = APPLIES_BENDY, .valueDoc = "[r0, ..., r2K]",

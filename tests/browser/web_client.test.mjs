@@ -373,7 +373,8 @@ try {
     const shown = await screenToImage(a, p.x, p.y);
     const expect0 = { x: (proj0.ndc[0] + 1) * 160, y: (1 - proj0.ndc[1]) * 90 };
     assert(Math.hypot(shown.x - expect0.x, shown.y - expect0.y) < 1, `handle at ${JSON.stringify(shown)}, projection at ${JSON.stringify(expect0)}`);
-    const target = { x: p.x + 70, y: p.y + 25 };
+    // Small enough not to fold the tube (a drag that would is stopped short: the next check).
+    const target = { x: p.x + 30, y: p.y + 10 };
     await a.mouse.move(p.x, p.y);
     await a.mouse.down();
     for (let i = 1; i <= 10; i++) await a.mouse.move(p.x + (target.x - p.x) * i / 10, p.y + (target.y - p.y) * i / 10);
@@ -432,6 +433,35 @@ try {
     await a.mouse.up();
     const rig3 = await waitRig((r) => r.lights.find((l) => l.name === "key").radii[1] > r0 * 1.2, "r[1] grows");
     console.log(`     r[1] ${r0.toFixed(3)} -> ${rig3.lights.find((l) => l.name === "key").radii[1].toFixed(3)}`);
+  });
+
+  await check("a drag that would fold the BendyLight's tube stops before the fold and says why", async () => {
+    const rig0 = await getRig();
+    const p = await center(a, '[data-handle="cp"][data-index="2"]');
+    const target = { x: p.x + 160, y: p.y + 70 };
+    await a.mouse.move(p.x, p.y);
+    await a.mouse.down();
+    for (let i = 1; i <= 10; i++) await a.mouse.move(p.x + (target.x - p.x) * i / 10, p.y + (target.y - p.y) * i / 10);
+    await a.mouse.up();
+    await waitMessage(a, /^key: stopped \d+ % of the way, before the tube folds \(.*make the bend gentler or the radius/);
+    const dropped = await screenToImage(a, target.x, target.y);
+    const rig1 = await waitRig((r) => r.version > rig0.version && JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints[1]) !==
+                                      JSON.stringify(rig0.lights.find((l) => l.name === "key").controlPoints[1]), "cp[2] moves part of the way");
+    const key1 = rig1.lights.find((l) => l.name === "key");
+    assert(!key1.warning, `the limited chain carries a warning: ${key1.warning}`);
+    const q = project(toNDC, cpWorld(key1, 2));
+    const off = Math.hypot((q.ndc[0] + 1) * 160 - dropped.x, (1 - q.ndc[1]) * 90 - dropped.y);
+    assert(off > 2, `cp[2] went all the way to the drop (${off.toFixed(2)} px from it): the drag did not fold?`);
+    // The page shows the point where it stopped: its handle is at the stopped point's projection.
+    const h = await center(a, '[data-handle="cp"][data-index="2"]');
+    const shown = await screenToImage(a, h.x, h.y);
+    assert(Math.hypot(shown.x - (q.ndc[0] + 1) * 160, shown.y - (1 - q.ndc[1]) * 90) < 1.5, "the handle is not where the point stopped");
+    console.log(`     stopped ${off.toFixed(1)} px short of the drop: ${await lastMessage(a)}`);
+    await a.mouse.move(10, 10);
+    await shot(a, "03b-bendy-fold-limited.png");
+    await a.click("#undo");
+    await waitRig((r) => JSON.stringify(r.lights.find((l) => l.name === "key").controlPoints) ===
+                         JSON.stringify(rig0.lights.find((l) => l.name === "key").controlPoints), "undo takes the limited drag back");
   });
 
   const ctxB = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });

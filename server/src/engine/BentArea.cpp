@@ -104,10 +104,11 @@ float bentAreaCellArea(const Light& l, glm::ivec2 grid) {
     return l.areaSize[0] * l.areaSize[1] / float(std::max(grid.x * grid.y, 1));
 }
 
-std::string bentAreaWarning(const Light& l) {
+std::string bentAreaWarning(const Light& l, double foldLimit, double apartLimit) {
     if (l.type != LightType::BentArea || l.cornerSegments() < 1) return {};
     for (int c = 0; c < BENT_AREA_CORNERS; ++c) {
-        if (std::string w = chainWarning(bentAreaCorner(l, c)); !w.empty()) return "corner " + std::to_string(c) + ": " + w;
+        if (std::string w = chainWarning(bentAreaCorner(l, c), foldLimit, apartLimit); !w.empty())
+            return "corner " + std::to_string(c) + ": " + w;
     }
     return {};
 }

@@ -387,10 +387,11 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         if (!parsed) return refuse(parsed.error());
         auto& edit = std::get<protocol::EditMessage>(parsed.value());
         if (expected && !edit.ifVersion) edit.ifVersion = expected;
-        auto out = session.edit(edit.changes, author, edit.base, edit.ifVersion);
+        auto out = session.edit(edit.changes, author, edit.base, edit.ifVersion, false, edit.allowFold);
         if (!out) return refuse(out.error(), out.error().code == ErrorCode::MissingData ? std::optional(http::status::bad_request) : std::nullopt);
         json extra = json::object();
         if (!out->overwrote.empty()) extra["overwrote"] = out->overwrote;
+        if (!out->limited.empty()) extra["limited"] = out->limited;
         return accepted(out.value(), extra);
     }
     if (resource == "undo" || resource == "redo") {

@@ -157,7 +157,7 @@ void WebSocketSession::handleText(const std::string& text) {
                 if (!m.name.empty()) mName = m.name;
                 mHub->broadcastPresence();
             } else if constexpr (std::is_same_v<T, protocol::EditMessage>) {
-                change(m.seq, [&] { return session.edit(m.changes, me, m.base, m.ifVersion, m.merge); });
+                change(m.seq, [&] { return session.edit(m.changes, me, m.base, m.ifVersion, m.merge, m.allowFold); });
                 if (mRole == protocol::Role::Editor) {
                     const std::string& p = m.changes.front().path;
                     setEditing(p.substr(0, p.find('.')));
@@ -209,6 +209,7 @@ void WebSocketSession::answerChange(uint64_t seq, Result<ChangeOutcome> r, nlohm
         return replyError(r.error(), seq);
     }
     if (!r->overwrote.empty()) extra["overwrote"] = r->overwrote;
+    if (!r->limited.empty()) extra["limited"] = r->limited;
     if (r->info.rig) extra["kind"] = r->info.kind;
     reply(protocol::encodeAck(seq, r->info.rigVersion, extra));
     mHub->published(r.value(), this);

@@ -1,6 +1,7 @@
 #include "session/Session.h"
 
 #include <dfb/core/Check.h>
+#include <dfb/protocol/Schema.h>
 #include <dfb/server/AreaPattern.h>
 #include <dfb/server/BendyChain.h>
 #include <dfb/server/FinalRender.h>
@@ -47,6 +48,61 @@ bool overlaps(const std::string& a, const std::string& b) {
         return s;
     };
     return prop(a) == prop(b) || prop(a) == "name" || prop(b) == "name";
+}
+
+// The edit's changes with every light whose chain would fold limited (limitChainEdit): a change
+// of a limited light's chain property takes the limited value in place (the path the client
+// sent, so its handle lands where the server stopped it); whatever else still differs from the
+// limited light is appended as the whole property. Fills `report` per limited light.
+std::vector<protocol::Change> limitFolds(const Rig& before, std::vector<protocol::Change> changes, json& report) {
+    Rig after = before;
+    if (!protocol::applyChanges(after, changes)) return changes;
+    for (const Light& a : after.lights) {
+        const Light* b = before.find(a.name);
+        if (!b) continue;
+        auto limit = limitChainEdit(*b, a);
+        if (!limit) continue;
+        const json limitedJson = protocol::toJson(limit->light);
+        const std::string prefix = a.name + ".";
+        json applied = json::array();
+        for (protocol::Change& c : changes) {
+            if (c.path.rfind(prefix, 0) != 0) continue;
+            int index = -1;
+            const protocol::Property* row = protocol::findLightProperty(c.path.substr(prefix.size()), &index);
+            // Only the interpolated properties differ from what the client sent; rows the light's
+            // JSON does not hold (key, unkey) stay as they are.
+            if (!row) continue;
+            const std::string list = *row->indexOf ? row->indexOf : row->path;
+            if (!limitedJson.contains(list)) continue;
+            const json& v = limitedJson[list];
+            if (*row->indexOf) {
+                const int at = index - row->indexBase;
+                if (at >= 0 && size_t(at) < v.size()) c.value = v[size_t(at)];
+            } else {
+                c.value = v;
+            }
+        }
+        // Whatever the rewritten changes still leave different (a property the edit changed
+        // under another path, or one that moved only through the interpolation), in full.
+        Rig check = before;
+        if (!protocol::applyChanges(check, changes)) continue;
+        const Light* now = check.find(a.name);
+        if (!now) continue;
+        for (const protocol::Property& row : protocol::lightProperties()) {
+            if (!row.same || !row.get || row.readOnly || row.same(*now, limit->light)) continue;
+            changes.push_back({prefix + row.path, row.get(limit->light)});
+        }
+        for (const protocol::Change& c : changes)
+            if (c.path.rfind(prefix, 0) == 0) applied.push_back({{"path", c.path}, {"value", c.value}});
+        char pct[32];
+        std::snprintf(pct, sizeof pct, "%.0f %%", 100.0 * limit->fraction);
+        report.push_back({{"light", a.name},
+                          {"fraction", limit->fraction},
+                          {"warning", limit->why},
+                          {"message", a.name + ": stopped " + pct + " of the way, before the tube folds (" + limit->why + ")"},
+                          {"changes", std::move(applied)}});
+    }
+    return changes;
 }
 
 } // namespace
@@ -429,17 +485,26 @@ void Session::flushSavedRig() {
 }
 
 Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes, const Author& by, std::optional<uint64_t> base,
-                                    std::optional<uint64_t> ifVersion, bool merge) {
+                                    std::optional<uint64_t> ifVersion, bool merge, bool allowFold) {
     std::lock_guard lock(mMutex);
     if (ifVersion && *ifVersion != mRig.version) {
         return makeError(ErrorCode::Conflict, "the rig is at version " + std::to_string(mRig.version) + ", not " +
                                                   std::to_string(*ifVersion) + "; nothing was changed");
     }
     if (changes.empty()) return makeError(ErrorCode::Protocol, "an edit needs at least one change");
+    json limited = json::array();
     // Validate on a copy first so that a refused edit is never journaled.
     {
         Rig probe = mRig;
         if (auto st = protocol::applyChanges(probe, changes); !st) return st.error();
+    }
+    // A drag that would fold a tube stops where it is still sound (issue: artists drag a point a
+    // little and the tube folded, cutting hard lines through the image). The journal records the
+    // limited changes, so a replay needs no limiter.
+    const std::vector<protocol::Change> applied = allowFold ? changes : limitFolds(mRig, changes, limited);
+    {
+        Rig probe = mRig;
+        if (auto st = protocol::applyChanges(probe, applied); !st) return st.error();
         if (auto st = protocol::checkRigLimits(probe, mLimits); !st) return st.error();
         if (auto st = checkImages(probe); !st) return st.error();
     }
@@ -447,7 +512,7 @@ Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes
     if (base && *base < mRig.version) {
         for (const json& rec : mLog) {
             if (rec["version"].get<uint64_t>() <= *base) continue;
-            for (const auto& c : changes) {
+            for (const auto& c : applied) {
                 bool hit = rec.contains("rig");
                 if (!hit) {
                     for (const json& o : rec["changes"]) hit = hit || overlaps(c.path, o["path"].get<std::string>());
@@ -456,10 +521,13 @@ Result<ChangeOutcome> Session::edit(const std::vector<protocol::Change>& changes
             }
         }
     }
-    json op{{"op", "edit"}, {"by", by.clientId}, {"byName", by.name}, {"changes", protocol::changesToJson(changes)}};
+    json op{{"op", "edit"}, {"by", by.clientId}, {"byName", by.name}, {"changes", protocol::changesToJson(applied)}};
     if (merge) op["merge"] = true; // journaled, so that a replay rebuilds the same history
     auto r = apply(op, true);
-    if (r) r->overwrote = std::move(overwrote);
+    if (r) {
+        r->overwrote = std::move(overwrote);
+        r->limited = std::move(limited);
+    }
     return r;
 }
 

@@ -39,6 +39,10 @@ struct ChangeOutcome {
     /// others changed after `base` (this edit overwrote them: last writer wins), as
     /// [{"path", "version", "by"}]. Empty otherwise.
     nlohmann::json overwrote = nlohmann::json::array();
+    /// Lights whose chain this edit would have folded, limited instead (limitChainEdit), as
+    /// [{"light", "fraction", "warning", "message", "changes"}]: `changes` are the edit's changes of
+    /// that light as applied (the client's own copy takes them). Empty otherwise.
+    nlohmann::json limited = nlohmann::json::array();
 };
 
 class Session {
@@ -76,9 +80,11 @@ public:
     /// overwrote report); `ifVersion`: refuse with Conflict unless the rig is at that version.
     /// `merge`: fold this edit into the newest undo step when that step is `by`'s own edit and
     /// nothing else changed the rig since (a drag sends many edits; one undo takes it back).
+    /// Unless `allowFold`, a BendyLight or bent area light chain that was sound and would fold
+    /// is limited to the last sound configuration on the way (ChangeOutcome::limited).
     Result<ChangeOutcome> edit(const std::vector<protocol::Change>& changes, const Author& by,
                                std::optional<uint64_t> base = std::nullopt, std::optional<uint64_t> ifVersion = std::nullopt,
-                               bool merge = false);
+                               bool merge = false, bool allowFold = false);
     /// Sets the session clock (not an undo step).
     Result<ChangeOutcome> setTime(double seconds, const Author& by);
     /// Undoes / redoes the most recent edit of the session, whoever made it. MissingData when

@@ -100,6 +100,11 @@ struct EditMessage {
     /// newest undo step is that edit's and nothing else changed the rig since, the two become one
     /// undo step. Otherwise an ordinary edit.
     bool merge = false;
+    /// A BendyLight or bent area light whose chain was sound and would fold or run into itself
+    /// after this edit is limited to the last sound configuration on the way (the ack says so in
+    /// `limited`) unless this is true: then the edit is applied as given and the light carries
+    /// a warning (docs/protocol.md "Edits that would fold a tube").
+    bool allowFold = false;
 };
 /// Undo or redo the session's most recent edit (by anyone): the history is per session.
 struct UndoMessage {

@@ -78,6 +78,7 @@ struct Property {
     unsigned appliesTo = APPLIES_ALL;
     int size = 0;             ///< fixed length of a Numbers value (0 = one per chain point)
     const char* indexOf = ""; ///< element rows: the list row they index ("controlPoints")
+    int indexBase = 0;        ///< element rows: the index of the list's first element ("cp[1]" for cp[])
     bool readOnly = false;    ///< written by the server only
     const char* values = "";  ///< Enum: the choices, comma-separated
     const char* valueDoc = "";///< docs/protocol.md "value" column

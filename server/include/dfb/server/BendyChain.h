@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,42 +50,57 @@ template <typename T> lightmath::Chain<T> chainFromLight(const Light& light) {
     return ch;
 }
 
-/// chainWarning on a prepared chain (double precision): inline so that header-only users
-/// (LocalShadowEdit.h and its unit test) refuse what the server would warn about without the
-/// engine library. The checks and messages are chainWarning's below.
-inline std::string chainWarning(const lightmath::Chain<double>& ch) {
+/// The chain point p[i] (i = 0..2K, p0 the source) nearest to parameter u = k + t of segment k:
+/// the page labels the handles p1..p2K, so warnings name the handle to move.
+inline int nearestChainPoint(int k, double t) { return 2 * k + int(std::lround(2.0 * t)); }
+
+/// chainWarning on a prepared chain (double precision), with margins: a fold is reported from
+/// R kappa >= foldLimit and a self-intersection from distance < apartLimit x (sum of radii);
+/// chainWarning's limits are 1 and 1 (where the tube really folds or touches itself). The edit
+/// limiter (limitChainEdit) stops short of them with stricter limits. Inline so that header-only
+/// users (LocalShadowEdit.h and its unit test) refuse what the server would warn about without
+/// the engine library. Messages say what to do, in the page's names of the handles (p1..p2K,
+/// r0..r2K), with the numbers after it for the technical reader.
+inline std::string chainTrouble(const lightmath::Chain<double>& ch, double foldLimit, double apartLimit) {
     using namespace lightmath;
-    char buf[256];
-    // Samples along the chain: position, radius, arc length.
+    char buf[320];
+    // Samples along the chain: position, radius, arc length, nearest control point.
     struct S {
         glm::dvec3 p;
         double r, s;
+        int point;
     };
     std::vector<S> samples;
     const int PER_SEGMENT = 32;
     for (int k = 0; k < ch.segments; ++k) {
         const double len = arcLength(ch, k, 1.0) - arcLength(ch, k, 0.0);
         if (!(len > 1e-9)) {
-            std::snprintf(buf, sizeof buf, "segment %d has zero length (control points %d-%d coincide)", k, 2 * k, 2 * k + 2);
+            std::snprintf(buf, sizeof buf,
+                          "p%d, p%d and p%d are at the same place: move p%d or p%d away (segment %d has zero length)",
+                          2 * k, 2 * k + 1, 2 * k + 2, 2 * k + 1, 2 * k + 2, k);
             return buf;
         }
         for (int i = 0; i <= PER_SEGMENT; ++i) {
             const double t = double(i) / PER_SEGMENT;
             const glm::dvec3 d = chainDerivative(ch, k, t);
+            const int n = nearestChainPoint(k, t);
             if (glm::length(d) < 1e-6 * len) {
-                std::snprintf(buf, sizeof buf, "segment %d has a cusp at u = %.2f (its direction reverses)", k, k + t);
+                std::snprintf(buf, sizeof buf,
+                              "the chain turns back on itself at p%d: move p%d so that the chain does not double back "
+                              "(segment %d has a cusp at u = %.2f)",
+                              n, n == 0 ? 1 : n, k, k + t);
                 return buf;
             }
             const double kappa = glm::length(glm::cross(d, chainSecondDerivative(ch, k))) / std::pow(glm::length(d), 3.0);
             const double R = chainRadius(ch, k, t);
-            if (R * kappa >= 1.0) {
+            if (R * kappa >= foldLimit) {
                 std::snprintf(buf, sizeof buf,
-                              "the tube folds over itself inside the bend near u = %.2f (radius %.3g exceeds the "
-                              "bend's radius of curvature %.3g): self-intersecting tube",
-                              k + t, R, 1.0 / kappa);
+                              "the tube is wider than the bend at p%d: make the bend gentler or the radius r%d smaller "
+                              "(radius %.3g, the bend's radius of curvature %.3g near u = %.2f)",
+                              n, n, R, 1.0 / kappa, k + t);
                 return buf;
             }
-            samples.push_back({chainPoint(ch, k, t), R, arcLength(ch, k, t)});
+            samples.push_back({chainPoint(ch, k, t), R, arcLength(ch, k, t), n});
         }
     }
     // Parts of the chain far apart along it but close in space.
@@ -94,16 +110,21 @@ inline std::string chainWarning(const lightmath::Chain<double>& ch) {
             const double reach = samples[i].r + samples[j].r;
             if (along <= 2.0 * reach) continue; // neighbours along the chain always overlap
             const double apart = glm::length(samples[j].p - samples[i].p);
-            if (apart < reach) {
+            if (apart < apartLimit * reach) {
                 std::snprintf(buf, sizeof buf,
-                              "the tube intersects itself: the chain at arc length %.3g comes within %.3g of itself at "
-                              "%.3g (radii %.3g + %.3g)",
-                              samples[i].s, apart, samples[j].s, samples[i].r, samples[j].r);
+                              "the tube runs into itself between p%d and p%d: move those parts of the chain apart or "
+                              "make the radii smaller (%.3g apart at arc lengths %.3g and %.3g, radii %.3g + %.3g)",
+                              samples[i].point, samples[j].point, apart, samples[i].s, samples[j].s, samples[i].r,
+                              samples[j].r);
                 return buf;
             }
         }
     return {};
 }
+
+/// Why a prepared chain is doubtful, or "" (chainTrouble at the limits where the tube really
+/// folds or touches itself).
+inline std::string chainWarning(const lightmath::Chain<double>& ch) { return chainTrouble(ch, 1.0, 1.0); }
 
 /// Why a BendyLight's chain is doubtful, or "" when it is fine: a segment of zero length or with a
 /// cusp (its tangent vanishes), a tube that folds over itself on the inside of a bend (radius times
@@ -111,5 +132,32 @@ inline std::string chainWarning(const lightmath::Chain<double>& ch) {
 /// their radii (a self-intersecting tube, paper section 7: the light would reach a point along two
 /// paths; the most central one wins). Never fails; costs well under a millisecond.
 std::string chainWarning(const Light& light);
+
+/// The BendyLight or bent area light chain's warning with chainTrouble's margins (see there).
+std::string chainWarning(const Light& light, double foldLimit, double apartLimit);
+
+/// Margins of the edit limiter: it stops where R kappa reaches 0.9 or the tube comes within
+/// 1.1 x its radii of itself (the local shadow edit's regulariser starts at the same onsets,
+/// LocalShadowEdit.h FOLD_ONSET / APART_ONSET), so that a limited drag leaves the tube visibly
+/// clear of the fold, where the deformation still has one foot per point.
+constexpr double LIMIT_FOLD = 0.9;
+constexpr double LIMIT_APART = 1.1;
+
+/// An edit of a light limited so that its chain does not fold (limitChainEdit).
+struct ChainLimit {
+    Light light;          ///< `after` moved back towards `before` until the chain is sound
+    double fraction = 0;  ///< how far along the way from `before` to `after` it stopped, [0, 1)
+    std::string why;      ///< the warning `after` would have had
+};
+
+/// When `after` (an edit of `before`, same name and type, BendyLight or bent area light, the
+/// same number of segments) has a chain that folds or runs into itself while `before`'s does
+/// not: the light part of the way from `before` to `after` (every chain property that differs
+/// moves linearly: position, direction (renormalised), controlPoints, radii, cornerPoints,
+/// cornerRadii, coneAngle, size, roll), as far as the chain stays within LIMIT_FOLD /
+/// LIMIT_APART (or, when `before` itself is within 1 of those, within chainWarning's limits).
+/// The way is scanned in 32 steps, then the last sound step and the first unsound one are
+/// bisected. nullopt when nothing needs limiting or the rule does not apply.
+std::optional<ChainLimit> limitChainEdit(const Light& before, const Light& after);
 
 } // namespace dfb

@@ -30,7 +30,7 @@ std::vector<Light> bentAreaInterior(const Light& l, glm::ivec2 grid);
 float bentAreaCellArea(const Light& l, glm::ivec2 grid);
 
 /// Why a bent area light's corner chains are doubtful (chainWarning of each corner, named); empty
-/// when fine.
-std::string bentAreaWarning(const Light& l);
+/// when fine. The limits are chainTrouble's (BendyChain.h): 1 and 1 are where a tube folds.
+std::string bentAreaWarning(const Light& l, double foldLimit = 1.0, double apartLimit = 1.0);
 
 } // namespace dfb
