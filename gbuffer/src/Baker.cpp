@@ -124,7 +124,7 @@ Result<CameraInfo> chooseCamera(const Scene& scene, const BakeOptions& o) {
         }
         cam = *it;
     } else {
-        cam = scene.cameras.empty() ? autoFrameCamera(scene.bounds, fov, aspect) : scene.cameras.front();
+        cam = scene.cameras.empty() ? autoFrameCamera(scene, fov, aspect) : scene.cameras.front();
         if (o.fovDegrees > 0.f && !cam.orthographic) cam.yfovRadians = fov;
     }
     CameraInfo info;

@@ -462,4 +462,82 @@ SceneCamera autoFrameCamera(const Bounds& bounds, float yfovRadians, float aspec
     return cam;
 }
 
+SceneCamera autoFrameCamera(const Scene& scene, float yfovRadians, float aspect) {
+    SceneCamera sphere = autoFrameCamera(scene.bounds, yfovRadians, aspect);
+    const glm::dvec3 c(scene.bounds.center());
+    const glm::dvec3 back = glm::normalize(glm::dvec3(0.0, 0.35, 1.0)); // from the target to the eye
+    const glm::dvec3 right = glm::normalize(glm::cross(-back, glm::dvec3(0, 1, 0)));
+    const glm::dvec3 up = glm::cross(right, -back);
+    const double ty = std::tan(0.5 * double(yfovRadians)) * (1.0 - AUTO_FRAME_MARGIN);
+    const double tx = std::tan(0.5 * double(yfovRadians)) * double(aspect) * (1.0 - AUTO_FRAME_MARGIN);
+    // Each vertex q (relative to the centre) in the camera's axes: x, y across and s towards the
+    // eye. An eye at c + a right + b up + d back sees it at depth z = d - s, inside the frame
+    // when |x - a| <= tx z and |y - b| <= ty z: for a given d, a must lie in the intersection
+    // over all vertices of [x - tx z, x + tx z] (likewise b), which is non-empty from some d on.
+    struct Q {
+        double x, y, s;
+    };
+    std::vector<Q> qs;
+    for (const MeshPart& p : scene.parts)
+        for (const glm::vec3& v : p.positions) {
+            const glm::dvec3 q = glm::dvec3(v) - c;
+            qs.push_back({glm::dot(q, right), glm::dot(q, up), glm::dot(q, back)});
+        }
+    if (qs.empty()) return sphere;
+    double sMax = -1e300;
+    for (const Q& q : qs) sMax = std::max(sMax, q.s);
+    struct Fit {
+        bool ok;
+        double a, b;
+        double xLo, xHi, yLo, yHi; ///< the eye offsets at which everything fits
+    };
+    auto fit = [&](double d) {
+        double xLo = -1e300, xHi = 1e300, yLo = -1e300, yHi = 1e300;
+        for (const Q& q : qs) {
+            const double z = d - q.s;
+            xLo = std::max(xLo, q.x - tx * z);
+            xHi = std::min(xHi, q.x + tx * z);
+            yLo = std::max(yLo, q.y - ty * z);
+            yHi = std::min(yHi, q.y + ty * z);
+        }
+        return Fit{xLo <= xHi && yLo <= yHi, 0.5 * (xLo + xHi), 0.5 * (yLo + yHi), xLo, xHi, yLo, yHi};
+    };
+    // Centres the projection along one axis: the eye offset a (within [lo, hi], where everything
+    // fits) at which the leftmost and rightmost image coordinates (u - a) / z are opposite; their
+    // sum falls as a grows.
+    auto centre = [&](double d, double lo, double hi, double Q::*u) {
+        for (int i = 0; i < 50; ++i) {
+            const double a = 0.5 * (lo + hi);
+            double mn = 1e300, mx = -1e300;
+            for (const Q& q : qs) {
+                const double v = (q.*u - a) / (d - q.s);
+                mn = std::min(mn, v), mx = std::max(mx, v);
+            }
+            (mn + mx > 0 ? lo : hi) = a;
+        }
+        return 0.5 * (lo + hi);
+    };
+    const double r = std::max(double(scene.bounds.radius()), 1e-6);
+    double lo = sMax, hi = sMax + 4.0 * r / std::min(tx, ty) + r; // every vertex in front; surely fits
+    if (!fit(hi).ok) return sphere;
+    for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (fit(mid).ok ? hi : lo) = mid;
+    }
+    const Fit f = fit(hi);
+    const double a = centre(hi, f.xLo, f.xHi, &Q::x), b = centre(hi, f.yLo, f.yHi, &Q::y);
+    const glm::dvec3 eye = c + right * a + up * b + back * hi;
+    SceneCamera cam = lookAtCamera(glm::vec3(eye), glm::vec3(eye - back), yfovRadians);
+    cam.name = "auto";
+    cam.aspect = aspect;
+    double zMin = 1e300, zMax = 0;
+    for (const Q& q : qs) {
+        zMin = std::min(zMin, hi - q.s);
+        zMax = std::max(zMax, hi - q.s);
+    }
+    cam.znear = float(std::max(1e-5 * r, 0.5 * zMin));
+    cam.zfar = float(zMax * 1.5 + r * 1e-3);
+    return cam;
+}
+
 } // namespace dfb

@@ -3,6 +3,7 @@
 //
 //   dfb-bake SCENE -o SHOT.exr --width W --height H [--samples N] [--camera NAME] [--env-rays N]
 //   dfb-bake --info SHOT.exr
+//   dfb-bake --list-cameras SCENE
 //   dfb-bake --layer NAME SHOT.exr -o out.png
 //
 // Exit codes: 0 success; 1 bad command line; 2 bad input (scene, shot or camera); 3 GPU/EGL
@@ -32,6 +33,34 @@ int exitCodeFor(dfb::ErrorCode c) {
     case dfb::ErrorCode::IoError: return 4;
     default: return 2;
     }
+}
+
+// The scene's cameras, one a line, as --camera takes them (the first is the default).
+int listCameras(const std::string& path) {
+    dfb::LoadOptions lo;
+    lo.loadImages = false;
+    auto scene = dfb::loadScene(path, lo);
+    if (!scene) {
+        std::cerr << "dfb-bake: " << scene.error().toString() << "\n";
+        return exitCodeFor(scene.error().code);
+    }
+    if (scene->cameras.empty()) {
+        std::printf("%s has no cameras: dfb-bake frames the scene automatically (or give --look-from/--look-at)\n",
+                    path.c_str());
+        return 0;
+    }
+    for (size_t i = 0; i < scene->cameras.size(); ++i) {
+        const dfb::SceneCamera& c = scene->cameras[i];
+        const glm::mat4 toWorld = glm::inverse(c.worldToCamera);
+        // + 0.f: no "-0.000" for a component that is zero.
+        const glm::vec3 eye = glm::vec3(toWorld[3]) + 0.f, look = glm::normalize(-glm::vec3(toWorld[2])) + 0.f;
+        char lens[64];
+        if (c.orthographic) std::snprintf(lens, sizeof lens, "orthographic %.3g x %.3g", 2.0 * c.xmag, 2.0 * c.ymag);
+        else std::snprintf(lens, sizeof lens, "perspective %.1f deg vertical", glm::degrees(double(c.yfovRadians)));
+        std::printf("%s\t%s\tat %.3g,%.3g,%.3g\tlooking %.3f,%.3f,%.3f%s\n", c.name.c_str(), lens, eye.x, eye.y, eye.z, look.x,
+                    look.y, look.z, i == 0 ? "\t(default)" : "");
+    }
+    return 0;
 }
 
 int printInfo(const std::string& path) {
@@ -146,6 +175,8 @@ int main(int argc, char** argv) {
                        std::to_string(dfb::MAX_ENV_RAYS) + ")")
         ->capture_default_str();
     app.add_option("--info", infoPath, "print what a baked EXR holds and exit");
+    bool listCamerasOnly = false;
+    app.add_flag("--list-cameras", listCamerasOnly, "print the cameras of the scene given as input (name, lens, place) and exit");
     app.add_option("--layer", layer, "write one layer of the baked EXR given as input as a viewable image (-o)");
     if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-bake"); rc >= 0) return rc;
     if (envRays < 0 || envRays > dfb::MAX_ENV_RAYS) {
@@ -155,6 +186,13 @@ int main(int argc, char** argv) {
     }
 
     if (!infoPath.empty()) return printInfo(infoPath);
+    if (listCamerasOnly) {
+        if (scenePath.empty()) {
+            std::cerr << "dfb-bake: --list-cameras needs a scene: dfb-bake --list-cameras SCENE.glb\n";
+            return 1;
+        }
+        return listCameras(scenePath);
+    }
     if (scenePath.empty() || outPath.empty()) {
         std::cerr << "dfb-bake: an input and -o OUTPUT are required (see --help)\n";
         return 1;

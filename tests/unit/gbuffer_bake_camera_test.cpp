@@ -93,3 +93,46 @@ TEST(BakeCamera, UnknownCameraNameListsTheCameras) {
     EXPECT_EQ(c.error().code, ErrorCode::MissingData);
     EXPECT_NE(c.error().message.find("nope"), std::string::npos);
 }
+
+// Automatic framing (issue 20 point 5) fits the geometry, not its bounding sphere: every asset
+// scene without a camera covers at least 40 % of the image's width or height (the sphere fit
+// left an object at 11-13 % of the pixels), is centred, and is not cut by the image's edges
+// (the 5 % margin leaves at least one empty column and row on every side at this size).
+TEST(BakeCamera, AutomaticFramingFitsTheGeometryWithASmallMargin) {
+    DFB_REQUIRE_ASSETS();
+    int scenes = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(DFB_ASSETS_DIR)) {
+        if (entry.path().extension() != ".glb") continue;
+        auto scene = loadScene(entry.path().string());
+        ASSERT_TRUE(scene.ok()) << scene.error().toString();
+        if (!scene->cameras.empty()) continue;
+        ++scenes;
+        BakeOptions o;
+        o.width = 96;
+        o.height = 54;
+        o.envRays = 0;
+        auto b = bake(scene.value(), o);
+        ASSERT_TRUE(b.ok()) << entry.path() << ": " << b.error().toString();
+        EXPECT_EQ(b->camera.name, "auto");
+        int x0 = o.width, x1 = -1, y0 = o.height, y1 = -1;
+        for (int y = 0; y < b->height; ++y)
+            for (int x = 0; x < b->width; ++x) {
+                if (b->coverage(x, y) <= 0.f) continue;
+                x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+            }
+        ASSERT_GE(x1, 0) << entry.path() << ": nothing in view";
+        const double w = double(x1 - x0 + 1) / o.width, h = double(y1 - y0 + 1) / o.height;
+        std::printf("%-36s covers %3.0f %% of the width, %3.0f %% of the height (columns %d..%d, rows %d..%d)\n",
+                    entry.path().filename().c_str(), 100 * w, 100 * h, x0, x1, y0, y1);
+        EXPECT_GE(std::max(w, h), 0.40) << entry.path();
+        EXPECT_GT(std::max(w, h), 0.85) << entry.path() << ": the limiting axis is filled up to the margin";
+        EXPECT_GE(x0, 1) << entry.path();
+        EXPECT_GE(y0, 1) << entry.path();
+        EXPECT_LE(x1, o.width - 2) << entry.path();
+        EXPECT_LE(y1, o.height - 2) << entry.path();
+        // Centred: the empty margins on either side differ by at most a few pixels.
+        EXPECT_LE(std::abs(x0 - (o.width - 1 - x1)), 3) << entry.path();
+        EXPECT_LE(std::abs(y0 - (o.height - 1 - y1)), 3) << entry.path();
+    }
+    EXPECT_GE(scenes, 5) << "asset scenes without a camera";
+}

@@ -164,8 +164,18 @@ Result<Scene> loadSceneFromMemory(const std::string& name, const uint8_t* data, 
                                   const LoadOptions& options = {});
 
 /// A camera that frames the scene's bounds: looking from the front (+Z), a little above, with the
-/// given vertical field of view and aspect.
+/// given vertical field of view and aspect (the bounding sphere inside the narrower field).
 SceneCamera autoFrameCamera(const Bounds& bounds, float yfovRadians, float aspect);
+
+/// Margin of autoFrameCamera(Scene): the geometry fills the limiting axis of the image up to
+/// this fraction on each side.
+constexpr float AUTO_FRAME_MARGIN = 0.05f;
+
+/// The bake's automatic framing: looking from the front (+Z), a little above, placed and aimed
+/// so that the projection of every vertex of the scene fits the image with AUTO_FRAME_MARGIN
+/// on the limiting axis and is centred on both (the nearest such eye along the view direction,
+/// found by bisection; the bounding sphere fit leaves an object at ~12 % of the pixels).
+SceneCamera autoFrameCamera(const Scene& scene, float yfovRadians, float aspect);
 
 /// A look-at camera.
 SceneCamera lookAtCamera(const glm::vec3& from, const glm::vec3& at, float yfovRadians);
