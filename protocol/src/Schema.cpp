@@ -69,7 +69,7 @@ template <std::vector<uint32_t> Light::*M> Status setIds(const Property&, Light&
 // ---- the special rows --------------------------------------------------------------------------
 
 Status setName(const Property&, Light& l, const json& v, const std::string& path, int) {
-    if (!v.is_string() || !validName(v.get<std::string>())) return invalid(path + ": a name is 1-64 characters of letters, digits, '_' or '-'");
+    if (!v.is_string() || !validName(v.get<std::string>())) return invalid(path + ": " + NAME_RULE);
     l.name = v.get<std::string>();
     return ok();
 }
@@ -830,6 +830,8 @@ std::string lightTypeName(LightType t) {
     }
     return "spot";
 }
+
+bool isValidName(const std::string& name) { return validName(name); }
 
 std::optional<LightType> lightTypeFromName(std::string_view n) {
     if (n == "spot") return LightType::Spot;

@@ -369,6 +369,18 @@ int main(int argc, char** argv) {
         banner.push_back(line);
         render.value()->setRefinement(std::chrono::milliseconds(refineMs), std::chrono::milliseconds(150));
         hub->setRender(std::move(render.value()));
+        {
+            // Snapshots and saved rigs beside the journal (session/Library.h); a damaged entry is
+            // named and skipped, the others kept.
+            std::vector<std::string> libraryReport;
+            auto library = dfb::Library::open(dir.empty() ? dir : dir / "library", &libraryReport);
+            for (const std::string& line : libraryReport) std::fprintf(stderr, "dfb-server: session %s: library: %s\n", spec.name.c_str(), line.c_str());
+            if (!library) {
+                failSession(spec, dir, library.error(), "its library cannot be opened (see the server's log)", EXIT_INPUT);
+                continue;
+            }
+            hub->setLibrary(std::move(library.value()));
+        }
         finalLimits.timeLimit = std::chrono::seconds(finalTimeout);
         hub->finals().setLimits(finalLimits);
         hub->render().requestFrame();

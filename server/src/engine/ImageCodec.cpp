@@ -106,6 +106,38 @@ Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality, int th
     return out;
 }
 
+Result<std::vector<uint8_t>> jpegThumbnail(const uint8_t* jpeg, size_t size, int maxWidth, int quality) {
+    if (!jpeg || size == 0 || size > (size_t(1) << 31)) return makeError(ErrorCode::InvalidValue, "thumbnail: no JPEG data");
+    tjhandle tj = tjInitDecompress();
+    if (!tj) return makeError(ErrorCode::IoError, std::string("tjInitDecompress: ") + tjGetErrorStr());
+    int w = 0, h = 0, subsamp = 0, colorspace = 0;
+    if (tjDecompressHeader3(tj, jpeg, (unsigned long)size, &w, &h, &subsamp, &colorspace) != 0 || w <= 0 || h <= 0) {
+        const std::string msg = tjGetErrorStr2(tj);
+        tjDestroy(tj);
+        return makeError(ErrorCode::InvalidValue, "thumbnail: not a JPEG: " + msg);
+    }
+    // The scaling factors libjpeg-turbo decodes directly (the IDCT at a smaller size: no separate
+    // resampling pass); the largest whose width fits, else the smallest there is.
+    int count = 0;
+    tjscalingfactor* factors = tjGetScalingFactors(&count);
+    int tw = 0, th = 0, smallest = -1;
+    for (int i = 0; i < count; ++i) {
+        const int sw = TJSCALED(w, factors[i]), sh = TJSCALED(h, factors[i]);
+        if (sw <= maxWidth && sw > tw) tw = sw, th = sh;
+        if (smallest < 0 || sw < TJSCALED(w, factors[smallest])) smallest = i;
+    }
+    if (tw == 0) tw = TJSCALED(w, factors[smallest]), th = TJSCALED(h, factors[smallest]);
+    Image8 small;
+    small.width = tw;
+    small.height = th;
+    small.rgba.resize(size_t(tw) * size_t(th) * 4);
+    const int rc = tjDecompress2(tj, jpeg, (unsigned long)size, small.rgba.data(), tw, tw * 4, th, TJPF_RGBA, TJFLAG_FASTDCT);
+    const std::string msg = rc != 0 ? tjGetErrorStr2(tj) : "";
+    tjDestroy(tj);
+    if (rc != 0) return makeError(ErrorCode::InvalidValue, "thumbnail: cannot decode the JPEG: " + msg);
+    return encodeJpeg(small, quality, 1);
+}
+
 Result<std::vector<uint8_t>> encodePng(const Image8& image) {
     if (image.width <= 0 || image.height <= 0) return makeError(ErrorCode::InvalidValue, "encodePng: empty image");
     std::vector<unsigned char> bytes;

@@ -436,6 +436,131 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         }, /*fullQuality=*/true);
         return;
     }
+    if (resource == "library" || resource == "snapshots" || resource == "rigs" || resource.rfind("snapshots/", 0) == 0 ||
+        resource.rfind("rigs/", 0) == 0) {
+        // Snapshots and saved rigs (session/Library.h; docs/protocol.md "Snapshots and saved
+        // rigs"): read by any role, changed by editors; every change is told to every client.
+        Library& library = hub->library();
+        const bool del = req.method() == http::verb::delete_;
+        if (resource == "library") {
+            if (!get) return notAllowed("GET, HEAD");
+            return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(library.list(), 2)));
+        }
+        const bool snapshots = resource.rfind("snapshots", 0) == 0;
+        const std::string kind = snapshots ? "snapshots" : "rigs";
+        // The name a POST to the list gives: {"name": "..."}.
+        auto nameFromBody = [&](const std::string& what) -> Result<std::string> {
+            auto in = editorBody(req, what, "{\"name\": \"...\"}");
+            if (!in) return in.error();
+            if (!in->body.contains("name") || !in->body["name"].is_string()) {
+                return makeError(ErrorCode::Protocol, what + ": expected {\"name\": \"...\"}");
+            }
+            return in->body["name"].get<std::string>();
+        };
+        if (resource == kind) {
+            if (get) return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(library.list()[kind], 2)));
+            if (!post) return notAllowed("GET, HEAD, POST");
+            if (!editorOnly()) return;
+            auto name = nameFromBody("POST " + kind);
+            if (!name) return refuse(name.error(), http::status::bad_request);
+            if (!snapshots) {
+                auto out = library.saveRig(name.value(), session.rig(), author.name);
+                if (!out) return refuse(out.error(), out.error().code == ErrorCode::InvalidValue ? std::optional(http::status::bad_request) : std::nullopt);
+                hub->libraryChanged();
+                return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(out.value(), 2)));
+            }
+            if (!protocol::isValidName(name.value())) {
+                return refuse(makeError(ErrorCode::InvalidValue, "snapshot name '" + name->substr(0, 64) + "': " + protocol::NAME_RULE),
+                              http::status::bad_request);
+            }
+            if (library.snapshot(name.value()).ok()) {
+                return refuse(makeError(ErrorCode::Conflict, "a snapshot named '" + name.value() +
+                                                                 "' exists: pick another name or delete it first"));
+            }
+            // The frame of the rig of the moment in the rig's own view (beauty, its exposure and
+            // transform), at full quality; kept with the rig of the version it shows.
+            protocol::ViewSettings view;
+            view.quality = 90;
+            const unsigned httpVersion = req.version();
+            const bool alive = req.keep_alive();
+            hub->render().requestEncoded(view, [self = shared_from_this(), hub, name = name.value(), author, httpVersion, alive](
+                                                   Result<std::shared_ptr<const EncodedFrame>> f) {
+                asio::post(self->mStream.get_executor(), [self, hub, name, author, httpVersion, alive, f = std::move(f)]() {
+                    auto fail = [&](const Error& e) {
+                        self->send(errorResponse(httpVersion, alive, makeError(e.code, self->mState->redact(e.message))));
+                    };
+                    if (!f) return fail(f.error());
+                    const EncodedFrame& frame = *f.value();
+                    const Rig rig = hub->session().rig();
+                    if (rig.version != frame.rigVersion) {
+                        return fail(makeError(ErrorCode::Conflict, "the rig changed while the snapshot was rendered (version " +
+                                                                       std::to_string(frame.rigVersion) + " -> " +
+                                                                       std::to_string(rig.version) + "): take it again"));
+                    }
+                    auto out = hub->library().addSnapshot(name, rig, author.name,
+                                                          std::string(reinterpret_cast<const char*>(frame.image()), frame.imageSize()),
+                                                          hub->shot().width, hub->shot().height);
+                    if (!out) return fail(out.error());
+                    hub->libraryChanged();
+                    self->send(makeResponse(httpVersion, alive, http::status::ok, "application/json", protocol::dump(out.value(), 2)));
+                });
+            }, /*fullQuality=*/true);
+            return;
+        }
+        // kind/NAME, kind/NAME/load, snapshots/NAME.jpg, snapshots/NAME.thumb.jpg
+        std::string rest = resource.substr(kind.size() + 1);
+        std::string action;
+        if (const size_t slash = rest.find('/'); slash != std::string::npos) action = rest.substr(slash + 1), rest.resize(slash);
+        std::string image;
+        for (const char* ext : {".thumb.jpg", ".jpg"}) {
+            const std::string e = ext;
+            if (snapshots && action.empty() && image.empty() && rest.size() > e.size() && rest.compare(rest.size() - e.size(), e.size(), e) == 0) {
+                image = e;
+                rest.resize(rest.size() - e.size());
+            }
+        }
+        const std::string& name = rest;
+        Result<Library::Entry> entry = makeError(ErrorCode::MissingData, "");
+        std::shared_ptr<const Library::Snapshot> snap;
+        if (snapshots) {
+            auto s = library.snapshot(name);
+            if (s) snap = s.value(), entry = static_cast<const Library::Entry&>(*snap);
+            else entry = s.error();
+        } else {
+            entry = library.savedRig(name);
+        }
+        if (!entry) return refuse(entry.error(), http::status::not_found);
+        if (!image.empty()) {
+            if (!get) return notAllowed("GET, HEAD");
+            auto res = makeResponse(req, http::status::ok, "image/jpeg", image == ".jpg" ? *snap->image : *snap->thumbnail);
+            res.set("X-Rig-Version", std::to_string(snap->rigVersion));
+            return send(std::move(res));
+        }
+        if (action == "load") {
+            // One undoable edit: the saved rig replaces the live one (Session::replace).
+            if (!post) return notAllowed("POST");
+            if (!editorOnly()) return;
+            auto expected = ifMatch(req);
+            if (!expected) return refuse(expected.error());
+            auto rig = protocol::rigFromJson(entry->rig);
+            if (!rig) return refuse(rig.error());
+            auto out = session.replace(rig.value(), author, expected.value());
+            if (!out) return refuse(out.error());
+            return accepted(out.value(), json{{"loaded", kind.substr(0, kind.size() - 1) + " " + name}});
+        }
+        if (!action.empty()) return refuse(makeError(ErrorCode::MissingData, "no such resource: " + kind + "/" + name + "/" + action.substr(0, 64)), http::status::not_found);
+        if (get) {
+            json j = json{{"name", entry->name}, {"rigVersion", entry->rigVersion}, {"by", entry->by}, {"time", entry->time}, {"rig", entry->rig}};
+            if (snap) j["width"] = snap->width, j["height"] = snap->height;
+            return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(j, 2)));
+        }
+        if (!del) return notAllowed("GET, HEAD, DELETE");
+        if (!editorOnly()) return;
+        auto st = snapshots ? library.removeSnapshot(name) : library.removeRig(name);
+        if (!st) return refuse(st.error());
+        hub->libraryChanged();
+        return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(json{{"deleted", name}}, 2)));
+    }
     if (resource == "drag") {
         // A whole drag in one request (docs/protocol.md "Drags"): begin at `from`, one update to
         // `to`, end; one edit, one undo step.

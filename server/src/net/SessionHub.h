@@ -6,6 +6,7 @@
 
 #include "net/Beast.h"
 #include "net/FinalRenders.h"
+#include "session/Library.h"
 #include "session/Metrics.h"
 #include "session/RenderService.h"
 #include "session/Session.h"
@@ -57,6 +58,11 @@ public:
     void setRender(std::unique_ptr<RenderService> render) { mRender = std::move(render); }
     /// The session's Cycles final renders (net/FinalRenders.h).
     FinalRenders& finals() { return *mFinals; }
+    /// The session's snapshots and saved rigs (session/Library.h); in memory until setLibrary.
+    Library& library() { return *mLibrary; }
+    void setLibrary(std::unique_ptr<Library> library) { mLibrary = std::move(library); }
+    /// Tells every client the library's new list (a `library` message, docs/protocol.md).
+    void libraryChanged();
     /// Sends one text message to every client.
     void broadcastText(std::shared_ptr<const std::string> message);
     Metrics& metrics() { return mMetrics; }
@@ -90,6 +96,7 @@ private:
     std::set<WebSocketSession*> mClients;
     asio::steady_timer mHousekeeping;
     std::unique_ptr<FinalRenders> mFinals;
+    std::unique_ptr<Library> mLibrary = Library::open({}).value();
 };
 
 } // namespace dfb::net

@@ -154,6 +154,12 @@ void SessionHub::makeFinalRenders() {
     mFinals = std::make_unique<FinalRenders>(mIoc, *mShot, exporter, notify);
 }
 
+void SessionHub::libraryChanged() {
+    nlohmann::json message = mLibrary->list();
+    message["type"] = "library";
+    broadcastText(std::make_shared<const std::string>(message.dump()));
+}
+
 void SessionHub::broadcastPresence() {
     std::vector<std::weak_ptr<WebSocketSession>> targets;
     for (WebSocketSession* c : mClients) targets.push_back(c->weak_from_this());

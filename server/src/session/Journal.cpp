@@ -410,4 +410,8 @@ Status Journal::saveRig(const json& rig) {
     return okStatus();
 }
 
+Status Journal::writeFileDurably(const std::filesystem::path& path, std::string_view data) {
+    return replaceDurably(path, data);
+}
+
 } // namespace dfb

@@ -85,6 +85,9 @@ public:
     /// cannot be reopened, appends are refused (IoError) until the session is reopened. Nothing
     /// acknowledged is lost either way.
     Status compact(const std::vector<nlohmann::json>& operations);
+    /// Writes `data` to `path` so that after a crash `path` holds either its old content or all
+    /// of `data` (temp file, fsync, rename, fsync of the folder); the session library's files.
+    static Status writeFileDurably(const std::filesystem::path& path, std::string_view data);
     /// Replaces DIR/rig.json atomically (not durably: a restart trusts the journal, not it).
     Status saveRig(const nlohmann::json& rig);
 

@@ -124,6 +124,10 @@ std::string_view toString(Invalidates i);
 std::string lightTypeName(LightType t);
 /// "spot" -> Spot, ...; nothing for an unknown name.
 std::optional<LightType> lightTypeFromName(std::string_view name);
+/// Whether `name` is a valid name of a light, snapshot or saved rig: 1-64 characters of letters,
+/// digits, '_' or '-' (NAME_RULE says so in messages).
+bool isValidName(const std::string& name);
+inline constexpr const char* NAME_RULE = "a name is 1-64 characters of letters, digits, '_' or '-'";
 
 /// The schema as served at GET /v1/schema (docs/protocol.md "Schema").
 nlohmann::json schemaJson();

@@ -16,6 +16,11 @@ namespace dfb {
 /// `threads`: at most this many strips (0: one per hardware thread, up to 16).
 Result<std::vector<uint8_t>> encodeJpeg(const Image8& image, int quality = 90, int threads = 0);
 
+/// A small JPEG of a JPEG (snapshot thumbnails): decoded by libjpeg-turbo at the largest of its
+/// DCT scaling factors (1/8 .. 1) that gives at most `maxWidth` columns, re-encoded at `quality`.
+/// InvalidValue names what is wrong with bytes that are not a JPEG. Thread-safe.
+Result<std::vector<uint8_t>> jpegThumbnail(const uint8_t* jpeg, size_t size, int maxWidth, int quality = 80);
+
 /// 8-bit RGB PNG. Thread-safe.
 Result<std::vector<uint8_t>> encodePng(const Image8& image);
 
