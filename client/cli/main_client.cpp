@@ -159,6 +159,10 @@ std::string messageText(const json& m) {
     if (type == "ack") return "ack " + str(m, "seq", "?") + ": rig version " + str(m, "rigVersion", "?");
     if (type == "final") return finalText(m);
     if (type == "drag") return "drag: " + str(m, "state", "?");
+    if (type == "library") {
+        return "library: " + std::to_string(m.value("snapshots", json::array()).size()) + " snapshots, " +
+               std::to_string(m.value("rigs", json::array()).size()) + " saved rigs";
+    }
     return type + ": " + m.dump();
 }
 

@@ -7,6 +7,7 @@ import { $, showMessage } from "./dom.js";
 import { flushLive, sendView, applyChange } from "./edits.js";
 import { endDrag } from "./drag.js";
 import { onFinal, onLiveFrame, refreshFinal } from "./final.js";
+import { onLibrary, refreshLibrary } from "./library.js";
 import { abortIndirect, setDragModes } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { refreshUi, renderLights, renderView, setRig, updateEditable } from "./panels.js";
@@ -86,6 +87,7 @@ function onText(msg) {
   case "presence": S.clients = msg.clients; renderClients(); renderLights(); scheduleOverlay(); return;
   case "pick": return onPick(msg);
   case "final": return onFinal(msg);
+  case "library": return onLibrary(msg);
   default: return; // newer servers may add message types: ignore what we do not know
   }
 }
@@ -124,6 +126,7 @@ function onWelcome(msg) {
   updateEditable();
   refreshHistory();
   refreshFinal();
+  refreshLibrary();
 }
 
 /** A new sequence number for a message, remembered until its ack or error. */

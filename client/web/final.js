@@ -15,8 +15,11 @@ import { $, showMessage } from "./dom.js";
 import { canEdit } from "./edits.js";
 import { S } from "./state.js";
 
-// The page's compare state (this viewer's own; nothing of it is sent to the server).
+// The page's compare state (this viewer's own; nothing of it is sent to the server). B, the image
+// compared with the live one, is the final render or a snapshot (library.js): `source`.
 const F = {
+  source: "final",  // final | snapshot
+  snap: null,       // the snapshot compared (its list entry) when source is "snapshot"
   state: null,     // the newest `final` message (or GET .../final answer)
   imageKey: "",    // version|exposure|transform of the final image loaded in #finalImg
   objectUrl: null,
@@ -24,6 +27,7 @@ const F = {
   wipe: 0.5,       // the wipe line, as a fraction of the image width
   gain: 4,         // difference brightening
   statsTimer: 0,
+  snapshots: [],    // the session's snapshots (library.js)
 };
 export const finalState = () => F; // for the browser test
 
@@ -33,6 +37,11 @@ export function initFinal() {
   $("finalRender").onclick = startFinal;
   $("finalCancel").onclick = cancelFinal;
   $("compareMode").onchange = () => setCompare($("compareMode").value);
+  $("compareWith").onchange = () => {
+    const v = $("compareWith").value;
+    if (v === "final") useFinal();
+    else compareWithSnapshot(F.snapshots.find((x) => x.name === v.slice(5)), F.mode === "live" ? "wipe" : F.mode);
+  };
   $("diffGain").onchange = () => { F.gain = Number($("diffGain").value); layoutCompare(); };
   const bar = $("wipeBar");
   // The wipe line is dragged by itself: its events do not reach the viewport (no pan, no pick).
@@ -63,13 +72,48 @@ export async function refreshFinal() {
 export function onFinal(msg) {
   F.state = msg;
   if (msg.state === "failed" && msg.error) showMessage(`final render: ${msg.error}`);
-  if (msg.state === "done") loadFinalImage();
+  if (msg.state === "done" && F.source === "final") loadFinalImage();
+  renderFinal();
+}
+
+/**
+ * Compares the live image with snapshot `s` (a library list entry) in `mode`: its frame as it
+ * was rendered, in the rig's own view of that moment (a snapshot keeps one image).
+ */
+export function compareWithSnapshot(s, mode = "wipe") {
+  if (!s) return;
+  F.source = "snapshot";
+  F.snap = s;
+  loadImage(`snap|${s.name}|${s.time}`,
+            `/v1/sessions/${encodeURIComponent(S.sessionId)}/snapshots/${encodeURIComponent(s.name)}.jpg?${new URLSearchParams({ token: S.token })}`,
+            "snapshot");
+  F.mode = mode;
+  $("compareMode").value = mode;
+  renderFinal();
+}
+function useFinal() {
+  F.source = "final";
+  F.snap = null;
+  dropImage();
+  if (F.state?.state === "done") loadFinalImage();
+  renderFinal();
+}
+function dropImage() {
+  if (F.objectUrl) URL.revokeObjectURL(F.objectUrl);
+  F.objectUrl = null;
+  F.imageKey = "";
+  $("finalImg").removeAttribute("src");
+}
+/** The snapshots there are (library.js): the compare menu's B choices; a deleted B falls back to the final. */
+export function setSnapshots(list) {
+  F.snapshots = list;
+  if (F.source === "snapshot" && !list.some((x) => x.name === F.snap.name && x.time === F.snap.time)) useFinal();
   renderFinal();
 }
 
 /** The view (exposure, transform) changed: the final image follows it. */
 export function onViewChanged() {
-  if (F.state?.state === "done") loadFinalImage();
+  if (F.source === "final" && F.state?.state === "done") loadFinalImage();
 }
 
 async function startFinal() {
@@ -88,22 +132,35 @@ async function cancelFinal() {
 
 function loadFinalImage() {
   const v = S.view, version = F.state.rigVersion;
-  const key = `${version}|${v.exposure}|${v.viewTransform}`;
+  const q = new URLSearchParams({ token: S.token, exposure: String(v.exposure), viewTransform: v.viewTransform });
+  loadImage(`${version}|${v.exposure}|${v.viewTransform}`, `/v1/sessions/${encodeURIComponent(S.sessionId)}/final.png?${q}`, "final render");
+}
+
+// Fetches B (once per key) into #finalImg.
+function loadImage(key, url, what) {
   if (key === F.imageKey) return;
   F.imageKey = key;
-  const q = new URLSearchParams({ token: S.token, exposure: String(v.exposure), viewTransform: v.viewTransform });
-  fetch(`/v1/sessions/${encodeURIComponent(S.sessionId)}/final.png?${q}`)
+  fetch(url)
     .then(async (res) => {
       if (!res.ok) throw new Error(`HTTP ${res.status}: ${(await res.text()).slice(0, 200)}`);
-      const url = URL.createObjectURL(await res.blob());
+      if (F.imageKey !== key) return; // another B was chosen meanwhile
+      const blobUrl = URL.createObjectURL(await res.blob());
       if (F.objectUrl) URL.revokeObjectURL(F.objectUrl);
-      F.objectUrl = url;
+      F.objectUrl = blobUrl;
       const img = $("finalImg");
-      img.dataset.rigVersion = res.headers.get("ETag")?.replaceAll('"', "") ?? "";
-      img.src = url;
+      img.dataset.rigVersion = (res.headers.get("ETag") ?? res.headers.get("X-Rig-Version") ?? "").replaceAll('"', "");
+      img.dataset.source = key;
+      img.src = blobUrl;
       renderFinal();
     })
-    .catch((e) => { F.imageKey = ""; showMessage(`final render: cannot load the image: ${e.message}`); });
+    .catch((e) => { F.imageKey = ""; showMessage(`${what}: cannot load the image: ${e.message}`); });
+}
+
+/** The A/B toggle (T): the live image and B alone, in turn, once B is loaded. */
+export function toggleAB() {
+  if (!F.objectUrl) return;
+  setCompare(F.mode === "final" ? "live" : "final");
+  $("compareMode").value = F.mode;
 }
 
 function setCompare(mode) {
@@ -164,6 +221,16 @@ export function renderFinal() {
   notes.innerHTML = "";
   for (const n of F.state?.notes ?? []) notes.append(Object.assign(document.createElement("li"), { textContent: n }));
   $("compareMode").disabled = !F.objectUrl;
+  // B: the final render or a snapshot.
+  const sel = $("compareWith");
+  const options = [["final", F.state?.state === "done" ? `final render (v${F.state.rigVersion})` : "final render"],
+                   ...(F.snapshots ?? []).map((x) => [`snap:${x.name}`, `snapshot ${x.name} (v${x.rigVersion})`])];
+  if (sel.options.length !== options.length || options.some(([v, t], i) => sel.options[i].value !== v || sel.options[i].textContent !== t)) {
+    sel.innerHTML = "";
+    for (const [v, t] of options) sel.append(Object.assign(document.createElement("option"), { value: v, textContent: t }));
+  }
+  sel.value = F.source === "snapshot" ? `snap:${F.snap.name}` : "final";
+  sel.disabled = options.length < 2 && !F.objectUrl;
   layoutCompare();
 }
 

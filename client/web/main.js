@@ -6,7 +6,8 @@
 import { connect, loadSchema, renderStats, send } from "./connection.js";
 import { $, showMessage } from "./dom.js";
 import { addLight, canEdit, deleteLight, duplicateLight, redo, undo } from "./edits.js";
-import { initFinal } from "./final.js";
+import { initFinal, toggleAB } from "./final.js";
+import { initLibrary } from "./library.js";
 import { cancelIndirect, dragModeKey, setDragMode } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { initPanels } from "./panels.js";
@@ -20,6 +21,7 @@ initViewport();
 initTimeline();
 initPresence();
 initFinal();
+initLibrary();
 setInterval(renderStats, 500);
 
 $("keysHelp").onclick = () => showMessage($("keysHelp").title, "info");
@@ -46,6 +48,7 @@ document.addEventListener("keydown", (e) => {
   case "-": return zoomAt(S.zoom / 1.25, ...vpCenter());
   case "h": case "H": return $("handlesToggle").click();
   case "b": case "B": return $("backdropToggle").click();
+  case "t": case "T": return toggleAB();
   case "k": return canEdit() && setKey();
   case "K": return canEdit() && deleteKey();
   case ",": return stepKey(-1);

@@ -249,9 +249,12 @@ try {
   const a = track(await ctxA.newPage());
   const consoleErrors = [];
   let restarting = false;
+  // Set while a check provokes an HTTP refusal on purpose (the browser logs the failed request).
+  let refusing = false;
   a.on("console", (m) => {
     // While the server is down the browser itself logs the refused connections: expected.
-    if (m.type() === "error" && !(restarting && /WebSocket|Failed to load resource|ERR_CONNECTION_REFUSED/.test(m.text()))) consoleErrors.push(m.text());
+    if (m.type() === "error" && !(restarting && /WebSocket|Failed to load resource|ERR_CONNECTION_REFUSED/.test(m.text())) &&
+        !(refusing && /Failed to load resource: the server responded with a status of 412/.test(m.text()))) consoleErrors.push(m.text());
   });
   a.on("pageerror", (e) => consoleErrors.push(e.stack || String(e)));
   await a.goto(`${server.editorUrl}&name=alice`);
@@ -1363,6 +1366,82 @@ try {
     await a.click('#lights li[data-light="key"] .lname');
   });
 
+  await check("snapshots with thumbnails for everyone, A/B and wipe against one; a saved rig loads as one undoable edit", async () => {
+    await a.click("#libraryPanel h2");
+    // A snapshot taken in the first browser appears, with its thumbnail, in the second.
+    const rig0 = await getRig();
+    await a.fill("#snapName", "before");
+    await a.click("#snapTake");
+    await a.waitForFunction(() => document.querySelector('#snapshots li[data-snapshot="before"] img.thumb')?.naturalWidth > 0, null, WAIT);
+    await b.waitForFunction(() => document.querySelector('#snapshots li[data-snapshot="before"] img.thumb')?.naturalWidth > 0, null, WAIT);
+    const meta = await b.evaluate(() => document.querySelector('#snapshots li[data-snapshot="before"] .hint').textContent);
+    assert(meta.startsWith(`v${rig0.version} · `) && meta.includes("alice"), `the entry says ${meta}`);
+    const lib = await http("library");
+    assert(lib.snapshots.length === 1 && lib.snapshots[0].rigVersion === rig0.version, JSON.stringify(lib));
+    // A name in use is refused with the server's reason.
+    refusing = true;
+    await a.fill("#snapName", "before");
+    await a.click("#snapTake");
+    await waitMessage(a, /^snapshot: conflict: a snapshot named 'before' exists/);
+    refusing = false;
+
+    // The live image changes; B is the snapshot: the wipe shows it right of the line, T toggles.
+    await postEdit([{ path: "key.intensity", value: rig0.lights.find((l) => l.name === "key").intensity * 4 }]);
+    const rig1 = await waitRig((r) => r.version > rig0.version, "the edit lands");
+    await frameAtLeast(a, rig1.version);
+    await a.click('#snapshots li[data-snapshot="before"] img.thumb');
+    await a.waitForFunction(() => document.getElementById("finalImg").dataset.source?.startsWith("snap|before|") &&
+                                  document.getElementById("finalImg").naturalWidth === 320 && !document.getElementById("wipeBar").hidden, null, WAIT);
+    const cmp = await a.evaluate(() => ({ mode: document.getElementById("compareMode").value, withWhat: document.getElementById("compareWith").value,
+                                          hidden: document.getElementById("finalImg").hidden, clip: document.getElementById("finalImg").style.clipPath }));
+    assert(cmp.mode === "wipe" && cmp.withWhat === "snap:before" && !cmp.hidden && /inset/.test(cmp.clip), JSON.stringify(cmp));
+    await a.mouse.move(10, 10);
+    await shot(a, "21-snapshot-wipe.png");
+    // The snapshot's pixels are the old rig's: darker than the live frame (the key is 4x).
+    const mean = await a.evaluate(() => {
+      const m = (img) => {
+        const c = Object.assign(document.createElement("canvas"), { width: 160, height: 90 });
+        const ctx = c.getContext("2d");
+        ctx.drawImage(img, 0, 0, 160, 90);
+        const d = ctx.getImageData(0, 0, 160, 90).data;
+        let s = 0;
+        for (let i = 0; i < d.length; i += 4) s += d[i] + d[i + 1] + d[i + 2];
+        return s / (d.length / 4);
+      };
+      return { live: m(document.getElementById("frame")), snap: m(document.getElementById("finalImg")) };
+    });
+    assert(mean.snap < mean.live * 0.9, `the snapshot is not the older, darker image: ${JSON.stringify(mean)}`);
+    await a.keyboard.press("t");
+    await a.waitForFunction(() => document.getElementById("compareMode").value === "final" && !document.getElementById("finalImg").hidden &&
+                                  document.getElementById("finalImg").style.clipPath === "", null, WAIT);
+    await a.keyboard.press("t");
+    await a.waitForFunction(() => document.getElementById("compareMode").value === "live" && document.getElementById("finalImg").hidden, null, WAIT);
+
+    // Saved rigs: save, edit, load (the saved lights come back), undo (the edit comes back).
+    await a.fill("#rigName", "brighter");
+    await a.click("#rigSave");
+    await a.waitForSelector('#savedRigs li[data-rig="brighter"]', WAIT);
+    await postEdit([{ path: "key.intensity", value: 1 }]);
+    const rig2 = await waitRig((r) => r.version > rig1.version, "another edit lands");
+    await a.click('#savedRigs li[data-rig="brighter"] button:text("Load")');
+    const rig3 = await waitRig((r) => r.version > rig2.version, "the load is an edit");
+    assert(JSON.stringify(rig3.lights) === JSON.stringify(rig1.lights), "the loaded rig's lights are not the saved ones");
+    await a.click("#undo");
+    const rig4 = await waitRig((r) => r.version > rig3.version, "undo");
+    assert(JSON.stringify(rig4.lights) === JSON.stringify(rig2.lights), "one undo does not take the load back");
+    await shot(a, "22-library.png");
+    // A viewer sees the lists but cannot take or load.
+    const ctxV = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });
+    const v = track(await ctxV.newPage());
+    await v.goto(`${server.viewerUrl}&name=dave`);
+    await v.waitForFunction(() => document.querySelector('#savedRigs li[data-rig="brighter"] button') !== null &&
+                                  document.querySelector('#snapshots li[data-snapshot="before"] img.thumb')?.naturalWidth > 0, null, WAIT);
+    const viewerDisabled = await v.evaluate(() => [document.getElementById("snapTake").disabled,
+                                                  document.querySelector('#savedRigs li[data-rig="brighter"] button')?.disabled]);
+    assert(viewerDisabled[0] === true && viewerDisabled[1] === true, `viewer controls: ${viewerDisabled}`);
+    await ctxV.close();
+  });
+
   await check("after the server restarts the page reconnects and shows the same rig", async () => {
     const rigBefore = await getRig();
     restarting = true;
@@ -1383,6 +1462,10 @@ try {
                                           Number(document.getElementById("cp-2-0").value)]);
     assert(shown[0] === "BendyLight" && Math.abs(shown[1] - key.controlPoints[1][0]) < 1e-3, `page shows ${shown}`);
     await shot(a, "12-reconnected.png");
+    // The session's snapshots and saved rigs are kept with it.
+    const lib = await http("library");
+    assert(lib.snapshots.some((x) => x.name === "before") && lib.rigs.some((x) => x.name === "brighter"), `after the restart: ${JSON.stringify(lib)}`);
+    await a.waitForFunction(() => document.querySelector('#snapshots li[data-snapshot="before"] img.thumb')?.naturalWidth > 0, null, WAIT);
   });
 
   await check("a final render in Cycles is shown beside the preview: final, wipe and difference", async () => {
