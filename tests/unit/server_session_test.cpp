@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -643,4 +644,72 @@ TEST(Session, EnvironmentMapsAreCheckedWhenNamed) {
         EXPECT_EQ(protocol::toJson(s->rig()).dump(), before);
     }
     std::filesystem::remove_all(dir);
+}
+
+// "Go to this version" (issue 20 point 4): rigAtVersion rebuilds any version the history holds,
+// from the first record's rig before it, the whole rigs of undo/redo/replace and the checkpoints,
+// and the changes in between; a restart (journal replay, snapshots) rebuilds the same; versions
+// outside the history are refused naming its range; once the log is full the oldest kept version
+// still rebuilds. Restoring one is a replace: one undo step.
+TEST(Session, AnyVersionInTheHistoryRebuildsAndRestoresAsOneEdit) {
+    const auto dir = freshDir("versions");
+    std::map<uint64_t, json> seen; // version -> the rig's lights as the session had them
+    {
+        auto s = open(dir, 50); // snapshots and compaction along the way
+        ASSERT_TRUE(s);
+        seen[s->rigVersion()] = protocol::toJson(s->rig())["lights"];
+        for (int i = 0; i < 150; ++i) {
+            auto r = i % 37 == 5 ? s->undo({1, "a"})
+                                 : s->edit({{"key.intensity", 1.0 + i}, {"fill.position", json::array({i * 0.01, 1.0, 2.0})}},
+                                           {uint64_t(1 + i % 2), i % 2 ? "bob" : "alice"});
+            ASSERT_TRUE(r.ok()) << r.error().toString();
+            seen[s->rigVersion()] = protocol::toJson(s->rig())["lights"];
+        }
+        ASSERT_TRUE(s->setTime(1.5, {1, "a"}).ok());
+        for (const auto& [v, lights] : seen) {
+            auto r = s->rigAtVersion(v);
+            ASSERT_TRUE(r.ok()) << v << ": " << r.error().toString();
+            EXPECT_EQ(protocol::toJson(r.value())["lights"], lights) << "version " << v;
+        }
+        auto gone = s->rigAtVersion(s->rigVersion() + 5);
+        ASSERT_FALSE(gone.ok());
+        EXPECT_EQ(gone.error().code, ErrorCode::MissingData);
+        EXPECT_NE(gone.error().message.find("goes back to version 1"), std::string::npos) << gone.error().message;
+        // Restoring version 40: one replace, one undo back.
+        const json now = protocol::toJson(s->rig())["lights"];
+        auto rig40 = s->rigAtVersion(40);
+        ASSERT_TRUE(rig40.ok());
+        ASSERT_TRUE(s->replace(rig40.value(), {1, "a"}).ok());
+        EXPECT_EQ(protocol::toJson(s->rig())["lights"], seen[40]);
+        ASSERT_TRUE(s->undo({1, "a"}).ok());
+        EXPECT_EQ(protocol::toJson(s->rig())["lights"], now);
+        // The history entries do not carry the checkpoints.
+        for (const json& e : s->history(0)) {
+            EXPECT_FALSE(e.contains("rigAt"));
+            EXPECT_FALSE(e.contains("rigBefore"));
+        }
+    }
+    {
+        auto s = open(dir, 50);
+        ASSERT_TRUE(s);
+        for (uint64_t v : {uint64_t(1), uint64_t(2), uint64_t(63), uint64_t(64), uint64_t(65), uint64_t(100), uint64_t(151)}) {
+            auto r = s->rigAtVersion(v);
+            ASSERT_TRUE(r.ok()) << "after a restart, version " << v << ": " << r.error().toString();
+            EXPECT_EQ(protocol::toJson(r.value())["lights"], seen[v]) << "after a restart, version " << v;
+        }
+    }
+    std::filesystem::remove_all(dir);
+
+    // A full log drops its oldest records; the oldest kept version still rebuilds.
+    auto m = open({});
+    ASSERT_TRUE(m);
+    for (size_t i = 0; i < Session::MAX_LOG + 100; ++i) ASSERT_TRUE(m->edit({{"key.intensity", 1.0 + double(i)}}, {1, "a"}).ok());
+    const uint64_t oldest = m->history(0)[0]["version"].get<uint64_t>();
+    EXPECT_EQ(oldest, m->rigVersion() - Session::MAX_LOG + 1);
+    for (uint64_t v : {oldest, oldest + 1, oldest + 63, m->rigVersion() - 1}) {
+        auto r = m->rigAtVersion(v);
+        ASSERT_TRUE(r.ok()) << v << ": " << r.error().toString();
+        EXPECT_FLOAT_EQ(r->find("key")->intensityCd, float(v - 1)) << v; // edit i made version i + 2 with intensity 1 + i
+    }
+    EXPECT_FALSE(m->rigAtVersion(oldest - 2).ok());
 }

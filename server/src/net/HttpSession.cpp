@@ -401,6 +401,28 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         if (!out) return refuse(out.error(), out.error().code == ErrorCode::MissingData ? std::optional(http::status::conflict) : std::nullopt);
         return accepted(out.value(), json{{"kind", resource}});
     }
+    if (resource.rfind("history/", 0) == 0) {
+        // "Go to this version": POST history/V/restore replaces the rig with the one of version V
+        // (Session::rigAtVersion) as one undoable edit, kind replace.
+        const std::string rest = resource.substr(8);
+        const size_t slash = rest.find('/');
+        const std::string v = rest.substr(0, slash), action = slash == std::string::npos ? "" : rest.substr(slash + 1);
+        if (action != "restore" || v.empty() || v.size() > 19 || v.find_first_not_of("0123456789") != std::string::npos) {
+            return refuse(makeError(ErrorCode::MissingData, "no such resource: history/" + rest.substr(0, 64) +
+                                                                " (expected history/VERSION/restore)"),
+                          http::status::not_found);
+        }
+        if (!post) return notAllowed("POST");
+        if (!editorOnly()) return;
+        auto expected = ifMatch(req);
+        if (!expected) return refuse(expected.error());
+        const uint64_t version = std::stoull(v);
+        auto rig = session.rigAtVersion(version);
+        if (!rig) return refuse(rig.error(), http::status::not_found);
+        auto out = session.replace(rig.value(), author, expected.value());
+        if (!out) return refuse(out.error());
+        return accepted(out.value(), json{{"restored", version}});
+    }
     if (resource == "history") {
         if (!get) return notAllowed("GET, HEAD");
         uint64_t since = 0;

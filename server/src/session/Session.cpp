@@ -454,13 +454,26 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
     case None: break;
     }
     if (history != None) mMergeableBy = kind == "edit" ? out.info.byClient : 0;
-    mRig = std::move(next);
 
-    json rec{{"version", mRig.version}, {"kind", kind}, {"by", out.info.byClient}, {"byName", out.info.byName}};
+    json rec{{"version", next.version}, {"kind", kind}, {"by", out.info.byClient}, {"byName", out.info.byName}};
     if (out.info.rig) rec["rig"] = protocol::toJson(*out.info.rig);
     else rec["changes"] = protocol::changesToJson(out.info.changes);
+    // Whole rigs now and then, so that any version in the log can be rebuilt by replaying at
+    // most LOG_CHECKPOINT_EVERY records of changes (rigAtVersion, "go to this version"); the
+    // first record also keeps the rig before it.
+    if (mLog.empty()) rec["rigBefore"] = protocol::toJson(mRig);
+    if (!out.info.rig && next.version % LOG_CHECKPOINT_EVERY == 0) rec["rigAt"] = protocol::toJson(next);
+    mRig = std::move(next);
     mLog.push_back(std::move(rec));
-    if (mLog.size() > MAX_LOG) mLog.pop_front();
+    if (mLog.size() > MAX_LOG) {
+        // The new oldest record must hold its whole rig, or the versions up to the next
+        // checkpoint could no longer be rebuilt.
+        json& second = mLog[1];
+        if (!second.contains("rig") && !second.contains("rigAt")) {
+            if (auto r = rigAtVersionLocked(second["version"].get<uint64_t>())) second["rigAt"] = protocol::toJson(r.value());
+        }
+        mLog.pop_front();
+    }
     if (record && mJournal) {
         mRigSaveDue = true;
         if (std::chrono::steady_clock::now() - mLastRigSave >= RIG_SAVE_INTERVAL) saveRigNow();
@@ -583,9 +596,51 @@ json Session::history(uint64_t since) const {
     std::lock_guard lock(mMutex);
     json arr = json::array();
     for (const json& rec : mLog) {
-        if (rec["version"].get<uint64_t>() > since) arr.push_back(rec);
+        if (rec["version"].get<uint64_t>() <= since) continue;
+        json r = rec;
+        r.erase("rigAt"); // the server's checkpoints, not part of the entry
+        r.erase("rigBefore");
+        arr.push_back(std::move(r));
     }
     return arr;
+}
+
+Result<Rig> Session::rigAtVersion(uint64_t version) const {
+    std::lock_guard lock(mMutex);
+    return rigAtVersionLocked(version);
+}
+
+Result<Rig> Session::rigAtVersionLocked(uint64_t version) const {
+    if (version == mRig.version) return mRig;
+    auto parse = [](const json& j, uint64_t v) -> Result<Rig> {
+        auto r = protocol::rigFromJson(j);
+        if (!r) return r.error();
+        r->version = v;
+        return r;
+    };
+    std::optional<Rig> cur;
+    for (const json& rec : mLog) {
+        const uint64_t v = rec["version"].get<uint64_t>();
+        if (!cur && rec.contains("rigBefore")) {
+            auto r = parse(rec["rigBefore"], v - 1);
+            if (!r) return r.error();
+            if (v - 1 == version) return r;
+            cur = std::move(r.value());
+        }
+        if (v > version) break;
+        if (rec.contains("rigAt") || rec.contains("rig")) {
+            auto r = parse(rec.contains("rigAt") ? rec["rigAt"] : rec["rig"], v);
+            if (!r) return r.error();
+            cur = std::move(r.value());
+        } else if (cur) {
+            if (auto st = protocol::applyChanges(*cur, changesFromJson(rec["changes"])); !st) return st.error();
+            cur->version = v;
+        }
+        if (v == version && cur) return *cur;
+    }
+    const uint64_t oldest = mLog.empty() ? mRig.version : mLog.front()["version"].get<uint64_t>() - (mLog.front().contains("rigBefore") ? 1 : 0);
+    return makeError(ErrorCode::MissingData, "version " + std::to_string(version) + " is not in the session's history (it goes back to version " +
+                                                 std::to_string(oldest) + " and up to " + std::to_string(mRig.version) + ")");
 }
 
 } // namespace dfb

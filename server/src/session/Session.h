@@ -51,6 +51,8 @@ public:
     static constexpr size_t MAX_UNDO = 500;
     /// Most change records kept for conflict reports and GET .../history.
     static constexpr size_t MAX_LOG = 10000;
+    /// A change record keeps its whole rig every this many versions (rigAtVersion).
+    static constexpr uint64_t LOG_CHECKPOINT_EVERY = 64;
 
     /// Changes journaled between two snapshots of the whole state (then the journal is compacted
     /// to one record). A snapshot holds up to MAX_UNDO steps of two rigs each and all MAX_LOG
@@ -137,6 +139,10 @@ public:
     /// The change records with a version > `since` (oldest first), as the history endpoint
     /// shows them: [{"version", "kind", "by", "byName", "changes" | "rig"}].
     nlohmann::json history(uint64_t since) const;
+    /// The rig as it was at `version` (a version in the history, or the current one), rebuilt
+    /// from the log's nearest whole rig and the changes after it; MissingData naming the range
+    /// the history covers otherwise. "Go to this version" is replace(rigAtVersion(v)).
+    Result<Rig> rigAtVersion(uint64_t version) const;
 
     /// What open() repaired in the journal (file, line, reason, where the damaged bytes were
     /// moved), for the operator; empty when nothing needed repair.
@@ -153,6 +159,7 @@ private:
     };
     Session(std::string id, const DeepBuffer& shot, std::string shotPath, Rig rig);
     void saveRigNow(); // with mMutex held
+    Result<Rig> rigAtVersionLocked(uint64_t version) const;
     // Applies one journal operation (replay) or a new one (journal != null: written first).
     Result<ChangeOutcome> apply(const nlohmann::json& op, bool record);
     // A cookie or area-light pattern new in `next` must be an image the engine can read, or the
