@@ -260,8 +260,9 @@ function drawEdgeArrows(root, lights, colorOf) {
 
 /**
  * The footprint of a spot light's cone, or of a BendyLight's cone past its last control point,
- * on the plane of the first object box its axis meets (placement.js footprintPlane: the shot's
- * per-object boxes, else the ground under the scene): {plane, outer, inner} as world outlines
+ * on the plane of the first object box its axis meets that is wide enough to hold it
+ * (placement.js footprintPlane: the shot's per-object boxes, else the ground under the scene, else
+ * the first box it meets at all): {plane, outer, inner} as world outlines
  * (inner: the edge of the penumbra, spot lights only), or null when no plane is in front. The
  * page has no depth of its own: on a flat object the box's face is its surface; on a rounded one
  * the outline is where the beam would meet the box, an approximation (docs/browser-client.md).
@@ -288,7 +289,7 @@ export function footprintOf(l) {
   } else {
     return null;
   }
-  const plane = footprintPlane(o, u, S.session?.objectBounds, S.session?.bounds);
+  const plane = footprintPlane(o, u, S.session?.objectBounds, S.session?.bounds, { r0, g });
   if (!plane) return null;
   // Edge rays that meet the plane far beyond the axis are past its horizon: cut them.
   const maxT = 8 * plane.t + 4 * r0;

@@ -69,9 +69,12 @@ export function rayBox(o, d, box) {
       if (o[k] < lo || o[k] > hi) return null;
       continue;
     }
-    let t0 = (lo - o[k]) / d[k], t1 = (hi - o[k]) / d[k], s = -1;
-    if (t0 > t1) { [t0, t1] = [t1, t0]; s = 1; }
-    if (t0 > tEnter) { tEnter = t0; axis = k; sign = s; }
+    // The face the ray enters on this axis is the one its direction points away from; taking it by
+    // the direction's sign (not by comparing the two t) keeps it right for a flat box (lo = hi,
+    // a ground plane or a table top baked as one sheet).
+    const up = d[k] > 0;
+    const t0 = ((up ? lo : hi) - o[k]) / d[k], t1 = ((up ? hi : lo) - o[k]) / d[k];
+    if (t0 > tEnter) { tEnter = t0; axis = k; sign = up ? -1 : 1; }
     tExit = Math.min(tExit, t1);
   }
   if (axis < 0 || tEnter > tExit || tEnter <= 0) return null;
@@ -80,24 +83,35 @@ export function rayBox(o, d, box) {
 
 /**
  * The plane a cone's footprint is drawn on: the face of the first object box (the session's
- * objectBounds) that the axis o + t d (d unit) enters, else the ground, the horizontal plane
- * through the scene's lowest point (`bounds`), when the axis points down. {point, normal, t,
- * object} (object: the box's index, -1 for the ground); null when neither is in front.
+ * objectBounds) that the axis o + t d (d unit) enters and that can hold the footprint, else the
+ * ground, the horizontal plane through the scene's lowest point (`bounds`), when the axis points
+ * down, else the first face it enters at all. The footprint's radius at t is r0 + g t (a spot:
+ * r0 = 0, g = tan(coneAngle)); a face narrower, in its smaller direction, than that radius
+ * cannot hold it: the beam spills past it (a small object in front of the table it stands on) and
+ * most of its light lands behind. {point, normal, t, object} (object: the box's index, -1 for
+ * the ground); null when nothing is in front.
  */
-export function footprintPlane(o, d, objectBounds, bounds) {
-  let best = null;
+export function footprintPlane(o, d, objectBounds, bounds, { r0 = 0, g = 0 } = {}) {
+  const hits = [];
   (objectBounds ?? []).forEach((box, i) => {
-    if (!box) return;
-    const hit = rayBox(o, d, box);
-    if (hit && (!best || hit.t < best.t)) {
-      const normal = [0, 0, 0];
-      normal[hit.axis] = hit.sign;
-      best = { point: V.add(o, V.scale(d, hit.t)), normal, t: hit.t, object: i };
-    }
+    const hit = box ? rayBox(o, d, box) : null;
+    if (hit) hits.push({ ...hit, box, object: i });
   });
-  if (best || !bounds || !(d[1] < -1e-6)) return best;
-  const t = (bounds[1] - o[1]) / d[1];
-  return t > 0 ? { point: V.add(o, V.scale(d, t)), normal: [0, 1, 0], t, object: -1 } : null;
+  hits.sort((p, q) => p.t - q.t);
+  const plane = (hit) => {
+    const normal = [0, 0, 0];
+    normal[hit.axis] = hit.sign;
+    return { point: V.add(o, V.scale(d, hit.t)), normal, t: hit.t, object: hit.object };
+  };
+  for (const hit of hits) {
+    const [a, b] = [0, 1, 2].filter((k) => k !== hit.axis);
+    if (Math.min(hit.box[3 + a] - hit.box[a], hit.box[3 + b] - hit.box[b]) >= r0 + g * hit.t) return plane(hit);
+  }
+  if (bounds && d[1] < -1e-6) {
+    const t = (bounds[1] - o[1]) / d[1];
+    if (t > 0) return { point: V.add(o, V.scale(d, t)), normal: [0, 1, 0], t, object: -1 };
+  }
+  return hits.length ? plane(hits[0]) : null;
 }
 
 /** Two unit vectors completing unit u to an orthonormal frame. */
