@@ -14,7 +14,7 @@ import { refreshUi, renderLights, renderView, setRig, updateEditable } from "./p
 import { renderClients, renderShare } from "./presence.js";
 import { setSchema } from "./rig.js";
 import { S, findLight } from "./state.js";
-import { onPick, zoomNative } from "./viewport.js";
+import { frameLights, handlesOutOfView, onPick, zoomNative } from "./viewport.js";
 
 function wsUrl() {
   const scheme = location.protocol === "https:" ? "wss" : "ws";
@@ -110,7 +110,10 @@ function onWelcome(msg) {
   $("frame").height = msg.session.height;
   setRig(msg.rig);
   if (!S.schemaLoaded) loadSchema().then((ok) => ok && refreshUi(true)); // the server was down when the page asked
-  if (!S.fitted) { S.fitted = true; zoomNative(); }
+  // The first load shows the image at native size, or, when a light's handle would be outside
+  // the viewport there, the image and every light's handles (handles out of reach cannot be
+  // grabbed). Reconnecting keeps the artist's zoom.
+  if (!S.fitted) { S.fitted = true; zoomNative(); if (handlesOutOfView()) frameLights(); }
   // A reconnect keeps this page's own view (the server starts every client on its default view).
   const view = {};
   if (S.viewChanged && msg.view.output !== S.view.output && (S.view.output === "beauty" || findLight(S.view.output.split(":")[1]) || S.view.output.startsWith("layer:"))) view.output = S.view.output;

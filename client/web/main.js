@@ -12,9 +12,10 @@ import { cancelIndirect, dragModeKey, setDragMode } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
 import { initPanels } from "./panels.js";
 import { initPresence } from "./presence.js";
+import { initSchematic } from "./schematic.js";
 import { S } from "./state.js";
 import { deleteKey, initTimeline, setKey, stepKey } from "./timeline.js";
-import { initViewport, vpCenter, zoomAt, zoomFit, zoomNative } from "./viewport.js";
+import { frameLights, initViewport, vpCenter, zoomAt, zoomFit, zoomNative } from "./viewport.js";
 
 initPanels();
 initViewport();
@@ -22,6 +23,7 @@ initTimeline();
 initPresence();
 initFinal();
 initLibrary();
+initSchematic();
 setInterval(renderStats, 500);
 
 $("keysHelp").onclick = () => showMessage($("keysHelp").title, "info");
@@ -43,6 +45,7 @@ document.addEventListener("keydown", (e) => {
   if (typing || mod || e.altKey) return;
   switch (e.key) {
   case "f": case "F": return zoomFit();
+  case "l": case "L": return frameLights();
   case "1": return zoomNative();
   case "+": case "=": return zoomAt(S.zoom * 1.25, ...vpCenter());
   case "-": return zoomAt(S.zoom / 1.25, ...vpCenter());

@@ -4,21 +4,23 @@
 
 import { areaFrame, areaHandles, areaOutline, cornerChains } from "./area.js";
 import { Cam } from "./camera.js";
-import { $, SVGNS, svg } from "./dom.js";
+import { $, SVGNS, showMessage, svg } from "./dom.js";
 import { centreHandle, gizmoCurves, gizmoPlace } from "./envgizmo.js";
 import { pointsSelectable, selectedPoints } from "./indirect.js";
 import { V, bezier } from "./linalg.js";
 import { selectLight } from "./panels.js";
+import { coneFootprint, edgeArrow, footprintPlane, insideView, outlineRuns, perpendiculars } from "./placement.js";
 import { clientColor, editorsOf } from "./presence.js";
 import { frameToWorld, lightFrame } from "./rig.js";
 import { S, evaluated, findLight } from "./state.js";
-import { toScreen } from "./viewport.js";
+import { drawSchematic } from "./schematic.js";
+import { frameLight, toScreen } from "./viewport.js";
 
 /** Redraws the overlay at the next animation frame (once however often it is asked). */
 export function scheduleOverlay() {
   if (scheduleOverlay.pending) return;
   scheduleOverlay.pending = true;
-  requestAnimationFrame(() => { scheduleOverlay.pending = false; drawOverlay(); });
+  requestAnimationFrame(() => { scheduleOverlay.pending = false; drawOverlay(); drawSchematic(); });
 }
 
 // What an indirect drag (indirect.js) grabbed, until it ends: the grabbed point (the begin's
@@ -71,6 +73,22 @@ export function handlesOf(l) {
     out.chains = [{ points: out.points, radii: out.radii, cp: (i) => i, r: (i) => i, pointHandle: "cp", radiusHandle: "radius", label: "" }];
   }
   return out;
+}
+
+/**
+ * Every handle of light `l` (pass it evaluated) as image pixels {x, y}: its position, its axis
+ * (not a point light's), the points of its BendyLight or corner chains, an area light's outline
+ * and its resize and roll handles. Points behind the camera have no place in the image and are
+ * left out; an environment light has none. Framing the lights (viewport.js) fits these.
+ */
+export function handlePoints(l) {
+  if (l.type === "environment") return [];
+  const h = handlesOf(l);
+  const world = [h.position];
+  if (l.type !== "point") world.push(h.axis);
+  for (const ch of h.chains ?? []) world.push(...ch.points);
+  if (h.area) world.push(...h.area.outline, ...Object.values(h.area.handles));
+  return world.map((p) => Cam.project(p)).filter((P) => P.front).map((P) => ({ x: P.x, y: P.y }));
 }
 
 // An area light's emitter, outline and handles. The roll handle sits a fixed share of the
@@ -193,8 +211,132 @@ function drawEnvGizmo(l, color, selected, others, root) {
     textContent: `rotation = [${rotation.map(fmt).join(", ")}]: the map's centre; drag to turn the map (left/right: yaw, up/down: pitch)` }));
 }
 
+// A position handle is "in view" when its whole circle (7 px) and a little more is inside the
+// viewport; arrows stand this far inside the edge.
+const IN_VIEW_INSET = 10;
+const ARROW_INSET = 14;
+
+// Arrows on the edge of the viewport pointing at each light whose position is outside it (or
+// behind the camera), coloured as its marker and titled with its name. A click selects the
+// light and frames it (viewport.js frameLight); a light behind the camera cannot be framed: the
+// click selects it and says where to move it. Arrows that would overlap are spread along the edge.
+function drawEdgeArrows(root, lights, colorOf) {
+  const vp = $("viewport");
+  const vw = vp.clientWidth, vh = vp.clientHeight;
+  const placed = [];
+  for (const l of lights) {
+    if (l.type === "environment") continue;
+    const P = Cam.project(l.position);
+    const s = P.front ? toScreen(P) : null;
+    if (s && insideView(s, vw, vh, IN_VIEW_INSET)) continue;
+    const d = V.sub(l.position, Cam.pos);
+    const a = s ? edgeArrow(vw, vh, ARROW_INSET, s) : edgeArrow(vw, vh, ARROW_INSET, null, [V.dot(d, Cam.right), -V.dot(d, Cam.up)]);
+    const sideEdge = a.x <= ARROW_INSET + 0.5 || a.x >= vw - ARROW_INSET - 0.5;
+    while (placed.some((q) => Math.hypot(q.x - a.x, q.y - a.y) < 16)) {
+      if (sideEdge) a.y = a.y + 18 > vh - ARROW_INSET ? a.y - 36 : a.y + 18;
+      else a.x = a.x + 18 > vw - ARROW_INSET ? a.x - 36 : a.x + 18;
+    }
+    placed.push(a);
+    const color = colorOf(l);
+    const g = svg("g", { class: "pickable edge-arrow", "data-offscreen": l.name, ...(s ? {} : { "data-behind": "" }) }, root);
+    const deg = (a.angle * 180) / Math.PI;
+    svg("path", { d: "M9,0L-6,-7L-2.5,0L-6,7z", transform: `translate(${a.x},${a.y}) rotate(${deg})`, fill: color, stroke: "#000",
+                  "stroke-width": 1, opacity: l.enabled ? 1 : 0.5 }, g);
+    // The name inside the view, away from the edge the arrow stands on.
+    const c = Math.cos(a.angle), n = Math.sin(a.angle);
+    const anchor = c > 0.5 ? "end" : c < -0.5 ? "start" : "middle";
+    const tx = a.x - c * 14, ty = a.y - n * 14 + (n > 0.5 ? -4 : n < -0.5 ? 10 : 4);
+    svg("text", { x: tx, y: ty, fill: color, "text-anchor": anchor, opacity: l.enabled ? 1 : 0.5 }, g).textContent = l.name;
+    g.append(Object.assign(document.createElementNS(SVGNS, "title"), {
+      textContent: s ? `${l.name} is outside the view: click to frame it` : `${l.name} is behind the camera: click to select it (the Schematic panel shows where it is)` }));
+    g.addEventListener("pointerdown", (e) => {
+      e.stopPropagation();
+      selectLight(l.name);
+      if (s) frameLight(l.name);
+      else showMessage(`'${l.name}' is behind the camera: no view of the image shows it; move it in the Schematic panel`, "info");
+    });
+  }
+}
+
+/**
+ * The footprint of a spot light's cone, or of a BendyLight's cone past its last control point,
+ * on the plane of the first object box its axis meets that is wide enough to hold it
+ * (placement.js footprintPlane: the shot's per-object boxes, else the ground under the scene, else
+ * the first box it meets at all): {plane, outer, inner} as world outlines
+ * (inner: the edge of the penumbra, spot lights only), or null when no plane is in front. The
+ * page has no depth of its own: on a flat object the box's face is its surface; on a rounded one
+ * the outline is where the beam would meet the box, an approximation (docs/browser-client.md).
+ */
+export function footprintOf(l) {
+  let o, u, v, w, r0 = 0, g, inner = null;
+  if (l.type === "spot") {
+    const f = lightFrame(l);
+    o = l.position; u = f.uL; v = f.vL; w = f.wL;
+    const RAD = Math.PI / 180;
+    g = Math.tan(l.coneAngle * RAD);
+    if (l.penumbra > 0 && l.coneAngle - l.penumbra > 0.05) inner = Math.tan((l.coneAngle - l.penumbra) * RAD);
+  } else if (l.type === "bendy") {
+    // The straight extension (docs/lighting.md "The tube"): from p2K along P'(1) = 2 (p2K - p2K-1)
+    // with R'(1) = 2 (r2K - r2K-1), so the radius grows by (r2K - r2K-1) / |p2K - p2K-1| per unit.
+    const pts = handlesOf(l).points, r = l.radii ?? [];
+    const n = pts.length;
+    if (n < 3 || r.length !== n) return null;
+    const step = V.sub(pts[n - 1], pts[n - 2]);
+    const len = V.len(step);
+    if (!(len > 1e-9)) return null;
+    o = pts[n - 1]; u = V.scale(step, 1 / len); [v, w] = perpendiculars(u);
+    r0 = r[n - 1]; g = (r[n - 1] - r[n - 2]) / len;
+  } else {
+    return null;
+  }
+  const plane = footprintPlane(o, u, S.session?.objectBounds, S.session?.bounds, { r0, g });
+  if (!plane) return null;
+  // Edge rays that meet the plane far beyond the axis are past its horizon: cut them.
+  const maxT = 8 * plane.t + 4 * r0;
+  return { plane, outer: coneFootprint(o, u, v, w, r0, g, plane, { maxT }),
+           inner: inner === null ? null : coneFootprint(o, u, v, w, 0, inner, plane, { maxT }) };
+}
+
+// A world outline as polylines in the image: its runs (placement.js outlineRuns), each split
+// where a point is behind the camera.
+function drawWorldOutline(points, attrs, parent) {
+  for (const run of outlineRuns(points)) {
+    let part = [];
+    const flush = () => {
+      if (part.length > 1) svg("polyline", { points: part.map((p) => `${p.x},${p.y}`).join(" "), fill: "none", ...attrs }, parent);
+      part = [];
+    };
+    for (const p of run.points) {
+      const P = Cam.project(p);
+      if (P.front) part.push(toScreen(P)); else flush();
+    }
+    flush();
+  }
+}
+
+// The selected spot or BendyLight's footprint: the cone's edge solid, the penumbra's dashed.
+function drawFootprint(l, color, parent) {
+  const fp = footprintOf(l);
+  if (!fp) return;
+  const on = fp.plane.object >= 0 ? S.session?.objects?.[fp.plane.object] ?? `object ${fp.plane.object + 1}` : "ground";
+  const g = svg("g", { class: "footprint", "data-footprint": l.name, "data-footprint-on": on, opacity: l.enabled ? 0.9 : 0.45 }, parent);
+  drawWorldOutline(fp.outer, { stroke: color, "stroke-width": 1.5, "stroke-dasharray": "7 4", class: "footprint-edge" }, g);
+  if (fp.inner) drawWorldOutline(fp.inner, { stroke: color, "stroke-width": 1, "stroke-dasharray": "2 4", opacity: 0.7 }, g);
+  const c = Cam.project(fp.plane.point);
+  if (c.front) {
+    const sc = toScreen(c);
+    svg("path", { d: `M${sc.x - 4},${sc.y}h8M${sc.x},${sc.y - 4}v8`, stroke: color, "stroke-width": 1.25 }, g);
+  }
+}
+
 // The projected radius of a sphere of radius r at p: a circle around the handle.
 function radiusHandlePoint(p, r) { return V.add(p, V.scale(Cam.right, r)); }
+
+/** A light's colour in the image and the schematic: an editor's while someone edits it, the accent when selected. */
+export function lightColor(l) {
+  const others = editorsOf(l.name);
+  return others.length ? clientColor(others[0].id) : l.name === S.selected ? "#f0b34a" : "#ccc";
+}
 
 function drawOverlay() {
   const root = $("overlay");
@@ -225,7 +367,7 @@ function drawOverlay() {
     const l = evaluated(raw);
     const selected = l.name === S.selected;
     const others = editorsOf(l.name);
-    const color = others.length ? clientColor(others[0].id) : selected ? "#f0b34a" : "#ccc";
+    const color = lightColor(l);
     if (l.type === "environment") { drawEnvGizmo(l, color, selected, others, root); continue; }
     const h = handlesOf(l);
     const P = Cam.project(h.position);
@@ -235,11 +377,13 @@ function drawOverlay() {
       if (!P.front) continue;
       // Other lights: a small marker that selects them.
       const g = svg("g", { class: "pickable", "data-select": l.name }, root);
-      svg("circle", { cx: ps.x, cy: ps.y, r: 5, fill: "none", stroke: color, "stroke-width": 1.5, opacity: l.enabled ? 1 : 0.5 }, g);
+      svg("circle", { cx: ps.x, cy: ps.y, r: 5, fill: "none", stroke: color, "stroke-width": 1.5, opacity: l.enabled ? 1 : 0.5,
+                      "data-handle": "position", "data-name": l.name }, g);
       svg("text", { x: ps.x + 8, y: labelY(ps.x + 8, ps.y + 4), fill: color }, g).textContent = l.name + (others.length ? ` (${others.map((c) => c.name).join(", ")})` : "");
       g.addEventListener("pointerdown", (e) => { e.stopPropagation(); selectLight(l.name); });
       continue;
     }
+    drawFootprint(l, color, root);
     const g = svg("g", { "data-light": l.name }, root);
     const line = (a, b, attrs) => {
       const A = Cam.project(a), B = Cam.project(b);
@@ -296,7 +440,8 @@ function drawOverlay() {
       ah.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: "axis: drag to aim the light" }));
     }
     if (P.front) {
-      const ph = svg("circle", { cx: ps.x, cy: ps.y, r: 7, fill: color, stroke: "#000", "stroke-width": 1.5, class: "handle", "data-handle": "position" }, g);
+      const ph = svg("circle", { cx: ps.x, cy: ps.y, r: 7, fill: color, stroke: "#000", "stroke-width": 1.5, class: "handle", "data-handle": "position",
+                                 "data-name": l.name }, g);
       ph.append(Object.assign(document.createElementNS(SVGNS, "title"), { textContent: `${l.name}: drag to move (Shift: in depth)` }));
       const who = others.length ? ` · ✎ ${others.map((c) => c.name).join(", ")}` : "";
       svg("text", { x: ps.x + 10, y: selectedLabelY ?? ps.y + 4, fill: color, "font-weight": "bold" }, g).textContent = l.name + who;
@@ -311,4 +456,5 @@ function drawOverlay() {
       }
     }
   }
+  drawEdgeArrows(root, S.rig.lights.map(evaluated), lightColor);
 }

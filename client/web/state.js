@@ -23,6 +23,7 @@ export const S = {
   dragMode: "direct", // "direct" (handles, drag.js) or a schema drag mode (indirect.js)
   indirect: null, lastIndirect: null, // the indirect drag going on; a summary of the last one
   cpSelection: { light: null, count: 0, points: [] }, // BendyLight control points a drag moves (indirect.js)
+  schematicView: "top", // the Schematic panel's view: "top", "side" or "front" (schematic.js)
   schemaLoaded: false, // GET /v1/schema read into rig.js (connection.js loadSchema)
 };
 

@@ -10,9 +10,10 @@ import { endDrag, moveDrag, startDrag } from "./drag.js";
 import { layoutCompare } from "./final.js";
 import { canEdit } from "./edits.js";
 import { beginIndirect, endIndirect, indirectActive, moveIndirect, pointsSelectable, togglePoint } from "./indirect.js";
-import { scheduleOverlay } from "./overlay.js";
+import { handlePoints, scheduleOverlay } from "./overlay.js";
+import { fitView, insideView } from "./placement.js";
 import { selectLight } from "./panels.js";
-import { S } from "./state.js";
+import { S, evaluated } from "./state.js";
 
 export function applyTransform() {
   $("stage").style.transform = `translate(${S.panX}px, ${S.panY}px) scale(${S.zoom})`;
@@ -40,6 +41,55 @@ export function zoomFit() {
   const vp = $("viewport").getBoundingClientRect();
   S.zoom = Math.max(0.05, Math.min((vp.width - 16) / Cam.W, (vp.height - 16) / Cam.H));
   center();
+}
+// Framing the lights keeps every handle this far inside the viewport's edges (a handle's circle,
+// and room for the start of its label); with environment lights the band of their gizmos at the
+// top (envgizmo.js gizmoPlace: centres 92 px down, radius 30, the name under it) is kept clear too.
+const FRAME_MARGIN = 36;
+const ENV_GIZMO_BAND = 140;
+// Handles that project farther than this many image sizes from the image (a light nearly level
+// with the camera, sideways) are left out of a framing: fitting them would shrink the image to a
+// dot. Their edge arrows show where they are.
+const FRAME_REACH = 12;
+
+// The image points a framing fits: the image's corners (`image`) and the handles of the named
+// lights (every light without names).
+function framePoints(names, image = true) {
+  const pts = image ? [{ x: 0, y: 0 }, { x: Cam.W, y: Cam.H }] : [];
+  for (const raw of S.rig?.lights ?? []) {
+    if (names && !names.includes(raw.name)) continue;
+    for (const p of handlePoints(evaluated(raw))) {
+      if (Math.abs(p.x - Cam.W / 2) <= FRAME_REACH * Cam.W && Math.abs(p.y - Cam.H / 2) <= FRAME_REACH * Cam.H) pts.push(p);
+    }
+  }
+  return pts;
+}
+function frameMargins() {
+  const env = (S.rig?.lights ?? []).some((l) => l.type === "environment");
+  return { left: FRAME_MARGIN, right: FRAME_MARGIN, bottom: FRAME_MARGIN, top: env ? ENV_GIZMO_BAND : FRAME_MARGIN };
+}
+/**
+ * Frames the lights (the toolbar's "Frame lights", L): the zoom and pan that show the whole image
+ * and every light's handles (overlay.js handlePoints; behind the camera left out) inside the
+ * viewport, clear of its edges.
+ */
+export function frameLights() { frameNamed(null); }
+/** Frames the image and one light's handles (a click on its edge arrow). */
+export function frameLight(name) { frameNamed([name]); }
+function frameNamed(names) {
+  if (!Cam.W) return;
+  const vp = $("viewport").getBoundingClientRect();
+  const f = fitView(framePoints(names), vp.width, vp.height, frameMargins());
+  Object.assign(S, { zoom: f.zoom, panX: f.panX, panY: f.panY });
+  applyTransform();
+}
+/**
+ * Whether a handle of some light lies outside the viewport (less a few pixels) at the current
+ * zoom and pan: the first load frames the lights then, instead of showing the image alone.
+ */
+export function handlesOutOfView() {
+  const vp = $("viewport").getBoundingClientRect();
+  return framePoints(null, false).some((p) => !insideView(toScreen(p), vp.width, vp.height, 10));
 }
 export const vpCenter = () => { const r = $("viewport").getBoundingClientRect(); return [r.width / 2, r.height / 2]; };
 
@@ -111,6 +161,7 @@ export function initViewport() {
   $("zoomOut").onclick = () => zoomAt(S.zoom / 1.25, ...vpCenter());
   $("zoom1").onclick = zoomNative;
   $("zoomFit").onclick = zoomFit;
+  $("frameLights").onclick = frameLights;
   $("handlesToggle").onclick = () => { S.showHandles = !S.showHandles; $("handlesToggle").classList.toggle("on", S.showHandles); scheduleOverlay(); };
   $("viewport").addEventListener("wheel", (e) => {
     e.preventDefault();

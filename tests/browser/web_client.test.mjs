@@ -216,6 +216,45 @@ async function saveFailure(name) {
   }
 }
 
+// Waits until the page has the server's newest rig and nothing of its own in flight: a check that
+// ends with edits leaves no rig still arriving to rebuild the next check's panel under it.
+async function inStep(page) {
+  const { version } = await getRig();
+  await page.waitForFunction((v) => {
+    const S = window.dfb.S;
+    return S.rig?.version >= v && !S.live.inFlight && !S.live.queued && ![...S.pending.values()].some((p) => p.kind === "edit" || p.kind === "undo");
+  }, version, WAIT);
+}
+// Every light's position handle in the image (the selected light's handle and the other lights'
+// markers carry data-handle="position" and their light's name): its centre, whether its whole
+// box is inside the viewport's box, and whether it is the topmost element at its centre (no
+// toolbar, panel or message over it: a press there grabs it).
+async function positionHandles(page) {
+  return page.evaluate(() => {
+    const vp = document.getElementById("viewport").getBoundingClientRect();
+    return [...document.querySelectorAll('#overlay [data-handle="position"][data-name]')].map((el) => {
+      const r = el.getBoundingClientRect();
+      const x = r.left + r.width / 2, y = r.top + r.height / 2;
+      return { name: el.dataset.name, x, y, inside: r.left >= vp.left && r.right <= vp.right && r.top >= vp.top && r.bottom <= vp.bottom,
+               topmost: document.elementFromPoint(x, y) === el };
+    });
+  });
+}
+// Waits until every light of the server's rig that has a place (not an environment light), or
+// each of `only`, has a position handle inside the viewport, topmost at its centre; fails naming
+// the ones that do not.
+async function allHandlesReachable(page, what, only = null) {
+  const names = only ?? (await getRig()).lights.filter((l) => l.type !== "environment").map((l) => l.name);
+  const end = Date.now() + WAIT.timeout;
+  for (;;) {
+    const hs = await positionHandles(page);
+    const bad = names.filter((n) => !hs.some((h) => h.name === n && h.inside && h.topmost));
+    if (!bad.length) return hs;
+    if (Date.now() > end) throw new Error(`${what}: handles not reachable for ${bad.join(", ")}: ${JSON.stringify(hs)}`);
+    await new Promise((r) => setTimeout(r, 50));
+  }
+}
+
 const results = [];
 async function check(name, fn) {
   const t0 = Date.now();
@@ -276,6 +315,18 @@ try {
     await a.waitForFunction(() => !/fps/.test(document.getElementById("stats").textContent), null, WAIT);
   });
 
+  await check("on first load every light's position handle is inside the image area, under no toolbar", async () => {
+    await allHandlesReachable(a, "first load");
+    // The viewport is a box of its own: the toolbars above it and the timeline below it do not
+    // overlap it (the handles drawn in it are clipped to it).
+    const boxes = await a.evaluate(() => Object.fromEntries(["viewtools", "dragtools", "viewport", "timeline"].map((id) => {
+      const r = document.getElementById(id).getBoundingClientRect();
+      return [id, { top: r.top, bottom: r.bottom }];
+    })));
+    assert(boxes.dragtools.bottom <= boxes.viewport.top + 0.5 && boxes.viewtools.bottom <= boxes.viewport.top + 0.5 &&
+           boxes.viewport.bottom <= boxes.timeline.top + 0.5, `the viewport overlaps a toolbar: ${JSON.stringify(boxes)}`);
+  });
+
   await check("a page opened without a token says which link to open, with no broken image", async () => {
     const p = await ctxA.newPage();
     try {
@@ -296,6 +347,8 @@ try {
   });
 
   await check("zoom and pan keep the image's pixels; 1:1 is native size", async () => {
+    // The first load may have framed the lights (a handle outside the view at 1:1): from 1:1.
+    await a.keyboard.press("1");
     const b0 = await a.locator("#frame").boundingBox();
     assert(Math.round(b0.width) === 320 && Math.round(b0.height) === 180, `not at native size: ${b0.width}x${b0.height}`);
     await a.keyboard.press("+");
@@ -360,6 +413,151 @@ try {
     for (const r of listed.filter((r) => r.appliesTo.includes("spot") && r.type !== "idList")) {
       assert(labels.includes(r.label.charAt(0).toLowerCase() + r.label.slice(1)), `no row labelled '${r.label}' (labels: ${labels})`);
     }
+  });
+
+  await check("a spot light's cone footprint is outlined in the image, and narrows with the cone", async () => {
+    await a.click('#lights li[data-light="key"] .lname');
+    const key = (await getRig()).lights.find((l) => l.name === "key");
+    assert(key.type === "spot", `key is a ${key.type}`);
+    // The outline's extent on the screen, and what it lies on.
+    const extent = () => a.evaluate(() => {
+      const g = document.querySelector('#overlay [data-footprint="key"]');
+      if (!g) return null;
+      const pts = [...g.querySelectorAll("polyline.footprint-edge")].flatMap((pl) => pl.getAttribute("points").trim().split(/\s+/).map((q) => q.split(",").map(Number)));
+      const xs = pts.map((q) => q[0]), ys = pts.map((q) => q[1]);
+      return { n: pts.length, on: g.dataset.footprintOn, w: Math.max(...xs) - Math.min(...xs), h: Math.max(...ys) - Math.min(...ys) };
+    });
+    await a.waitForFunction(() => document.querySelector('#overlay [data-footprint="key"] polyline.footprint-edge'), null, WAIT);
+    const e0 = await extent();
+    assert(e0.n >= 32 && e0.w > 5 && e0.h > 2, `footprint outline: ${JSON.stringify(e0)}`);
+    assert(e0.on === "ground" || welcome.session.objects.includes(e0.on), `the footprint lies on '${e0.on}'`);
+    // Half the cone's tangent: the outline about half as wide (perspective bends it a little).
+    const narrow = Math.atan(Math.tan(key.coneAngle * Math.PI / 180) / 2) * 180 / Math.PI;
+    const { rigVersion } = await postEdit([{ path: "key.coneAngle", value: Number(narrow.toFixed(3)) }]);
+    await frameAtLeast(a, rigVersion);
+    await a.waitForFunction((w0) => {
+      const pl = [...document.querySelectorAll('#overlay [data-footprint="key"] polyline.footprint-edge')];
+      const xs = pl.flatMap((p) => p.getAttribute("points").trim().split(/\s+/).map((q) => Number(q.split(",")[0])));
+      const w = Math.max(...xs) - Math.min(...xs);
+      return xs.length && w > 0.3 * w0 && w < 0.7 * w0;
+    }, e0.w, WAIT);
+    await postEdit([{ path: "key.coneAngle", value: key.coneAngle }]);
+    await a.waitForFunction((w0) => {
+      const pl = [...document.querySelectorAll('#overlay [data-footprint="key"] polyline.footprint-edge')];
+      const xs = pl.flatMap((p) => p.getAttribute("points").trim().split(/\s+/).map((q) => Number(q.split(",")[0])));
+      return Math.abs(Math.max(...xs) - Math.min(...xs) - w0) < 1;
+    }, e0.w, WAIT);
+  });
+
+  await check("placing lights: edge arrows point at lights off the view, Frame lights (L) and the first load show every handle", async () => {
+    const rig0 = await getRig();
+    const fill0 = rig0.lights.find((l) => l.name === "fill");
+    // The camera's right axis in world space (the first row of worldToCamera's rotation, column
+    // major): moving fill along it moves it across the image at the same depth. Find an offset that
+    // puts it well outside the viewport at 1:1, within reach of a framing (a few image widths).
+    const m = welcome.session.camera.worldToCamera;
+    const right = [m[0], m[4], m[8]];
+    const vp = await a.locator("#viewport").boundingBox();
+    const fr = await a.locator("#frame").boundingBox();
+    assert(Math.round(fr.width) === 320, "not at native size");
+    let far = null;
+    for (let k = 0.25; k < 1000 && !far; k *= 1.5) {
+      const p = fill0.position.map((v, i) => v + k * right[i]);
+      const q = project(toNDC, p);
+      const ix = (q.ndc[0] + 1) * 160;
+      if (q.w > 0 && fr.x + ix > vp.x + vp.width + 60 && ix < 4 * 320) far = p;
+    }
+    assert(far, "no offset puts fill off the view");
+    await postEdit([{ path: "fill.position", value: far }]);
+
+    // An arrow on the viewport's edge points at it; a click on it frames it.
+    await a.waitForSelector('#overlay [data-offscreen="fill"]', WAIT);
+    const arrow = await center(a, '#overlay [data-offscreen="fill"] path');
+    assert(arrow.x > vp.x + vp.width - 30 && arrow.x < vp.x + vp.width, `the arrow is not on the right edge: ${JSON.stringify(arrow)} in ${JSON.stringify(vp)}`);
+    await shot(a, "21-edge-arrow.png");
+    await a.mouse.click(arrow.x, arrow.y);
+    await a.waitForFunction(() => !document.querySelector('#overlay [data-offscreen="fill"]'), null, WAIT);
+    // The arrow frames the image and fill (not every light: key may be outside now).
+    await allHandlesReachable(a, "after clicking fill's arrow", ["fill"]);
+    assert(await a.evaluate(() => window.dfb.S.selected === "fill"), "the arrow did not select fill");
+
+    // Frame lights: the key L and the toolbar's button, each from 1:1 where fill is off the view.
+    for (const how of ["key", "button"]) {
+      await a.keyboard.press("1");
+      await a.waitForSelector('#overlay [data-offscreen="fill"]', WAIT);
+      if (how === "key") await a.keyboard.press("l"); else await a.click("#frameLights");
+      await allHandlesReachable(a, `Frame lights (${how})`);
+      const fit = await a.locator("#frame").boundingBox();
+      assert(fit.width < 320, `framing a light right of the view did not zoom out (${fit.width} px wide)`);
+    }
+    await shot(a, "22-framed.png");
+
+    // A page opening on this rig frames the lights by itself.
+    const b = track(await ctxA.newPage());
+    try {
+      await b.goto(`${server.editorUrl}&name=carol`);
+      await frameAtLeast(b, 1);
+      await allHandlesReachable(b, "first load with fill off the view");
+      assert(!(await b.locator("#zoomLabel").textContent()).startsWith("100"), "the first load stayed at 1:1");
+      await shot(b, "22b-first-load-framed.png");
+    } finally {
+      await b.close();
+    }
+    await postEdit([{ path: "fill.position", value: fill0.position }]);
+    await a.keyboard.press("1");
+    await a.click('#lights li[data-light="key"] .lname');
+    await inStep(a);
+  });
+
+  await check("the Schematic panel draws the scene's boxes and the lights; a drag moves a light in its view's plane only", async () => {
+    const d = welcome.session;
+    assert(Array.isArray(d.bounds) && d.bounds.length === 6 && d.bounds[0] <= d.bounds[3], `session bounds ${JSON.stringify(d.bounds)}`);
+    const boxes = d.objectBounds.filter(Boolean).length;
+    assert(d.objectBounds.length === d.objects.length && boxes > 0, `objectBounds ${JSON.stringify(d.objectBounds)}`);
+    await a.locator("#schematic").scrollIntoViewIfNeeded();
+    await a.waitForFunction((n) => document.querySelectorAll("#schematic [data-object]").length === n &&
+                                   document.querySelector("#schematic .sch-bounds") && document.querySelector('#schematic [data-schematic-light="key"] .sch-cone'), boxes, WAIT);
+    // In each view, drag fill's circle by (dx, dy) pixels: the view's two axes change by the
+    // pixels over the view's scale (screen right is +h, down is +v: top x/z, side -z/-y, front
+    // x/-y), the third not at all; one undo takes the whole drag back.
+    // The drags go towards the canvas' centre, so that fill stays in the view and the view keeps
+    // its scale (it refits when something leaves it).
+    const views = { top: { axes: [0, 2], signs: [1, 1] }, side: { axes: [2, 1], signs: [-1, -1] }, front: { axes: [0, 1], signs: [1, -1] } };
+    for (const [name, v] of Object.entries(views)) {
+      await a.click(`#schematicViews [data-view="${name}"]`);
+      await a.waitForFunction((n) => document.getElementById("schematic").dataset.view === n, name, WAIT);
+      const fill0 = (await getRig()).lights.find((l) => l.name === "fill").position;
+      const h = await center(a, '#schematic .sch-handle[data-name="fill"]');
+      const scale = await a.evaluate(() => Number(document.getElementById("schematic").dataset.scale));
+      const box = await a.locator("#schematic").boundingBox();
+      v.dx = h.x < box.x + box.width / 2 ? 40 : -40;
+      v.dy = h.y < box.y + box.height / 2 ? 25 : -25;
+      await a.mouse.move(h.x, h.y);
+      await a.mouse.down();
+      for (let i = 1; i <= 8; i++) await a.mouse.move(h.x + v.dx * i / 8, h.y + v.dy * i / 8);
+      await a.mouse.up();
+      const want = fill0.slice();
+      want[v.axes[0]] += v.signs[0] * v.dx / scale;
+      want[v.axes[1]] += v.signs[1] * v.dy / scale;
+      const third = [0, 1, 2].find((k) => !v.axes.includes(k));
+      const rig = await waitRig((r) => {
+        const p = r.lights.find((l) => l.name === "fill").position;
+        return v.axes.every((k) => Math.abs(p[k] - want[k]) < 1e-3 + 0.5 / scale);
+      }, `${name} view: fill moves to ${want}`);
+      const p = rig.lights.find((l) => l.name === "fill").position;
+      assert(p[third] === fill0[third], `${name} view: component ${third} changed ${fill0[third]} -> ${p[third]}`);
+      assert(v.axes.every((k) => p[k] !== fill0[k]), `${name} view: ${fill0} -> ${p}`);
+      console.log(`     ${name}: fill ${fill0.map((x) => x.toFixed(3))} -> ${p.map((x) => x.toFixed(3))}`);
+      // The schematic's circle follows: it is where the pointer let go.
+      const h1 = await center(a, '#schematic .sch-handle[data-name="fill"]');
+      assert(Math.hypot(h1.x - h.x - v.dx, h1.y - h.y - v.dy) < 2, `${name} view: the circle is at ${JSON.stringify(h1)}, dropped at ${h.x + v.dx}, ${h.y + v.dy}`);
+      if (name !== "side") await shot(a, `23-schematic-${name}.png`);
+      await a.click("#undo");
+      await waitRig((r) => JSON.stringify(r.lights.find((l) => l.name === "fill").position) === JSON.stringify(fill0), `${name} view: one undo takes the drag back`);
+    }
+    await a.click('#schematicViews [data-view="top"]');
+    await a.click('#lights li[data-light="key"] .lname');
+    await inStep(a);
   });
 
   await check("dragging a BendyLight control point moves it in the image plane and changes the image", async () => {

@@ -713,3 +713,36 @@ TEST(Session, AnyVersionInTheHistoryRebuildsAndRestoresAsOneEdit) {
     }
     EXPECT_FALSE(m->rigAtVersion(oldest - 2).ok());
 }
+
+// The session description carries the scene's box and each object's, from the covered samples'
+// positions: an uncovered sample (A = 0) counts for nothing, an object no covered sample shows
+// has null, and a sample of no object (id 0) counts for the scene alone.
+TEST(Session, DescriptionCarriesTheSceneAndObjectBounds) {
+    DeepBuffer shot;
+    shot.allocate(4, 1);
+    shot.objectNames = {"table", "bunny", "hidden"};
+    const float P[4][3] = {{-1.f, 0.f, 2.f}, {3.f, 0.5f, -1.f}, {0.25f, 1.5f, 0.75f}, {100.f, 100.f, 100.f}};
+    const float A[4] = {1.f, 0.5f, 1.f, 0.f};     // the last sample is uncovered
+    const uint32_t id[4] = {1, 1, 2, 3};           // "hidden" only on the uncovered one
+    for (size_t s = 0; s < 4; ++s) {
+        for (int k = 0; k < 3; ++k) shot.P[3 * s + k] = P[s][k];
+        shot.A[s] = A[s];
+        shot.objectId[s] = id[s];
+    }
+    auto s = Session::open("boxes", shot, "shot.exr", defaultRig({-1, 0, -1}, {1, 1, 1}), {});
+    ASSERT_TRUE(s.ok()) << s.error().toString();
+    const json& d = s.value()->description();
+    EXPECT_EQ(d["bounds"], json::parse("[-1, 0, -1, 3, 1.5, 2]"));
+    EXPECT_EQ(d["objectBounds"], json::parse("[[-1, 0, -1, 3, 0.5, 2], [0.25, 1.5, 0.75, 0.25, 1.5, 0.75], null]"));
+    // Floats in their shortest form, as the rig's: 0.1f is written 0.1.
+    shot.P[0] = 0.1f;
+    auto t = Session::open("boxes", shot, "shot.exr", defaultRig({-1, 0, -1}, {1, 1, 1}), {});
+    ASSERT_TRUE(t.ok());
+    EXPECT_EQ(t.value()->description()["objectBounds"][0][0].dump(), "0.1");
+
+    // A shot with no samples: no scene box, no objects.
+    auto e = tryOpen({});
+    ASSERT_TRUE(e.ok());
+    EXPECT_TRUE(e.value()->description()["bounds"].is_null());
+    EXPECT_EQ(e.value()->description()["objectBounds"], json::array());
+}

@@ -12,7 +12,7 @@ import { fileURLToPath, pathToFileURL } from "node:url";
 const WEB = join(dirname(fileURLToPath(import.meta.url)), "../../client/web");
 const read = (name) => readFileSync(join(WEB, name), "utf8");
 // The modules that must run in node: no document, window, location, storage or timers of a page.
-const PURE = ["linalg.js", "camera.js", "rig.js", "rows.js", "format.js", "area.js"];
+const PURE = ["linalg.js", "camera.js", "rig.js", "rows.js", "format.js", "area.js", "placement.js"];
 
 // `import { a, b as c } from "./x.js"` and `import "./x.js"` of a module's text.
 function importsOf(text) {

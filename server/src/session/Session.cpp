@@ -7,6 +7,11 @@
 #include <dfb/server/FinalRender.h>
 #include <dfb/server/ImageCodec.h>
 
+#include <dfb/protocol/Json.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -105,6 +110,44 @@ std::vector<protocol::Change> limitFolds(const Rig& before, std::vector<protocol
     return changes;
 }
 
+// The scene's box and each object's, [minx, miny, minz, maxx, maxy, maxz] in world space, from
+// the positions of the samples the shot covers (coverage > 0): what a schematic view can draw of
+// the scene without its file. Only what the camera sees is in a shot, so a box holds an object's
+// visible part; an object that no covered sample shows has null. One pass over the samples,
+// once per session (the shot never changes).
+void addBounds(const DeepBuffer& shot, json& description) {
+    using Box = std::array<float, 6>;
+    const Box empty = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    auto grow = [](Box& b, const float* p) {
+        for (int k = 0; k < 3; ++k) {
+            b[k] = std::min(b[k], p[k]);
+            b[3 + k] = std::max(b[3 + k], p[k]);
+        }
+    };
+    Box scene = empty;
+    std::vector<Box> objects(shot.objectNames.size(), empty);
+    const size_t n = shot.sampleCount();
+    // A file may lack a layer (then its vector is empty): such samples count for the scene only.
+    const bool hasIds = shot.objectId.size() >= n;
+    if (shot.P.size() >= 3 * n && shot.A.size() >= n) {
+        for (size_t s = 0; s < n; ++s) {
+            if (!(shot.A[s] > 0.f)) continue;
+            const float* p = &shot.P[3 * s];
+            if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+            grow(scene, p);
+            const uint32_t id = hasIds ? shot.objectId[s] : 0;
+            if (id >= 1 && id <= objects.size()) grow(objects[id - 1], p);
+        }
+    }
+    auto toJson = [](const Box& b) { return b[0] <= b[3] ? json(b) : json(nullptr); };
+    json list = json::array();
+    for (const Box& b : objects) list.push_back(toJson(b));
+    description["bounds"] = toJson(scene);
+    description["objectBounds"] = std::move(list);
+    protocol::shortestFloats(description["bounds"]);
+    protocol::shortestFloats(description["objectBounds"]);
+}
+
 } // namespace
 
 Session::Session(std::string id, const DeepBuffer& shot, std::string shotPath, Rig rig) : mId(std::move(id)), mRig(std::move(rig)) {
@@ -116,6 +159,7 @@ Session::Session(std::string id, const DeepBuffer& shot, std::string shotPath, R
                     {"height", shot.height},
                     {"camera", cameraJson(shot.camera)},
                     {"objects", shot.objectNames}};
+    addBounds(shot, mDescription);
 }
 
 Result<std::unique_ptr<Session>> Session::open(std::string id, const DeepBuffer& shot,

@@ -150,7 +150,8 @@ public:
 
     const std::string& id() const { return mId; }
     bool persistent() const { return mJournal.has_value(); }
-    /// Resolution, camera and source of the shot, for the welcome message and GET /v1/sessions/ID.
+    /// Resolution, camera and source of the shot, its objects' names and boxes and the scene's box
+    /// (docs/protocol.md "Connection"), for the welcome message and GET /v1/sessions/ID.
     const nlohmann::json& description() const { return mDescription; }
 
 private:
