@@ -7,6 +7,7 @@ import { $, showMessage } from "./dom.js";
 import { flushLive, sendView, applyChange } from "./edits.js";
 import { endDrag } from "./drag.js";
 import { onFinal, onLiveFrame, refreshFinal } from "./final.js";
+import { refreshHistoryList } from "./history.js";
 import { onLibrary, refreshLibrary } from "./library.js";
 import { abortIndirect, setDragModes } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
@@ -269,6 +270,7 @@ export async function refreshHistory() {
       const info = await api("GET", "");
       S.history = info.history;
       updateEditable();
+      refreshHistoryList();
     } catch (e) { /* offline */ }
   }, 100);
 }

@@ -1640,6 +1640,24 @@ try {
     await ctxV.close();
   });
 
+  await check("the history panel lists who changed what; Go to puts an older version back as one undoable edit", async () => {
+    const r0 = await getRig();
+    await postEdit([{ path: "fill.intensity", value: 2.5 }]);
+    const r1 = await waitRig((r) => r.version > r0.version, "the edit lands");
+    await a.waitForSelector(`#historyList li.current[data-version="${r1.version}"]`, WAIT);
+    const text = await a.$eval(`#historyList li[data-version="${r1.version}"]`, (e) => e.textContent);
+    assert(/http/.test(text) && /fill\.intensity/.test(text), `the entry says ${text}`);
+    await a.click(`#historyList li[data-version="${r0.version}"] button`);
+    const r2 = await waitRig((r) => r.version > r1.version, "go to is an edit");
+    assert(JSON.stringify(r2.lights) === JSON.stringify(r0.lights), "Go to did not put the older lights back");
+    await waitMessage(a, new RegExp(`^went back to version ${r0.version}`));
+    await a.click("#undo");
+    const r3 = await waitRig((r) => r.version > r2.version, "undo");
+    assert(JSON.stringify(r3.lights) === JSON.stringify(r1.lights), "one undo does not take Go to back");
+    await a.locator("#historyPanel").scrollIntoViewIfNeeded();
+    await shot(a, "24-history.png");
+  });
+
   await check("after the server restarts the page reconnects and shows the same rig", async () => {
     const rigBefore = await getRig();
     restarting = true;
