@@ -10,6 +10,7 @@
 //  - the journal holds the limited change, so a restart replays to the same rig without limiting.
 
 #include "session/Session.h"
+#include "support/ReadmeBentChain.h"
 #include "support/TabletopShot.h"
 
 #include <dfb/server/BendyChain.h>
@@ -36,14 +37,8 @@ Rig bentKeyRig(const Scene& scene) {
     Rig rig = defaultRig({b.min.x, b.min.y, b.min.z}, {b.max.x, b.max.y, b.max.z});
     rig.lights.resize(1);
     Light& l = rig.lights[0];
-    l.type = LightType::Bendy;
-    l.coneAngleDeg = 28.f;
-    l.penumbraDeg = 2.f;
+    test::makeReadmeBentChain(l);
     l.shadowMapSize = 1024;
-    const float tanTheta = std::tan(glm::radians(l.coneAngleDeg));
-    l.controlPoints = {{1.5f, 0.f, 0.f}, {3.f, 0.f, 0.f}, {4.2f, 0.f, 0.6f}, {4.8f, 0.f, 1.9f}};
-    l.radii = {0.f, 1.5f * tanTheta, 3.f * tanTheta, 3.6f * tanTheta, 4.1f * tanTheta};
-    l.colors.assign(5, Vec3{1.f, 1.f, 1.f});
     return rig;
 }
 

@@ -6,6 +6,7 @@
 
 #include "support/Assets.h"
 #include "support/DeformedCasters.h"
+#include "support/ReadmeBentChain.h"
 #include "support/RayCaster.h"
 
 #include <dfb/gbuffer/Baker.h>
@@ -83,14 +84,8 @@ double shadowAgreement(Shot& shot, const Rig& rig, const std::string& lightName,
 Light bentKey(const Light& base) {
     Light l = base;
     l.name = "bendy";
-    l.type = LightType::Bendy;
     l.shadowMapSize = 2048;
-    l.coneAngleDeg = 28.f;
-    l.penumbraDeg = 2.f;
-    const float tanTheta = std::tan(glm::radians(l.coneAngleDeg));
-    l.controlPoints = {{1.5f, 0.f, 0.f}, {3.f, 0.f, 0.f}, {4.2f, 0.f, 0.6f}, {4.8f, 0.f, 1.9f}};
-    l.radii = {0.f, 1.5f * tanTheta, 3.f * tanTheta, 3.6f * tanTheta, 4.1f * tanTheta};
-    l.colors.assign(5, Vec3{1.f, 1.f, 1.f});
+    test::makeReadmeBentChain(l);
     return l;
 }
 
