@@ -8,7 +8,7 @@ import { api, nextSeq, send } from "./connection.js";
 import { $, showMessage } from "./dom.js";
 import { V } from "./linalg.js";
 import { refreshUi, renderView } from "./panels.js";
-import { applyLocal, clone, uniqueName } from "./rig.js";
+import { applyLocal, clone, lightRow, uniqueName } from "./rig.js";
 import { S, findLight } from "./state.js";
 
 export const canEdit = () => S.connected && S.role === "editor";
@@ -80,12 +80,26 @@ export function endGesture() { S.gesture = null; }
 // Sets a light property as the artist means it: where the property is keyframed the change is a
 // key at the current time (otherwise the keys would override it and nothing would seem to happen).
 export function setLightProp(name, prop, value, opts) {
-  const l = findLight(name);
-  if (l?.keys?.[prop]?.length) {
-    const existing = l.keys[prop].find((k) => Math.abs(k.t - S.rig.time) < 1e-9);
-    return edit([{ path: `${name}.key`, value: { path: prop, t: S.rig.time, value, interp: existing?.interp ?? $("keyInterp").value } }], opts);
+  // With several lights selected (S.also), an edit of the primary one's property is made to each
+  // of them that has it (its type's rows; not element rows, whose indices differ per light): one
+  // edit, one undo step.
+  const names = [name];
+  const row = lightRow(prop);
+  if (name === S.selected && row && !row.indexOf) {
+    for (const n of S.also) {
+      const o = findLight(n);
+      if (o && n !== name && (!row.appliesTo || row.appliesTo.includes(o.type))) names.push(n);
+    }
   }
-  return edit([{ path: `${name}.${prop}`, value }], opts);
+  const changes = names.map((n) => {
+    const l = findLight(n);
+    if (l?.keys?.[prop]?.length) {
+      const existing = l.keys[prop].find((k) => Math.abs(k.t - S.rig.time) < 1e-9);
+      return { path: `${n}.key`, value: { path: prop, t: S.rig.time, value, interp: existing?.interp ?? $("keyInterp").value } };
+    }
+    return { path: `${n}.${prop}`, value };
+  });
+  return edit(changes, opts);
 }
 
 /** This page's own view settings (output, exposure, transform): the server renders each view. */

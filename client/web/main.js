@@ -7,6 +7,7 @@ import { connect, loadSchema, renderStats, send } from "./connection.js";
 import { $, showMessage } from "./dom.js";
 import { addLight, canEdit, deleteLight, duplicateLight, redo, undo } from "./edits.js";
 import { initFinal, toggleAB } from "./final.js";
+import { initGroups } from "./groups.js";
 import { initLibrary } from "./library.js";
 import { cancelIndirect, dragModeKey, setDragMode } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
@@ -23,6 +24,7 @@ initTimeline();
 initPresence();
 initFinal();
 initLibrary();
+initGroups();
 initSchematic();
 setInterval(renderStats, 500);
 

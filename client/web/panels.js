@@ -6,6 +6,7 @@ import { $, div, labelEl, numberInput, showMessage, unitEl } from "./dom.js";
 import { beginGesture, canEdit, edit, endGesture, sendView, sendViewThrottled, setLightProp, setPresence } from "./edits.js";
 import { onViewChanged, renderFinal } from "./final.js";
 import { hexToLinear, linearToHex, parseNumber } from "./format.js";
+import { renderGroups } from "./groups.js";
 import { renderDragModes } from "./indirect.js";
 import { V } from "./linalg.js";
 import { scheduleOverlay } from "./overlay.js";
@@ -44,17 +45,19 @@ export function refreshUi(rebuild = false) {
   scheduleOverlay();
   renderStats();
   renderFinal();
+  renderGroups();
   updateEditable();
 }
 
 export function renderLights() {
   if (!S.rig) return;
+  for (const n of [...S.also]) if (!findLight(n) || n === S.selected) S.also.delete(n); // renamed, deleted, or now the primary
   const ul = $("lights");
   ul.innerHTML = "";
   for (const l of S.rig.lights) {
     const li = document.createElement("li");
     li.dataset.light = l.name;
-    li.className = `${l.name === S.selected ? "selected" : ""} ${l.enabled ? "" : "disabled"}`;
+    li.className = `${l.name === S.selected ? "selected" : ""} ${S.also.has(l.name) ? "also" : ""} ${l.enabled ? "" : "disabled"}`;
     const en = Object.assign(document.createElement("input"), { type: "checkbox", checked: l.enabled, title: "Enabled" });
     en.dataset.edit = "";
     en.className = "enable";
@@ -78,7 +81,9 @@ export function renderLights() {
       renderLights();
     });
     li.append(solo);
-    li.addEventListener("click", () => selectLight(l.name));
+    // Ctrl/Cmd/Shift+click adds the light to the selection (or takes it out): the property panel
+    // shows the first one, and its edits go to every selected light that has the property.
+    li.addEventListener("click", (e) => (e.ctrlKey || e.metaKey || e.shiftKey ? toggleAlso(l.name) : selectLight(l.name)));
     ul.append(li);
   }
   applyEditable(ul);
@@ -86,8 +91,17 @@ export function renderLights() {
 
 export function selectLight(name) {
   S.selectAfterPut = null; // the artist chose meanwhile
-  if (S.selected === name) return;
+  if (S.selected === name && !S.also.size) return;
   S.selected = name;
+  S.also.clear();
+  refreshUi(true);
+}
+/** Adds a light to the selection, or takes it out (the primary one stays: a plain click changes it). */
+export function toggleAlso(name) {
+  if (!S.selected) return selectLight(name);
+  if (name === S.selected) return;
+  if (S.also.has(name)) S.also.delete(name);
+  else S.also.add(name);
   refreshUi(true);
 }
 
@@ -97,7 +111,7 @@ function buildProps() {
   box.innerHTML = "";
   propWidgets.clear();
   const l = findLight(S.selected);
-  $("propsTitle").textContent = l ? `· ${l.name}` : "";
+  $("propsTitle").textContent = l ? `· ${l.name}${S.also.size ? ` + ${[...S.also].join(", ")}` : ""}` : "";
   if (!l) { box.innerHTML = '<div class="hint">No light selected.</div>'; return; }
   // Name: renaming is an edit of L.name, checked here first.
   {
@@ -145,7 +159,7 @@ function buildProps() {
     } else if (kind === "bool") {
       const cb = Object.assign(document.createElement("input"), { type: "checkbox", checked: !!e[prop], id: `prop-${prop}` });
       cb.dataset.edit = "";
-      cb.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: cb.checked }]));
+      cb.addEventListener("change", () => setLightProp(l.name, prop, cb.checked));
       row.append(cb);
       update = (x) => { cb.checked = !!x[prop]; };
     } else if (kind === "choice") {
@@ -155,7 +169,7 @@ function buildProps() {
       sel.value = String(e[prop]);
       // The value goes back as the type the choices have (shadow-map sizes are numbers).
       const value = () => (typeof o.values[0] === "number" ? Number(sel.value) : sel.value);
-      sel.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: value() }]));
+      sel.addEventListener("change", () => setLightProp(l.name, prop, value()));
       row.append(sel, unitEl(unit));
       update = (x) => { sel.value = String(x[prop]); };
     } else if (kind === "color") {
@@ -172,7 +186,7 @@ function buildProps() {
       const t = Object.assign(document.createElement("input"), { value: e[prop] ?? "", id: `prop-${prop}`, title: o.title || "" });
       t.dataset.edit = "";
       t.style.flex = "1";
-      t.addEventListener("change", () => edit([{ path: `${l.name}.${prop}`, value: t.value.trim() }]));
+      t.addEventListener("change", () => setLightProp(l.name, prop, t.value.trim()));
       row.append(t);
       update = (x) => { if (document.activeElement !== t) t.value = x[prop] ?? ""; };
     } else if (kind === "vec") {
@@ -396,7 +410,7 @@ function buildRigProps() {
       vtRow.style.display = "viewTransform" in S.rig ? "" : "none"; // servers before the filmic curve
       if ("viewTransform" in S.rig && document.activeElement !== vt) vt.value = S.rig.viewTransform;
       // Rig-level settings of a newer server (e.g. a view transform for everyone), shown generically.
-      const extra = Object.keys(S.rig).filter((k) => !["version", "exposure", "time", "lights", "viewTransform"].includes(k));
+      const extra = Object.keys(S.rig).filter((k) => !["version", "exposure", "time", "lights", "viewTransform", "groups"].includes(k));
       if (more.dataset.sig !== extra.join("|")) {
         more.dataset.sig = extra.join("|");
         more.innerHTML = "";

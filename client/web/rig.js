@@ -343,6 +343,7 @@ export function applyLocal(rig, c, { authoritative = false, onRename = null } = 
     // lights of one name here.
     if (!authoritative) return false;
     onRename?.(l.name, c.value);
+    for (const g of rig.groups ?? []) g.lights = g.lights.map((n) => (n === l.name ? c.value : n)); // as the server does
     l.name = c.value;
     return true;
   }

@@ -10,6 +10,7 @@ export const S = {
   name: params.get("name") || localStorage.getItem("dfb.name") || `artist-${Math.floor(Math.random() * 9000 + 1000)}`,
   ws: null, connected: false, attempts: 0, clientId: 0, role: "viewer",
   session: null, rig: null, selected: null, clients: [], history: { undo: 0, redo: 0 },
+  also: new Set(), // lights selected with the primary one (Ctrl/Shift+click): its property edits apply to them too
   view: { output: "beauty", exposure: 0, viewTransform: "rig", background: false }, // what this page asked for
   viewChanged: false, // this page chose its own view: restored after a reconnect
   shownOutput: "beauty", // the output of the frames arriving now: the last one the server acknowledged

@@ -6,6 +6,9 @@
 #include <dfb/protocol/Codec.h>
 #include <dfb/protocol/Schema.h>
 
+#include <algorithm>
+#include <set>
+
 namespace dfb::protocol {
 
 namespace detail {
@@ -40,6 +43,38 @@ Status applyChange(Rig& rig, const Change& c) {
         else return invalid("viewTransform: " + excerpt(c.value) + " is not \"srgb\" or \"filmic\"");
         return okStatus();
     }
+    if (c.path == "groups") {
+        if (!c.value.is_array()) return invalid("groups: expected an array of {\"name\", \"lights\"}");
+        if (c.value.size() > MAX_LIGHT_GROUPS) {
+            return makeError(ErrorCode::LimitExceeded, "groups: " + std::to_string(c.value.size()) + " groups, at most " +
+                                                           std::to_string(MAX_LIGHT_GROUPS));
+        }
+        std::vector<LightGroup> groups;
+        std::set<std::string> names;
+        for (size_t i = 0; i < c.value.size(); ++i) {
+            const json& g = c.value[i];
+            const std::string at = "groups[" + std::to_string(i) + "]";
+            if (!g.is_object() || !g.contains("name") || !g.contains("lights") || g.size() != 2) {
+                return invalid(at + ": expected {\"name\", \"lights\"}");
+            }
+            if (!g["name"].is_string() || !validName(g["name"].get<std::string>())) {
+                return invalid(at + ".name: a name is 1-64 characters of letters, digits, '_' or '-'");
+            }
+            LightGroup group{g["name"].get<std::string>(), {}};
+            if (!names.insert(group.name).second) return invalid(at + ".name: a group named '" + group.name + "' already exists");
+            if (!g["lights"].is_array()) return invalid(at + ".lights: expected an array of light names");
+            std::set<std::string> members;
+            for (const json& n : g["lights"]) {
+                if (!n.is_string() || !rig.find(n.get<std::string>())) {
+                    return makeError(ErrorCode::MissingData, at + ".lights: no light named " + excerpt(n));
+                }
+                if (members.insert(n.get<std::string>()).second) group.lights.push_back(n.get<std::string>());
+            }
+            groups.push_back(std::move(group));
+        }
+        rig.groups = std::move(groups);
+        return okStatus();
+    }
     if (c.path == "exposure") {
         const Property& row = *findRigProperty("exposure");
         auto n = getNumber(c.value, c.path, row.min, row.max);
@@ -58,6 +93,9 @@ Status applyChange(Rig& rig, const Change& c) {
     if (auto s = setLightProperty(copy, prop, c.value, c.path); !s) return s;
     if (prop == "name" && copy.name != lightName && rig.find(copy.name)) {
         return invalid(c.path + ": a light named '" + copy.name + "' already exists");
+    }
+    if (prop == "name") {
+        for (LightGroup& g : rig.groups) std::replace(g.lights.begin(), g.lights.end(), lightName, copy.name);
     }
     *l = copy;
     return okStatus();

@@ -62,14 +62,22 @@ json toJson(const Rig& rig) {
            {"lights", std::move(lights)}};
     shortestFloats(r["exposure"]);
     shortestFloats(r["time"]);
+    if (!rig.groups.empty()) {
+        json groups = json::array();
+        for (const LightGroup& g : rig.groups) groups.push_back({{"name", g.name}, {"lights", g.lights}});
+        r["groups"] = std::move(groups);
+    }
     return r;
 }
 
 Result<Rig> rigFromJson(const json& j) {
     if (!j.is_object()) return invalid("rig: expected an object");
     Rig rig;
+    const json* groups = nullptr; // after the lights, which its members name
     for (auto it = j.begin(); it != j.end(); ++it) {
-        if (it.key() == "version") {
+        if (it.key() == "groups") {
+            groups = &*it;
+        } else if (it.key() == "version") {
             if (!it->is_number_unsigned()) return invalid("rig.version: expected a non-negative integer");
             rig.version = it->get<uint64_t>();
         } else if (findRigProperty(it.key())) {
@@ -86,6 +94,22 @@ Result<Rig> rigFromJson(const json& j) {
         } else {
             return invalid("rig: unknown field '" + it.key() + "'");
         }
+    }
+    if (groups) {
+        // A replaced rig drops the members it no longer has (a light deleted by a PUT leaves its
+        // groups); everything else is checked as an edit of "groups" is.
+        json kept = *groups;
+        if (kept.is_array()) {
+            for (json& g : kept) {
+                if (!g.is_object() || !g.contains("lights") || !g["lights"].is_array()) continue;
+                json members = json::array();
+                for (const json& n : g["lights"]) {
+                    if (!n.is_string() || rig.find(n.get<std::string>())) members.push_back(n);
+                }
+                g["lights"] = std::move(members);
+            }
+        }
+        if (auto s = applyChange(rig, {"groups", kept}); !s) return invalid("rig." + s.error().message);
     }
     return rig;
 }

@@ -691,6 +691,11 @@ const std::vector<Property> RIG_PROPERTIES = {
     {.path = "time", .label = "Time", .type = Number, .unit = "seconds", .step = 0.04,
      .invalidates = None, .valueDoc = "number",
      .doc = "the session clock, seconds: where keyframes are evaluated (a keyed property's change invalidates what its row says)"},
+    {.path = "groups", .label = "Light groups", .type = Groups, .unit = "", .invalidates = None,
+     .valueDoc = "[{\"name\", \"lights\": [names]}]",
+     .doc = "named sets of lights (the page mutes, solos and scales a group in one edit): at most 64, names by the lights' "
+            "rule, unique, each light of the rig at most once per group; renaming a light renames it in its groups, "
+            "replacing the rig drops the members it no longer has"},
     {.path = "viewTransform", .label = "View", .type = Enum, .unit = "", .invalidates = Composite, .values = "srgb,filmic",
      .valueDoc = "string",
      .doc = "`\"srgb\"` (default: the sRGB transfer function alone) or `\"filmic\"` (the ACES fitted curve, then sRGB: "
@@ -703,6 +708,7 @@ json rigDefault(const Property& p) {
     if (path == "exposure") return r.exposureStops;
     if (path == "time") return r.time;
     if (path == "viewTransform") return r.viewTransform == ViewTransform::Filmic ? "filmic" : "srgb";
+    if (path == "groups") return json::array();
     return nullptr;
 }
 
@@ -803,6 +809,7 @@ std::string_view toString(PropType t) {
     case Points: return "points";
     case Colors: return "colors";
     case Keys: return "keys";
+    case Groups: return "groups";
     }
     return "?";
 }

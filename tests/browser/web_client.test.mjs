@@ -1658,6 +1658,56 @@ try {
     await shot(a, "24-history.png");
   });
 
+  await check("several lights selected take one edit together; a light group mutes, scales and solos in one edit each", async () => {
+    // The key and the area light "panel" (the fill's intensity is keyed by now: an edit of it sets a key).
+    const r0 = await getRig();
+    const lightOf = (r, n) => r.lights.find((l) => l.name === n);
+    await a.click('#lights li[data-light="key"] .lname');
+    await a.click('#lights li[data-light="panel"] .lname', { modifiers: ["Control"] });
+    await a.waitForSelector('#lights li.also[data-light="panel"]', WAIT);
+    assert(/key \+ panel/.test(await a.textContent("#propsTitle")), `title: ${await a.textContent("#propsTitle")}`);
+    await typeInto(a, "#prop-intensity", "7");
+    const r1 = await waitRig((r) => lightOf(r, "key").intensity === 7 && lightOf(r, "panel").intensity === 7, "both lights get 7");
+    assert(r1.version === r0.version + 1, `one edit expected, versions ${r0.version} -> ${r1.version}`);
+    await a.click("#undo");
+    await waitRig((r) => lightOf(r, "key").intensity === lightOf(r0, "key").intensity &&
+                         lightOf(r, "panel").intensity === lightOf(r0, "panel").intensity, "one undo takes both back");
+
+    // A group of the two: mute, unmute, double; then a group of the key alone soloed.
+    await a.fill("#groupName", "both");
+    await a.click("#groupMake");
+    await waitRig((r) => r.groups?.length === 1 && r.groups[0].name === "both" && JSON.stringify(r.groups[0].lights) === '["key","panel"]',
+                  "the group is in the rig");
+    const btn = (g, action) => `#groups li[data-group="${g}"] button[data-action="${action}"]`;
+    let v = (await getRig()).version;
+    await a.click(btn("both", "mute"));
+    const muted = await waitRig((r) => !lightOf(r, "key").enabled && !lightOf(r, "panel").enabled, "muted");
+    assert(muted.version === v + 1, "mute is one edit");
+    await a.waitForSelector('#groups li.muted[data-group="both"]', WAIT);
+    await a.click(btn("both", "mute"));
+    await waitRig((r) => lightOf(r, "key").enabled && lightOf(r, "panel").enabled, "unmuted");
+    v = (await getRig()).version;
+    const before = await getRig();
+    await a.click(btn("both", "2"));
+    const doubled = await waitRig((r) => r.version > v, "doubled");
+    assert(doubled.version === v + 1, "scaling is one edit");
+    for (const n of ["key", "panel"]) {
+      const want = 2 * lightOf(before, n).intensity;
+      assert(Math.abs(lightOf(doubled, n).intensity - want) < 1e-4 * want, `${n}: ${lightOf(doubled, n).intensity}, expected ${want}`);
+    }
+    await a.click('#lights li[data-light="key"] .lname');
+    await a.fill("#groupName", "keyonly");
+    await a.click("#groupMake");
+    await waitRig((r) => r.groups?.some((g) => g.name === "keyonly"), "the second group");
+    await a.click(btn("keyonly", "solo"));
+    await waitRig((r) => r.lights.every((l) => l.enabled === (l.name === "key")), "solo: only the key is on");
+    await shot(a, "25-groups.png");
+    // Back to the rig before (one edit by HTTP), groups gone.
+    await postEdit([...r0.lights.flatMap((l) => [{ path: `${l.name}.enabled`, value: l.enabled }, { path: `${l.name}.intensity`, value: l.intensity }]),
+                    { path: "groups", value: [] }]);
+    await waitRig((r) => !r.groups && JSON.stringify(r.lights) === JSON.stringify(r0.lights), "the rig as before");
+  });
+
   await check("after the server restarts the page reconnects and shows the same rig", async () => {
     const rigBefore = await getRig();
     restarting = true;

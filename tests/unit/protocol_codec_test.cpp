@@ -7,6 +7,7 @@
 
 using namespace dfb;
 using namespace dfb::protocol;
+using json = nlohmann::json;
 
 namespace {
 Rig testRig() { return defaultRig({-1, 0, -1}, {1, 1, 1}); }
@@ -168,4 +169,50 @@ TEST(Keyframes, LinearAndSmoothInterpolationOfNumbersAndControlPoints) {
     EXPECT_FALSE(applyChange(rig, {"key.key", {{"path", "name"}, {"t", 0}, {"value", "x"}}}).ok());
     ASSERT_TRUE(applyChange(rig, {"key.unkey", {{"path", "intensity"}, {"t", 2}}}).ok());
     EXPECT_FLOAT_EQ(at(2).find("key")->intensityCd, 10.f); // 0 s -> 10 and 4 s -> 10 remain
+}
+
+// Light groups (issue 20 point 4; the rig's `groups`): set as one rig-level change, checked (names,
+// duplicates, members that exist, the count limit), written only when there are some, renamed
+// with their lights, and a replaced rig (rigFromJson) drops the members it no longer has.
+TEST(Codec, LightGroupsAreCheckedFollowRenamesAndSurviveJson) {
+    Rig rig = defaultRig({-1, 0, -1}, {1, 1, 1});
+    ASSERT_GE(rig.lights.size(), 2u);
+    EXPECT_FALSE(protocol::toJson(rig).contains("groups")) << "no groups, no field";
+    const json two = json::parse(R"([{"name": "keys", "lights": ["key", "fill", "key"]}, {"name": "fills", "lights": ["fill"]}])");
+    ASSERT_TRUE(protocol::applyChanges(rig, {{"groups", two}}).ok());
+    ASSERT_EQ(rig.groups.size(), 2u);
+    EXPECT_EQ(rig.groups[0].lights, (std::vector<std::string>{"key", "fill"})) << "a repeated member counts once";
+
+    auto refused = [&](const json& v, const std::string& words) {
+        Rig copy = rig;
+        auto st = protocol::applyChanges(copy, {{"groups", v}});
+        ASSERT_FALSE(st.ok()) << v.dump();
+        EXPECT_NE(st.error().message.find(words), std::string::npos) << st.error().message;
+        EXPECT_EQ(copy.groups, rig.groups) << "nothing changed";
+    };
+    refused(json::parse(R"([{"name": "a", "lights": ["nobody"]}])"), "groups[0].lights: no light named \"nobody\"");
+    refused(json::parse(R"([{"name": "a b", "lights": []}])"), "groups[0].name: a name is 1-64 characters");
+    refused(json::parse(R"([{"name": "a", "lights": []}, {"name": "a", "lights": []}])"), "a group named 'a' already exists");
+    refused(json::parse(R"([{"name": "a"}])"), "expected {\"name\", \"lights\"}");
+    refused(json::parse(R"({"name": "a"})"), "expected an array");
+    json many = json::array();
+    for (size_t i = 0; i <= MAX_LIGHT_GROUPS; ++i) many.push_back({{"name", "g" + std::to_string(i)}, {"lights", json::array()}});
+    refused(many, "at most 64");
+
+    // A rename follows into the groups.
+    ASSERT_TRUE(protocol::applyChanges(rig, {{"fill.name", "soft"}}).ok());
+    EXPECT_EQ(rig.groups[0].lights, (std::vector<std::string>{"key", "soft"}));
+    EXPECT_EQ(rig.groups[1].lights, (std::vector<std::string>{"soft"}));
+
+    // JSON round trip; a rig without "soft" keeps its groups, less that member.
+    json j = protocol::toJson(rig);
+    auto back = protocol::rigFromJson(j);
+    ASSERT_TRUE(back.ok()) << back.error().toString();
+    EXPECT_EQ(back->groups, rig.groups);
+    j["lights"].erase(1);
+    auto without = protocol::rigFromJson(j);
+    ASSERT_TRUE(without.ok()) << without.error().toString();
+    ASSERT_EQ(without->groups.size(), 2u);
+    EXPECT_EQ(without->groups[0].lights, (std::vector<std::string>{"key"}));
+    EXPECT_TRUE(without->groups[1].lights.empty());
 }

@@ -170,12 +170,22 @@ void makeStraightCorners(Light& light, float length, int segments = 2);
 enum class ViewTransform { Srgb, Filmic };
 
 /// The whole rig plus the view settings that apply to the beauty image.
+/// A named set of lights (docs/protocol.md "Light groups"): what the page mutes, solos and
+/// scales in one edit. Membership follows renames; a light deleted with the rig replaced leaves.
+struct LightGroup {
+    std::string name;
+    std::vector<std::string> lights;
+    bool operator==(const LightGroup&) const = default;
+};
+inline constexpr size_t MAX_LIGHT_GROUPS = 64;
+
 struct Rig {
     uint64_t version = 0;             ///< bumped by the server on every accepted change
     float exposureStops = 0.f;        ///< exposure in stops (image * 2^exposure), [-20, 20]
     ViewTransform viewTransform = ViewTransform::Srgb;
     double time = 0.0;                ///< session clock, seconds: where keyframes are evaluated
     std::vector<Light> lights;
+    std::vector<LightGroup> groups;   ///< named sets of lights, at most MAX_LIGHT_GROUPS
 
     Light* find(const std::string& name);
     const Light* find(const std::string& name) const;

@@ -35,6 +35,7 @@ enum class PropType {
     Points,    ///< an array of [a, b, c] points (a BendyLight's chain)
     Colors,    ///< an array of [r, g, b] (one per chain point)
     Keys,      ///< keyframe operations (keys, key, unkey)
+    Groups,    ///< the rig's light groups: [{"name", "lights": [names]}]
 };
 
 /// What a change of the property makes the engine redo, cheapest first (DESIGN section 6):
