@@ -374,7 +374,9 @@ int main(int argc, char** argv) {
             // named and skipped, the others kept.
             std::vector<std::string> libraryReport;
             auto library = dfb::Library::open(dir.empty() ? dir : dir / "library", &libraryReport);
-            for (const std::string& line : libraryReport) std::fprintf(stderr, "dfb-server: session %s: library: %s\n", spec.name.c_str(), line.c_str());
+            for (const std::string& skipped : libraryReport) {
+                std::fprintf(stderr, "dfb-server: session %s: library: %s\n", spec.name.c_str(), skipped.c_str());
+            }
             if (!library) {
                 failSession(spec, dir, library.error(), "its library cannot be opened (see the server's log)", EXIT_INPUT);
                 continue;

@@ -70,7 +70,9 @@ TEST(Library, LimitsNamesAndThumbnails) {
         const auto snap = l.snapshot(name).value();
         const auto [tw, th] = sizeOf(*snap->thumbnail);
         std::printf("%dx%d -> thumbnail %dx%d\n", w, h, tw, th);
-        if (w / 8 <= Library::THUMBNAIL_WIDTH) EXPECT_LE(tw, Library::THUMBNAIL_WIDTH);
+        if (w / 8 <= Library::THUMBNAIL_WIDTH) {
+            EXPECT_LE(tw, Library::THUMBNAIL_WIDTH);
+        }
         EXPECT_GE(tw, std::min(w, Library::THUMBNAIL_WIDTH) / 2) << "not smaller than it needs to be";
         EXPECT_NEAR(double(th) / tw, double(h) / w, 0.05);
         EXPECT_EQ(*snap->image, jpegOf(w, h));
