@@ -128,6 +128,21 @@ TEST(Annotations, BoundsLimitsResolveAndIds) {
     EXPECT_EQ(s.list()[0]["id"], 1);
 }
 
+TEST(Annotations, PointsOfTheWholeSessionAreBounded) {
+    // The whole list goes to every client on every change: its points are bounded together.
+    auto store = Annotations::open({});
+    Annotations& s = *store.value();
+    const auto full = shape(strokeOf(protocol::MAX_ANNOTATION_POINTS));
+    const size_t strokes = Annotations::MAX_TOTAL_POINTS / protocol::MAX_ANNOTATION_POINTS;
+    for (size_t i = 0; i < strokes; ++i) ASSERT_TRUE(s.add(full, 320, 180, 1, "a").ok()) << i;
+    auto over = s.add(shape(strokeOf(2)), 320, 180, 1, "a");
+    ASSERT_FALSE(over.ok());
+    EXPECT_EQ(over.error().code, ErrorCode::LimitExceeded);
+    EXPECT_NE(over.error().message.find("hold 200000 points, and 2 more would pass the 200000"), std::string::npos) << over.error().message;
+    ASSERT_TRUE(s.remove(1).ok());
+    EXPECT_TRUE(s.add(shape(strokeOf(2)), 320, 180, 1, "a").ok()) << "a deleted stroke's points are free again";
+}
+
 TEST(Annotations, KeptOnDiskAndDamagedFilesSkipped) {
     const auto dir = std::filesystem::temp_directory_path() / ("dfb_annotations_unit_" + std::to_string(::getpid()));
     std::filesystem::remove_all(dir);

@@ -110,6 +110,11 @@ Result<std::unique_ptr<Annotations>> Annotations::open(const fs::path& dir, std:
             skip(p, "the session keeps at most " + std::to_string(MAX_ANNOTATIONS) + " annotations");
             continue;
         }
+        if (store->mPoints + a->shape.points.size() > MAX_TOTAL_POINTS) {
+            skip(p, "the session's annotations hold at most " + std::to_string(MAX_TOTAL_POINTS) + " points together");
+            continue;
+        }
+        store->mPoints += a->shape.points.size();
         store->mById.emplace(id, std::move(a.value()));
     }
     // Past every id on disk, damaged ones included: a new annotation never takes the file of one
@@ -152,6 +157,11 @@ Result<json> Annotations::add(const protocol::AnnotateMessage& shape, int width,
         return makeError(ErrorCode::LimitExceeded, "the session has " + std::to_string(MAX_ANNOTATIONS) +
                                                        " annotations, the most it keeps: delete resolved ones first");
     }
+    if (mPoints + shape.points.size() > MAX_TOTAL_POINTS) {
+        return makeError(ErrorCode::LimitExceeded, "annotation.points: the session's annotations hold " + std::to_string(mPoints) +
+                                                       " points, and " + std::to_string(shape.points.size()) + " more would pass the " +
+                                                       std::to_string(MAX_TOTAL_POINTS) + " they may hold together: delete some first");
+    }
     Annotation a;
     a.id = mNextId;
     a.shape = shape;
@@ -161,6 +171,7 @@ Result<json> Annotations::add(const protocol::AnnotateMessage& shape, int width,
     a.time = utcNow();
     if (auto s = save(a); !s) return s.error();
     ++mNextId;
+    mPoints += a.shape.points.size();
     json out = toJson(a);
     mById.emplace(a.id, std::move(a));
     return out;
@@ -185,13 +196,15 @@ Result<json> Annotations::setResolved(uint64_t id, bool resolved, const std::str
 }
 
 Status Annotations::remove(uint64_t id) {
-    if (!mById.count(id)) return makeError(ErrorCode::MissingData, "no annotation " + std::to_string(id));
+    auto it = mById.find(id);
+    if (it == mById.end()) return makeError(ErrorCode::MissingData, "no annotation " + std::to_string(id));
     if (persistent()) {
         std::error_code ec;
         fs::remove(fileOf(mDir, id), ec);
         if (ec) return makeError(ErrorCode::IoError, fileOf(mDir, id).string() + ": cannot remove: " + ec.message());
     }
-    mById.erase(id);
+    mPoints -= it->second.shape.points.size();
+    mById.erase(it);
     return okStatus();
 }
 

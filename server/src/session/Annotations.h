@@ -24,6 +24,9 @@ namespace dfb {
 class Annotations {
 public:
     static constexpr size_t MAX_ANNOTATIONS = 1000; ///< per session
+    /// Points of all a session's annotations together: every change sends every client the whole
+    /// list, which this keeps to a few MB (1000 strokes of 2000 points would be ~40 MB).
+    static constexpr size_t MAX_TOTAL_POINTS = 200000;
 
     struct Annotation {
         uint64_t id = 0;
@@ -41,7 +44,7 @@ public:
 
     /// Adds `a` (checked by protocol::annotationFromJson) made by `by` on rig version `rigVersion`
     /// of a width x height shot. InvalidValue naming the point outside the shot, LimitExceeded
-    /// past MAX_ANNOTATIONS, IoError when it cannot be saved (then nothing is kept). The new
+    /// past MAX_ANNOTATIONS or MAX_TOTAL_POINTS, IoError when it cannot be saved (then nothing is kept). The new
     /// annotation as listed.
     Result<nlohmann::json> add(const protocol::AnnotateMessage& a, int width, int height, uint64_t rigVersion, const std::string& by);
     /// Marks annotation `id` resolved (by `by`, now) or open again; MissingData when there is
@@ -63,6 +66,7 @@ private:
     std::filesystem::path mDir;
     std::map<uint64_t, Annotation> mById;
     uint64_t mNextId = 1;
+    size_t mPoints = 0; ///< of all annotations, at most MAX_TOTAL_POINTS
 };
 
 } // namespace dfb
