@@ -385,7 +385,7 @@ int main(int argc, char** argv) {
             // Annotations the same way (session/Annotations.h): a damaged one named and skipped.
             std::vector<std::string> annotationsReport;
             auto annotations = dfb::Annotations::open(dir.empty() ? dir : dir / "annotations", &annotationsReport);
-            for (const std::string& line : annotationsReport) std::fprintf(stderr, "dfb-server: session %s: annotations: %s\n", spec.name.c_str(), line.c_str());
+            for (const std::string& note : annotationsReport) std::fprintf(stderr, "dfb-server: session %s: annotations: %s\n", spec.name.c_str(), note.c_str());
             if (!annotations) {
                 failSession(spec, dir, annotations.error(), "its annotations cannot be opened (see the server's log)", EXIT_INPUT);
                 continue;
