@@ -8,6 +8,7 @@ import { flushLive, sendView, applyChange } from "./edits.js";
 import { endDrag } from "./drag.js";
 import { onFinal, onLiveFrame, refreshFinal } from "./final.js";
 import { refreshHistoryList } from "./history.js";
+import { onAnnotations, refreshAnnotations } from "./annotations.js";
 import { onLibrary, refreshLibrary } from "./library.js";
 import { abortIndirect, setDragModes } from "./indirect.js";
 import { scheduleOverlay } from "./overlay.js";
@@ -89,6 +90,7 @@ function onText(msg) {
   case "pick": return onPick(msg);
   case "final": return onFinal(msg);
   case "library": return onLibrary(msg);
+  case "annotations": return onAnnotations(msg);
   default: return; // newer servers may add message types: ignore what we do not know
   }
 }
@@ -131,6 +133,7 @@ function onWelcome(msg) {
   refreshHistory();
   refreshFinal();
   refreshLibrary();
+  refreshAnnotations();
 }
 
 /** A new sequence number for a message, remembered until its ack or error. */

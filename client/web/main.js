@@ -3,6 +3,7 @@
 // functions when they load; everything that touches the page starts here, after the whole
 // document is parsed (module scripts are deferred).
 
+import { initAnnotations, setTool, annotationTool } from "./annotations.js";
 import { connect, loadSchema, renderStats, send } from "./connection.js";
 import { $, showMessage } from "./dom.js";
 import { addLight, canEdit, deleteLight, duplicateLight, redo, undo } from "./edits.js";
@@ -25,6 +26,7 @@ initPresence();
 initFinal();
 initLibrary();
 initGroups();
+initAnnotations();
 initSchematic();
 setInterval(renderStats, 500);
 
@@ -59,7 +61,9 @@ document.addEventListener("keydown", (e) => {
   case ",": return stepKey(-1);
   case ".": return stepKey(1);
   case "Delete": return canEdit() && deleteLight();
-  case "Escape": S.pickResult = null; return scheduleOverlay();
+  case "n": return setTool(annotationTool() === "pin" ? null : "pin");
+  case "N": return setTool(annotationTool() === "stroke" ? null : "stroke");
+  case "Escape": if (annotationTool()) setTool(null); S.pickResult = null; return scheduleOverlay();
   // "d" (direct handles) and the drag modes' keys, from the server's schema (indirect.js).
   default: if (dragModeKey(e.key)) e.preventDefault(); return;
   }

@@ -2,6 +2,7 @@
 // radii, an area light's size and roll) and markers for the other lights, area lights' outlines,
 // projected with the shot's camera and drawn as SVG in screen space; who else is dragging what.
 
+import { drawAnnotations } from "./annotations.js";
 import { areaFrame, areaHandles, areaOutline, cornerChains } from "./area.js";
 import { Cam } from "./camera.js";
 import { $, SVGNS, showMessage, svg } from "./dom.js";
@@ -342,6 +343,7 @@ function drawOverlay() {
   const root = $("overlay");
   root.innerHTML = "";
   if (!S.rig || !Cam.W) return;
+  drawAnnotations(root); // under the handles, which stay grabbable over a pin
   if (S.pickResult?.hit) {
     const s = toScreen({ x: S.pickResult.x + 0.5, y: S.pickResult.y + 0.5 });
     svg("path", { d: `M${s.x - 7},${s.y}h5m4,0h5M${s.x},${s.y - 7}v5m0,4v5`, stroke: "#0ff", "stroke-width": 1.5 }, root);

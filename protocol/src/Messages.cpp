@@ -341,6 +341,14 @@ Result<ClientMessage> clientMessageFromJson(const json& j) {
         }
         return ClientMessage{m};
     }
+    if (type == "annotate") {
+        auto seq = needSeq(j, type);
+        if (!seq) return seq.error();
+        auto m = annotationFromJson(j, type, /*message=*/true);
+        if (!m) return m.error();
+        m->seq = seq.value();
+        return ClientMessage{std::move(m.value())};
+    }
     if (type == "presence") {
         if (auto s = onlyFields(j, type, {"type", "editing"}); !s) return s.error();
         PresenceMessage m;
@@ -353,6 +361,57 @@ Result<ClientMessage> clientMessageFromJson(const json& j) {
         return ClientMessage{m};
     }
     return protocolError("unknown message type '" + type + "'");
+}
+
+Result<AnnotateMessage> annotationFromJson(const json& j, const std::string& what, bool message) {
+    if (!j.is_object()) return protocolError(what + ": expected an object {\"kind\", \"points\", \"text\", \"color\"}");
+    auto s = message ? onlyFields(j, what, {"type", "seq", "kind", "points", "text", "color"})
+                     : onlyFields(j, what, {"kind", "points", "text", "color"});
+    if (!s) return s.error();
+    AnnotateMessage m;
+    const std::string kind = j.contains("kind") && j["kind"].is_string() ? j["kind"].get<std::string>() : "";
+    if (kind != "pin" && kind != "stroke") return protocolError(what + ".kind: expected \"pin\" or \"stroke\"");
+    m.kind = kind;
+    const bool pin = kind == "pin";
+    const std::string count = pin ? "exactly 1 point" : "2.." + std::to_string(MAX_ANNOTATION_POINTS) + " points";
+    if (!j.contains("points") || !j["points"].is_array()) return protocolError(what + ".points: expected an array of [x, y] (" + kind + ": " + count + ")");
+    const json& pts = j["points"];
+    if (pin ? pts.size() != 1 : (pts.size() < 2 || pts.size() > MAX_ANNOTATION_POINTS)) {
+        return invalid(what + ".points: a " + kind + " has " + count + ", not " + std::to_string(pts.size()));
+    }
+    for (size_t i = 0; i < pts.size(); ++i) {
+        const json& p = pts[i];
+        if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number() || !std::isfinite(p[0].get<double>()) ||
+            !std::isfinite(p[1].get<double>())) {
+            return protocolError(what + ".points[" + std::to_string(i) + "]: " + excerpt(p) + " is not a pixel [x, y] of finite numbers");
+        }
+        m.points.push_back({p[0].get<double>(), p[1].get<double>()});
+    }
+    if (j.contains("text")) {
+        if (!j["text"].is_string()) return protocolError(what + ".text: expected a string");
+        m.text = j["text"].get<std::string>();
+    }
+    // Characters, not bytes: a comment in any script has the same room. The JSON parser has
+    // checked the UTF-8, so counting the bytes that start a character is enough.
+    const size_t chars = size_t(std::count_if(m.text.begin(), m.text.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; }));
+    if (pin && chars == 0) return invalid(what + ".text: a pin needs a comment (1.." + std::to_string(MAX_ANNOTATION_TEXT) + " characters)");
+    if (chars > MAX_ANNOTATION_TEXT) {
+        return invalid(what + ".text: " + std::to_string(chars) + " characters, more than the " + std::to_string(MAX_ANNOTATION_TEXT) + " allowed");
+    }
+    for (char c : m.text) {
+        if ((static_cast<unsigned char>(c) < 0x20 && c != '\n' && c != '\t') || c == 0x7f) {
+            return invalid(what + ".text: control characters other than newline and tab are not allowed");
+        }
+    }
+    if (j.contains("color") && !j["color"].is_null()) {
+        const std::string c = j["color"].is_string() ? j["color"].get<std::string>() : "";
+        const bool hex = c.size() == 7 && c[0] == '#' &&
+                         std::all_of(c.begin() + 1, c.end(), [](char x) { return std::isxdigit(static_cast<unsigned char>(x)) != 0; });
+        if (!hex) return invalid(what + ".color: " + excerpt(j["color"]) + " is not a color \"#rrggbb\"");
+        m.color = c;
+        std::transform(m.color.begin(), m.color.end(), m.color.begin(), [](char x) { return char(std::tolower(static_cast<unsigned char>(x))); });
+    }
+    return m;
 }
 
 nlohmann::json changesToJson(const std::vector<Change>& changes) {
@@ -400,6 +459,15 @@ std::string encode(const DragMessage& m) {
         j["x"] = m.x;
         j["y"] = m.y;
     }
+    return dump(j);
+}
+
+std::string encode(const AnnotateMessage& m) {
+    json pts = json::array();
+    for (const auto& p : m.points) pts.push_back({p[0], p[1]});
+    json j{{"type", "annotate"}, {"seq", m.seq}, {"kind", m.kind}, {"points", pts}};
+    if (!m.text.empty()) j["text"] = m.text;
+    if (!m.color.empty()) j["color"] = m.color;
     return dump(j);
 }
 

@@ -383,6 +383,17 @@ int main(int argc, char** argv) {
             }
             hub->setLibrary(std::move(library.value()));
         }
+        {
+            // Annotations the same way (session/Annotations.h): a damaged one named and skipped.
+            std::vector<std::string> annotationsReport;
+            auto annotations = dfb::Annotations::open(dir.empty() ? dir : dir / "annotations", &annotationsReport);
+            for (const std::string& note : annotationsReport) std::fprintf(stderr, "dfb-server: session %s: annotations: %s\n", spec.name.c_str(), note.c_str());
+            if (!annotations) {
+                failSession(spec, dir, annotations.error(), "its annotations cannot be opened (see the server's log)", EXIT_INPUT);
+                continue;
+            }
+            hub->setAnnotations(std::move(annotations.value()));
+        }
         finalLimits.timeLimit = std::chrono::seconds(finalTimeout);
         hub->finals().setLimits(finalLimits);
         hub->render().requestFrame();

@@ -1708,6 +1708,85 @@ try {
     await waitRig((r) => !r.groups && JSON.stringify(r.lights) === JSON.stringify(r0.lights), "the rig as before");
   });
 
+  await check("annotations: a pin placed in one page appears live in another with its comment where it was put; resolve hides it; a viewer annotates", async () => {
+    // With the pin tool on, a click on the image places the pin (not a pick, not a handle's
+    // drag) and the panel asks for the comment.
+    await a.click("#annoPin");
+    const at = await imageToScreen(a, 200, 60);
+    await a.mouse.click(at.x, at.y);
+    await a.waitForSelector("#annoCommentRow", { ...WAIT, state: "visible" });
+    await a.fill("#annoText", "too hot on the cup");
+    await a.press("#annoText", "Enter");
+    await a.waitForSelector("#annoCommentRow", { ...WAIT, state: "hidden" });
+    await a.click("#annoPin"); // tool off
+    const list = await http("annotations");
+    const pin = list.annotations.find((x) => x.text === "too hot on the cup");
+    const rigNow = await getRig();
+    assert(pin && pin.kind === "pin" && pin.by === "alice" && pin.rigVersion === rigNow.version &&
+           Math.abs(pin.points[0][0] - 200) < 1 && Math.abs(pin.points[0][1] - 60) < 1, JSON.stringify(list));
+    // The other page: listed with author and version, drawn with its tip on the same image point.
+    const item = `#annotationList li[data-annotation="${pin.id}"]`;
+    const mark = `#overlay g.anno[data-annotation="${pin.id}"]`;
+    await b.waitForSelector(`${mark} text`, WAIT);
+    const meta = await b.textContent(`${item} .hint`);
+    assert(meta.includes(`v${pin.rigVersion} · alice`), `the entry says ${meta}`);
+    assert((await b.textContent(`${mark} text`)) === "too hot on the cup", "the pin's comment on the image");
+    // The tip: the bottom centre of the pin's geometry (getBBox leaves the outline's mitre out,
+    // which reaches below the tip), in page coordinates.
+    const tip = await b.evaluate((m) => {
+      const bb = document.querySelector(`${m} path`).getBBox(), o = document.getElementById("overlay").getBoundingClientRect();
+      return { x: o.left + bb.x + bb.width / 2, y: o.top + bb.y + bb.height };
+    }, mark);
+    const want = await imageToScreen(b, pin.points[0][0], pin.points[0][1]);
+    assert(Math.abs(tip.x - want.x) < 1 && Math.abs(tip.y - want.y) < 1, `the pin's tip at ${tip.x},${tip.y}, the image point at ${want.x},${want.y}`);
+    // A stroke drawn by dragging with the stroke tool.
+    await a.click("#annoStroke");
+    const s0 = await imageToScreen(a, 40, 140);
+    await a.mouse.move(s0.x, s0.y);
+    await a.mouse.down();
+    for (let i = 1; i <= 12; i++) await a.mouse.move(s0.x + i * 8, s0.y - 20 * Math.sin(i / 4));
+    await a.mouse.up();
+    await a.click("#annoStroke");
+    await b.waitForSelector("#overlay g.anno.stroke path", WAIT);
+    const stroke = (await http("annotations")).annotations.find((x) => x.kind === "stroke");
+    assert(stroke && stroke.points.length >= 8 && Math.abs(stroke.points[0][0] - 40) < 1 && Math.abs(stroke.points[0][1] - 140) < 1,
+           `the stroke: ${JSON.stringify(stroke)}`);
+    await b.click(item); // highlights it
+    await b.mouse.move(5, 5);
+    await shot(b, "23-annotations.png");
+
+    // Resolved in the second page: gone from the first (list and image) unless "show resolved".
+    await b.click(`${item} button:text("Resolve")`);
+    await a.waitForFunction(([m, i]) => !document.querySelector(m) && !document.querySelector(i), [mark, item], WAIT);
+    await a.check("#annoShowResolved");
+    await a.waitForSelector(`#overlay g.anno.resolved[data-annotation="${pin.id}"]`, WAIT);
+    const resolved = (await http("annotations")).annotations.find((x) => x.id === pin.id);
+    assert(resolved.resolved && resolved.resolvedBy === "bob", JSON.stringify(resolved));
+    await a.click(`${item} button:text("Reopen")`);
+    await b.waitForSelector(`${mark}:not(.resolved)`, WAIT);
+    await a.uncheck("#annoShowResolved");
+
+    // A viewer may annotate (its tools are not disabled) and resolve, not delete.
+    const ctxV = await browser.newContext({ viewport, ignoreHTTPSErrors: tlsArgs.length > 0 });
+    const v = track(await ctxV.newPage());
+    await v.goto(`${server.viewerUrl}&name=vic`);
+    await v.waitForSelector(`${item} button`, WAIT);
+    const controls = await v.evaluate((i) => ({ pin: document.getElementById("annoPin").disabled, resolve: document.querySelector(`${i} button`).disabled,
+                                                del: document.querySelector(`${i} button[data-edit]`).disabled }), item);
+    assert(!controls.pin && !controls.resolve && controls.del, `viewer controls: ${JSON.stringify(controls)}`);
+    await v.click("#annoPin");
+    const vAt = await imageToScreen(v, 280, 150);
+    await v.mouse.click(vAt.x, vAt.y);
+    await v.fill("#annoText", "viewer note");
+    await v.click("#annoAdd");
+    await a.waitForSelector('#overlay g.anno text:text("viewer note")', WAIT);
+    const note = (await http("annotations")).annotations.find((x) => x.text === "viewer note");
+    assert(note && note.by === "vic" && Math.abs(note.points[0][0] - 280) < 1, JSON.stringify(note));
+    await v.mouse.move(5, 5);
+    await shot(v, "24-annotations-viewer.png");
+    await ctxV.close();
+  });
+
   await check("after the server restarts the page reconnects and shows the same rig", async () => {
     const rigBefore = await getRig();
     restarting = true;
@@ -1731,7 +1810,19 @@ try {
     // The session's snapshots and saved rigs are kept with it.
     const lib = await http("library");
     assert(lib.snapshots.some((x) => x.name === "before") && lib.rigs.some((x) => x.name === "brighter"), `after the restart: ${JSON.stringify(lib)}`);
+    // And its annotations, drawn again in the reconnected page.
+    const notes = await http("annotations");
+    assert(notes.annotations.some((x) => x.text === "too hot on the cup") && notes.annotations.some((x) => x.text === "viewer note"),
+           `annotations after the restart: ${JSON.stringify(notes)}`);
+    await a.waitForSelector('#overlay g.anno text:text("viewer note")', WAIT);
     await a.waitForFunction(() => document.querySelector('#snapshots li[data-snapshot="before"] img.thumb')?.naturalWidth > 0, null, WAIT);
+    // Resolved (so hidden) from here on: the final render's check compares the image's pixels.
+    for (const n of notes.annotations.filter((x) => !x.resolved)) {
+      const res = await fetch(new URL(`/v1/sessions/${server.session}/annotations/${n.id}/resolve`, server.base),
+                              { method: "POST", headers: { Authorization: `Bearer ${server.token}` } });
+      assert(res.ok, `resolve ${n.id}: HTTP ${res.status}`);
+    }
+    await a.waitForFunction(() => !document.querySelector("#overlay g.anno"), null, WAIT);
   });
 
   await check("a final render in Cycles is shown beside the preview: final, wipe and difference", async () => {

@@ -583,6 +583,49 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
         hub->libraryChanged();
         return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(json{{"deleted", name}}, 2)));
     }
+    if (resource == "annotations" || resource.rfind("annotations/", 0) == 0) {
+        // Annotations (session/Annotations.h; docs/protocol.md "Annotations"): read, added,
+        // resolved and reopened by any role, viewers included (a review note is not an edit of
+        // the rig); deleted by editors. Every change sends every client the whole list.
+        Annotations& notes = hub->annotations();
+        if (resource == "annotations") {
+            if (get) return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(json{{"annotations", notes.list()}}, 2)));
+            if (!post) return notAllowed("GET, HEAD, POST");
+            auto body = protocol::parseJson(req.body(), MAX_BODY_BYTES, "POST annotations: the body");
+            if (!body) return refuse(body.error());
+            auto shape = protocol::annotationFromJson(body.value(), "annotation");
+            if (!shape) return refuse(shape.error());
+            auto out = notes.add(shape.value(), hub->shot().width, hub->shot().height, session.rigVersion(), author.name);
+            if (!out) return refuse(out.error());
+            hub->annotationsChanged();
+            return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(out.value(), 2)));
+        }
+        // annotations/N, annotations/N/resolve, annotations/N/reopen
+        const std::string rest = resource.substr(12);
+        const size_t slash = rest.find('/');
+        const std::string n = rest.substr(0, slash), action = slash == std::string::npos ? "" : rest.substr(slash + 1);
+        if (n.empty() || n.size() > 19 || n.find_first_not_of("0123456789") != std::string::npos ||
+            (!action.empty() && action != "resolve" && action != "reopen")) {
+            return refuse(makeError(ErrorCode::MissingData, "no such resource: annotations/" + rest.substr(0, 64) +
+                                                                " (expected annotations/ID, annotations/ID/resolve or annotations/ID/reopen)"),
+                          http::status::not_found);
+        }
+        const uint64_t id = std::stoull(n);
+        if (!action.empty()) {
+            if (!post) return notAllowed("POST");
+            auto out = notes.setResolved(id, action == "resolve", author.name);
+            if (!out) return refuse(out.error());
+            hub->annotationsChanged();
+            return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(out.value(), 2)));
+        }
+        if (req.method() != http::verb::delete_) return notAllowed("DELETE");
+        if (role != protocol::Role::Editor) {
+            return refuse(makeError(ErrorCode::Forbidden, "a viewer token cannot delete annotations (resolve it instead)"));
+        }
+        if (auto st = notes.remove(id); !st) return refuse(st.error());
+        hub->annotationsChanged();
+        return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(json{{"deleted", id}}, 2)));
+    }
     if (resource == "drag") {
         // A whole drag in one request (docs/protocol.md "Drags"): begin at `from`, one update to
         // `to`, end; one edit, one undo step.

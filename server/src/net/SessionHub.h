@@ -6,6 +6,7 @@
 
 #include "net/Beast.h"
 #include "net/FinalRenders.h"
+#include "session/Annotations.h"
 #include "session/Library.h"
 #include "session/Metrics.h"
 #include "session/RenderService.h"
@@ -63,6 +64,12 @@ public:
     void setLibrary(std::unique_ptr<Library> library) { mLibrary = std::move(library); }
     /// Tells every client the library's new list (a `library` message, docs/protocol.md).
     void libraryChanged();
+    /// The session's annotations (session/Annotations.h); in memory until setAnnotations.
+    Annotations& annotations() { return *mAnnotations; }
+    void setAnnotations(std::unique_ptr<Annotations> annotations) { mAnnotations = std::move(annotations); }
+    /// Tells every client the whole list of annotations (an `annotations` message,
+    /// docs/protocol.md "Annotations"; at most Annotations::MAX_ANNOTATIONS).
+    void annotationsChanged();
     /// Sends one text message to every client.
     void broadcastText(std::shared_ptr<const std::string> message);
     Metrics& metrics() { return mMetrics; }
@@ -97,6 +104,7 @@ private:
     asio::steady_timer mHousekeeping;
     std::unique_ptr<FinalRenders> mFinals;
     std::unique_ptr<Library> mLibrary = Library::open({}).value();
+    std::unique_ptr<Annotations> mAnnotations = Annotations::open({}).value();
 };
 
 } // namespace dfb::net

@@ -160,6 +160,11 @@ void SessionHub::libraryChanged() {
     broadcastText(std::make_shared<const std::string>(message.dump()));
 }
 
+void SessionHub::annotationsChanged() {
+    const nlohmann::json message{{"type", "annotations"}, {"annotations", mAnnotations->list()}};
+    broadcastText(std::make_shared<const std::string>(protocol::dump(message)));
+}
+
 void SessionHub::broadcastPresence() {
     std::vector<std::weak_ptr<WebSocketSession>> targets;
     for (WebSocketSession* c : mClients) targets.push_back(c->weak_from_this());

@@ -198,6 +198,12 @@ void WebSocketSession::handleText(const std::string& text) {
                     return replyError(makeError(ErrorCode::Forbidden, "this connection has a viewer token: viewers cannot drag lights"), m.seq);
                 }
                 handleDrag(m);
+            } else if constexpr (std::is_same_v<T, protocol::AnnotateMessage>) {
+                // Any role: a review note is not an edit of the rig (session/Annotations.h).
+                auto out = mHub->annotations().add(m, mHub->shot().width, mHub->shot().height, session.rigVersion(), mName);
+                if (!out) return replyError(out.error(), m.seq);
+                reply(protocol::encodeAck(m.seq, session.rigVersion(), {{"annotation", out.value()}}));
+                mHub->annotationsChanged();
             }
         },
         parsed.value());

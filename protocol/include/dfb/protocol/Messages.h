@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -152,8 +153,27 @@ const char* toString(DragPhase phase);
 struct PresenceMessage {
     std::optional<std::string> editing;
 };
+/// A new annotation on the frame (docs/protocol.md "Annotations"): a pin (one point and a
+/// comment) or a freehand stroke (MIN..MAX_ANNOTATION_POINTS points, an optional note), in shot
+/// pixels (x right, y down from the top left corner). Viewers may send it: annotating is not
+/// editing the rig. The server checks the points against the shot's size and answers an ack with
+/// the new annotation.
+struct AnnotateMessage {
+    uint64_t seq = 0;
+    std::string kind;                         ///< "pin" or "stroke"
+    std::vector<std::array<double, 2>> points; ///< pin: one; stroke: 2..MAX_ANNOTATION_POINTS
+    std::string text;                         ///< pin: 1..MAX_ANNOTATION_TEXT characters; stroke: optional
+    std::string color;                        ///< "#rrggbb", or empty: the page's default
+};
+constexpr size_t MAX_ANNOTATION_POINTS = 2000;
+constexpr size_t MAX_ANNOTATION_TEXT = 2000; ///< characters (Unicode code points), not bytes
+/// The annotation fields of `j` (kind, points, text, color; with `message` also type and seq,
+/// which the caller reads): the checks that need no shot, each error naming `what`.FIELD and its
+/// limit. The same for the WebSocket message and the HTTP body (POST annotations).
+Result<AnnotateMessage> annotationFromJson(const nlohmann::json& j, const std::string& what, bool message = false);
+
 using ClientMessage = std::variant<HelloMessage, EditMessage, UndoMessage, RedoMessage, TimeMessage, ViewMessage,
-                                   PickMessage, PresenceMessage, DragMessage>;
+                                   PickMessage, PresenceMessage, DragMessage, AnnotateMessage>;
 
 /// Parses and validates one text message from a client (types and fields; rig values are checked
 /// when applied). Errors: Protocol, naming the message type and field; LimitExceeded for a
@@ -173,6 +193,7 @@ std::string encode(const ViewMessage& m);
 std::string encode(const PickMessage& m);
 std::string encode(const PresenceMessage& m);
 std::string encode(const DragMessage& m);
+std::string encode(const AnnotateMessage& m);
 
 // ---- server -> client ---------------------------------------------------------------------------
 /// One connected client as presence reports it.
