@@ -254,6 +254,13 @@ Result<ClientMessage> clientMessageFromJson(const json& j) {
         if (type == "undo") return ClientMessage{UndoMessage{seq.value()}};
         return ClientMessage{RedoMessage{seq.value()}};
     }
+    if (type == "restore") {
+        if (auto s = onlyFields(j, type, {"type", "seq", "version"}); !s) return s.error();
+        auto seq = needSeq(j, type);
+        if (!seq) return seq.error();
+        if (!j.contains("version") || !j["version"].is_number_unsigned()) return protocolError("restore.version: expected a rig version");
+        return ClientMessage{RestoreMessage{seq.value(), j["version"].get<uint64_t>()}};
+    }
     if (type == "time") {
         if (auto s = onlyFields(j, type, {"type", "seq", "t"}); !s) return s.error();
         auto seq = needSeq(j, type);
@@ -431,6 +438,7 @@ std::string encode(const EditMessage& m) {
 }
 std::string encode(const UndoMessage& m) { return dump(json{{"type", "undo"}, {"seq", m.seq}}); }
 std::string encode(const RedoMessage& m) { return dump(json{{"type", "redo"}, {"seq", m.seq}}); }
+std::string encode(const RestoreMessage& m) { return dump(json{{"type", "restore"}, {"seq", m.seq}, {"version", m.version}}); }
 std::string encode(const TimeMessage& m) { return dump(json{{"type", "time"}, {"seq", m.seq}, {"t", m.seconds}}); }
 std::string encode(const ViewMessage& m) {
     json j = m.settings.is_object() ? m.settings : json::object();

@@ -124,14 +124,32 @@ TEST(ServerLibrary, SnapshotsAndSavedRigsAreSharedUndoableAndKeptAcrossRestarts)
         r = http(server.port, "POST", base + "/rigs/nosuch/load", t.editor);
         EXPECT_EQ(r.status, 404) << r.body;
 
+        // "Go to this version" over the WebSocket: the editor's restore is one edit; a viewer's is refused.
+        {
+            dfb::test::WsClient editor(server.port, id, t.editor);
+            editor.nextText(); // welcome
+            editor.send(R"({"type": "restore", "seq": 5, "version": )" + std::to_string(rigA["version"].get<uint64_t>()) + "}");
+            const json ack = editor.nextText({"presence", "change", "library"});
+            EXPECT_EQ(ack["type"], "ack") << ack.dump();
+            EXPECT_EQ(server.rig(id)["lights"], rigA["lights"]);
+            watcher.send(std::string(R"({"type": "restore", "seq": 6, "version": 1})"));
+            const json refused = watcher.nextText({"presence", "change", "library"});
+            EXPECT_EQ(refused["code"], "forbidden") << refused.dump();
+            editor.send(std::string(R"({"type": "restore", "seq": 7, "version": 999999})"));
+            const json missing = editor.nextText({"presence", "change", "library"});
+            EXPECT_EQ(missing["code"], "missing_data") << missing.dump();
+            EXPECT_NE(missing.value("message", "").find("not in the session's history"), std::string::npos) << missing.dump();
+            ASSERT_EQ(http(server.port, "POST", base + "/undo", t.editor).status, 200);
+        }
         // A second snapshot and rig, then one of each deleted.
+        const json atSecond = server.rig(id);
         ASSERT_EQ(http(server.port, "POST", base + "/snapshots", t.editor, R"({"name": "second"})").status, 200);
         ASSERT_EQ(http(server.port, "POST", base + "/rigs", t.editor, R"({"name": "gone"})").status, 200);
         ASSERT_EQ(http(server.port, "DELETE", base + "/rigs/gone", t.editor).status, 200);
         auto list = http(server.port, "GET", base + "/library", t.viewer).json();
         ASSERT_EQ(list["snapshots"].size(), 2u) << list.dump();
         ASSERT_EQ(list["rigs"].size(), 1u) << list.dump();
-        EXPECT_EQ(list["snapshots"][1]["rigVersion"], undone["version"]) << "a snapshot names the version it shows";
+        EXPECT_EQ(list["snapshots"][1]["rigVersion"], atSecond["version"]) << "a snapshot names the version it shows";
     }
     // A damaged record beside the good ones.
     const auto lib = state / id / "library";

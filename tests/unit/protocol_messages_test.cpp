@@ -13,7 +13,7 @@ using json = nlohmann::json;
 TEST(Messages, EveryClientMessageRoundTrips) {
     EditMessage e{7, {{"key.intensity", 500}, {"key.position", json::array({1, 2, 3})}}, 4, 5};
     const std::vector<std::string> texts = {
-        encode(HelloMessage{1, "alice"}), encode(e), encode(UndoMessage{8}), encode(RedoMessage{9}), encode(TimeMessage{10, 1.5}),
+        encode(HelloMessage{1, "alice"}), encode(e), encode(UndoMessage{8}), encode(RedoMessage{9}), encode(RestoreMessage{18, 42}), encode(TimeMessage{10, 1.5}),
         encode(ViewMessage{11, {{"output", "shadow:key"}, {"encoding", "png"}}}), encode(PickMessage{12, 3, 4}),
         encode(PresenceMessage{std::string("key")}), encode(PresenceMessage{}),
         encode(DragMessage{13, DragPhase::Begin, "shadow", "key", 10, 20, {}}),
@@ -55,6 +55,8 @@ TEST(Messages, RefusesMalformedMessagesNamingTheProblem) {
                           Case{R"({"type":"hello","protocol":0})", ErrorCode::Protocol, "protocol"},
                           Case{R"({"type":"hello","name":5})", ErrorCode::Protocol, "hello.name"},
                           Case{R"({"type":"undo"})", ErrorCode::Protocol, "undo.seq"},
+                          Case{R"({"type":"restore","seq":1})", ErrorCode::Protocol, "restore.version"},
+                          Case{R"({"type":"restore","seq":1,"version":-3})", ErrorCode::Protocol, "restore.version"},
                           Case{R"({"type":"time","seq":1})", ErrorCode::Protocol, "time.t"},
                           Case{R"({"type":"view","seq":1,"quality":0})", ErrorCode::InvalidValue, "view.quality"},
                           Case{R"({"type":"view","seq":1,"exposure":30})", ErrorCode::InvalidValue, "view.exposure"},

@@ -166,6 +166,12 @@ void WebSocketSession::handleText(const std::string& text) {
                 change(m.seq, [&] { return session.undo(me); });
             } else if constexpr (std::is_same_v<T, protocol::RedoMessage>) {
                 change(m.seq, [&] { return session.redo(me); });
+            } else if constexpr (std::is_same_v<T, protocol::RestoreMessage>) {
+                change(m.seq, [&]() -> Result<ChangeOutcome> {
+                    auto rig = session.rigAtVersion(m.version);
+                    if (!rig) return rig.error();
+                    return session.replace(rig.value(), me);
+                });
             } else if constexpr (std::is_same_v<T, protocol::TimeMessage>) {
                 change(m.seq, [&] { return session.setTime(m.seconds, me); });
             } else if constexpr (std::is_same_v<T, protocol::ViewMessage>) {

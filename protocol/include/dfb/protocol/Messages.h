@@ -114,6 +114,12 @@ struct UndoMessage {
 struct RedoMessage {
     uint64_t seq = 0;
 };
+/// "Go to this version": the rig as it was at `version` (one in the session's history) replaces
+/// the live one, as one undoable edit (as POST .../history/V/restore).
+struct RestoreMessage {
+    uint64_t seq = 0;
+    uint64_t version = 0;
+};
 /// Set the session clock (where keyframes are evaluated), seconds.
 struct TimeMessage {
     uint64_t seq = 0;
@@ -173,7 +179,7 @@ constexpr size_t MAX_ANNOTATION_TEXT = 2000; ///< characters (Unicode code point
 Result<AnnotateMessage> annotationFromJson(const nlohmann::json& j, const std::string& what, bool message = false);
 
 using ClientMessage = std::variant<HelloMessage, EditMessage, UndoMessage, RedoMessage, TimeMessage, ViewMessage,
-                                   PickMessage, PresenceMessage, DragMessage, AnnotateMessage>;
+                                   PickMessage, PresenceMessage, DragMessage, AnnotateMessage, RestoreMessage>;
 
 /// Parses and validates one text message from a client (types and fields; rig values are checked
 /// when applied). Errors: Protocol, naming the message type and field; LimitExceeded for a
@@ -194,6 +200,7 @@ std::string encode(const PickMessage& m);
 std::string encode(const PresenceMessage& m);
 std::string encode(const DragMessage& m);
 std::string encode(const AnnotateMessage& m);
+std::string encode(const RestoreMessage& m);
 
 // ---- server -> client ---------------------------------------------------------------------------
 /// One connected client as presence reports it.
