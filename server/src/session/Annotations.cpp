@@ -5,10 +5,6 @@
 #include <dfb/protocol/Json.h>
 
 #include <algorithm>
-#include <chrono>
-#include <ctime>
-#include <fstream>
-#include <sstream>
 
 namespace dfb {
 namespace {
@@ -19,15 +15,6 @@ namespace fs = std::filesystem;
 // A record is a few kilobytes (2000 points, 2000 characters): a much larger file is not one the
 // server wrote, and is refused on load instead of read into memory.
 constexpr uintmax_t MAX_RECORD_BYTES = uintmax_t(1) << 20;
-
-std::string utcNow() {
-    const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char buf[32];
-    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return buf;
-}
 
 // The record's file: ID.json, the id in decimal.
 fs::path fileOf(const fs::path& dir, uint64_t id) { return dir / (std::to_string(id) + ".json"); }
@@ -83,20 +70,12 @@ Result<std::unique_ptr<Annotations>> Annotations::open(const fs::path& dir, std:
     if (ec) return makeError(ErrorCode::IoError, dir.string() + ": cannot list: " + ec.message());
     std::sort(records.begin(), records.end());
     for (const auto& [id, p] : records) {
-        std::error_code sizeEc;
-        const uintmax_t size = fs::file_size(p, sizeEc);
-        if (sizeEc) {
-            skip(p, sizeEc.message());
+        auto text = Journal::readFileBounded(p, MAX_RECORD_BYTES);
+        if (!text) {
+            skip(p, text.error().message);
             continue;
         }
-        if (size > MAX_RECORD_BYTES) {
-            skip(p, "larger than 1 MiB");
-            continue;
-        }
-        std::ifstream in(p, std::ios::binary);
-        std::ostringstream text;
-        text << in.rdbuf();
-        json j = json::parse(text.str(), nullptr, false);
+        json j = json::parse(text.value(), nullptr, false);
         if (j.is_discarded()) {
             skip(p, "not JSON");
             continue;
@@ -168,7 +147,7 @@ Result<json> Annotations::add(const protocol::AnnotateMessage& shape, int width,
     a.shape.seq = 0;
     a.rigVersion = rigVersion;
     a.by = by;
-    a.time = utcNow();
+    a.time = Journal::utcTimestamp();
     if (auto s = save(a); !s) return s.error();
     ++mNextId;
     mPoints += a.shape.points.size();
@@ -183,7 +162,7 @@ Result<json> Annotations::setResolved(uint64_t id, bool resolved, const std::str
     Annotation a = it->second;
     if (resolved && !a.resolved) {
         a.resolvedBy = by;
-        a.resolvedTime = utcNow();
+        a.resolvedTime = Journal::utcTimestamp();
     } else if (!resolved) {
         a.resolvedBy.clear();
         a.resolvedTime.clear();

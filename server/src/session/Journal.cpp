@@ -5,6 +5,7 @@
 #include <boost/crc.hpp>
 
 #include <atomic>
+#include <chrono>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
@@ -412,6 +413,29 @@ Status Journal::saveRig(const json& rig) {
 
 Status Journal::writeFileDurably(const std::filesystem::path& path, std::string_view data) {
     return replaceDurably(path, data);
+}
+
+Result<std::string> Journal::readFileBounded(const std::filesystem::path& path, uintmax_t maxBytes) {
+    std::error_code ec;
+    const uintmax_t size = std::filesystem::file_size(path, ec);
+    if (ec) return makeError(ErrorCode::FileNotFound, ec.message());
+    if (size > maxBytes) {
+        return makeError(ErrorCode::LimitExceeded, "larger than " + std::to_string(maxBytes >> 20) + " MiB");
+    }
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (!in.good() && !in.eof()) return makeError(ErrorCode::IoError, "cannot read");
+    return text.str();
+}
+
+std::string Journal::utcTimestamp() {
+    const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
 }
 
 } // namespace dfb

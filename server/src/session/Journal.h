@@ -88,6 +88,13 @@ public:
     /// Writes `data` to `path` so that after a crash `path` holds either its old content or all
     /// of `data` (temp file, fsync, rename, fsync of the folder); the session library's files.
     static Status writeFileDurably(const std::filesystem::path& path, std::string_view data);
+    /// Reads a whole file of at most `maxBytes` (the session's own records and images: a larger
+    /// one is not one the server wrote, refused with LimitExceeded instead of read into memory).
+    /// Error messages do not repeat the path: callers name the file.
+    static Result<std::string> readFileBounded(const std::filesystem::path& path, uintmax_t maxBytes);
+    /// Now, UTC, ISO 8601 to the second ("2026-12-05T19:47:41Z"): the time of library entries and
+    /// annotations.
+    static std::string utcTimestamp();
     /// Replaces DIR/rig.json atomically (not durably: a restart trusts the journal, not it).
     Status saveRig(const nlohmann::json& rig);
 

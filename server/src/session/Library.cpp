@@ -8,10 +8,6 @@
 #include <dfb/server/ImageCodec.h>
 
 #include <algorithm>
-#include <chrono>
-#include <ctime>
-#include <fstream>
-#include <sstream>
 
 namespace dfb {
 namespace {
@@ -24,27 +20,6 @@ constexpr const char* RIGS = "rigs";
 // A record or an image larger than this is not one the server wrote (a 16k frame at quality 85
 // is ~40 MB): refused on load instead of read into memory.
 constexpr uintmax_t MAX_FILE_BYTES = uintmax_t(256) << 20;
-
-std::string utcNow() {
-    const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char buf[32];
-    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return buf;
-}
-
-Result<std::string> readFile(const fs::path& p) {
-    std::error_code ec;
-    const uintmax_t size = fs::file_size(p, ec);
-    if (ec) return makeError(ErrorCode::FileNotFound, p.string() + ": " + ec.message());
-    if (size > MAX_FILE_BYTES) return makeError(ErrorCode::LimitExceeded, p.string() + ": larger than 256 MiB");
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    if (!in.good() && !in.eof()) return makeError(ErrorCode::IoError, p.string() + ": cannot read");
-    return s.str();
-}
 
 Status checkName(const std::string& what, const std::string& name) {
     if (!protocol::isValidName(name)) {
@@ -79,7 +54,7 @@ Library::Entry makeEntry(const std::string& name, const Rig& rig, const std::str
     e.name = name;
     e.rigVersion = rig.version;
     e.by = by;
-    e.time = utcNow();
+    e.time = Journal::utcTimestamp();
     e.rig = protocol::toJson(rig);
     return e;
 }
@@ -120,7 +95,7 @@ Result<std::unique_ptr<Library>> Library::open(const fs::path& dir, std::vector<
                 skip(p, protocol::NAME_RULE);
                 continue;
             }
-            auto text = readFile(p);
+            auto text = Journal::readFileBounded(p, MAX_FILE_BYTES);
             if (!text) {
                 skip(p, text.error().message);
                 continue;
@@ -141,8 +116,8 @@ Result<std::unique_ptr<Library>> Library::open(const fs::path& dir, std::vector<
             }
             auto s = std::make_shared<Snapshot>();
             static_cast<Entry&>(*s) = std::move(e.value());
-            auto image = readFile(dir / sub / (name + ".jpg"));
-            auto thumb = readFile(dir / sub / (name + ".thumb.jpg"));
+            auto image = Journal::readFileBounded(dir / sub / (name + ".jpg"), MAX_FILE_BYTES);
+            auto thumb = Journal::readFileBounded(dir / sub / (name + ".thumb.jpg"), MAX_FILE_BYTES);
             if (!image || !thumb) {
                 skip(p, "its image: " + (!image ? image.error().message : thumb.error().message));
                 continue;

@@ -60,6 +60,13 @@ bool overlaps(const std::string& a, const std::string& b) {
 // sent, so its handle lands where the server stopped it); whatever else still differs from the
 // limited light is appended as the whole property. Fills `report` per limited light.
 std::vector<protocol::Change> limitFolds(const Rig& before, std::vector<protocol::Change> changes, json& report) {
+    // Most edits touch no chain (intensity, colour, a spot's aim): no trial application then. A
+    // change of a light's type to a chained one has no "before" chain to limit against either.
+    const bool chained = std::any_of(changes.begin(), changes.end(), [&](const protocol::Change& c) {
+        const Light* l = before.find(c.path.substr(0, c.path.find('.')));
+        return l && (l->type == LightType::Bendy || l->type == LightType::BentArea);
+    });
+    if (!chained) return changes;
     Rig after = before;
     if (!protocol::applyChanges(after, changes)) return changes;
     for (const Light& a : after.lights) {
