@@ -137,8 +137,8 @@ std::string chainWarning(const Light& light);
 std::string chainWarning(const Light& light, double foldLimit, double apartLimit);
 
 /// Margins of the edit limiter: it stops where R kappa reaches 0.9 or the tube comes within
-/// 1.1 x its radii of itself (the local shadow edit's regulariser starts at the same onsets,
-/// LocalShadowEdit.h FOLD_ONSET / APART_ONSET), so that a limited drag leaves the tube visibly
+/// 1.1 x its radii of itself (the local shadow edit's regulariser starts at these onsets too,
+/// LocalShadowEdit.h FOLD_ONSET / APART_ONSET are they), so that a limited drag leaves the tube visibly
 /// clear of the fold, where the deformation still has one foot per point.
 constexpr double LIMIT_FOLD = 0.9;
 constexpr double LIMIT_APART = 1.1;

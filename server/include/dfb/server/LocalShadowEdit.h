@@ -103,8 +103,9 @@ constexpr double LOCAL_ACCEPTED = ACCEPTED;
 constexpr double LOCAL_CONVERGED = 1e-3 * LOCAL_ACCEPTED;
 /// Onsets of the regulariser: R kappa where the fold penalty starts (chainWarning: 1), and the
 /// distance over the sum of radii below which the self-intersection penalty starts (chainWarning: 1).
-constexpr double FOLD_ONSET = 0.9;
-constexpr double APART_ONSET = 1.1;
+/// The edit limiter's margins (BendyChain.h): one pair of numbers for both.
+constexpr double FOLD_ONSET = LIMIT_FOLD;
+constexpr double APART_ONSET = LIMIT_APART;
 /// Scale mode: a radius under this fraction of its begin value is penalised like a fold (a
 /// waist). The occluder samples alone would pinch the radius between S and C't towards zero to
 /// keep their coordinates while the radii beyond it grow (dfb-indirect-bench, 960x540, a 40-px
