@@ -5,6 +5,7 @@
 // (shot, scene, or a damaged session journal); 3 GPU/EGL failure; 5 network (cannot bind).
 
 #include "net/Listener.h"
+#include "net/SessionCatalog.h"
 #include "net/SessionHub.h"
 #include "net/SharedState.h"
 #include "session/RenderService.h"
@@ -26,55 +27,18 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <random>
 
-#include <sys/stat.h>
+#include <unistd.h>
 
 namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using dfb::net::SessionSpec;
+using dfb::net::validSessionName;
+using dfb::net::validToken;
 
 constexpr int EXIT_USAGE = 1, EXIT_INPUT = 2, EXIT_GPU = 3, EXIT_NETWORK = 5;
-
-bool validSessionName(const std::string& n) {
-    if (n.empty() || n.size() > 64) return false;
-    return std::all_of(n.begin(), n.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'; });
-}
-
-// Tokens are URL-safe so that they can travel in a query string.
-bool validToken(const std::string& t) {
-    if (t.size() < 16 || t.size() > 256) return false;
-    return std::all_of(t.begin(), t.end(), [](char c) {
-        return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == '~';
-    });
-}
-
-// 128 random bits from the kernel (std::random_device reads /dev/urandom on Linux), as hex.
-std::string randomToken() {
-    std::random_device rd;
-    std::string t;
-    for (int i = 0; i < 4; ++i) {
-        char buf[9];
-        std::snprintf(buf, sizeof buf, "%08x", unsigned(rd()));
-        t += buf;
-    }
-    return t;
-}
-
-struct SessionSpec {
-    std::string name;
-    std::string shotPath;
-};
-
-// A session name from a file name: its stem with anything outside [A-Za-z0-9_-] replaced.
-std::string nameFromPath(const std::string& path) {
-    std::string n = fs::path(path).stem().string();
-    for (char& c : n) {
-        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) c = '_';
-    }
-    return n.substr(0, 64);
-}
 
 // A small JSON file of the operator's (tokens), read through the bounded parser.
 constexpr size_t MAX_TOKEN_FILE_BYTES = 1 << 20;
@@ -111,27 +75,6 @@ dfb::Result<std::map<std::string, dfb::net::SessionTokens>> readTokenFile(const 
         out[it.key()] = tk;
     }
     return out;
-}
-
-// Persistent sessions keep their tokens beside the journal (readable by the owner only), so a
-// restarted server keeps every link that was handed out.
-dfb::net::SessionTokens persistentTokens(const fs::path& dir) {
-    const fs::path p = dir / "tokens.json";
-    if (auto parsed = readJsonFile(p.string(), "tokens"); parsed) {
-        const json& j = parsed.value();
-        if (j.is_object() && j.value("editor", "") != "" && j.value("viewer", "") != "" && validToken(j["editor"]) && validToken(j["viewer"])) {
-            return {j["editor"], j["viewer"]};
-        }
-    }
-    dfb::net::SessionTokens t{randomToken(), randomToken()};
-    std::error_code ec;
-    fs::create_directories(dir, ec);
-    if (std::ofstream out(p); out) {
-        out << json{{"editor", t.editor}, {"viewer", t.viewer}}.dump(2) << "\n";
-        out.close();
-        ::chmod(p.c_str(), 0600);
-    }
-    return t;
 }
 
 } // namespace
@@ -201,6 +144,18 @@ int main(int argc, char** argv) {
                                                       "journal is compacted)")
         ->check(CLI::Range(size_t(1), size_t(100000000)))
         ->capture_default_str();
+    std::string openMode = "auto", node;
+    int idleClose = 600;
+    app.add_option("--open", openMode,
+                   "when sessions are opened: at-start (all, before listening), on-request (each on its first request, closed when "
+                   "idle; needs --sessions and --state), or auto: on-request when --sessions and --state are both given")
+        ->check(CLI::IsMember({"auto", "at-start", "on-request"}))
+        ->capture_default_str();
+    app.add_option("--idle-close", idleClose, "seconds without clients or requests after which a session opened on request is closed "
+                                              "(GPU objects and memory freed, lease released; the journal stays); 0 = never")
+        ->check(CLI::Range(0, 86400 * 365))
+        ->capture_default_str();
+    app.add_option("--node", node, "this node's name in session leases and logs (default: the host name)");
     std::string tlsCert, tlsKey;
     auto* certOpt = app.add_option("--tls-cert", tlsCert, "PEM certificate chain: serve HTTPS and WSS (with --tls-key) instead of "
                                                           "plain HTTP on the port")
@@ -210,9 +165,17 @@ int main(int argc, char** argv) {
     keyOpt->needs(certOpt);
     if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-server"); rc >= 0) return rc;
     rigLimits.maxLightMemoryBytes = lightMemoryMb << 20;
+    if (node.empty()) {
+        char host[256] = {};
+        node = ::gethostname(host, sizeof host - 1) == 0 && host[0] ? host : "dfb-node";
+    }
+    if (!validSessionName(node)) {
+        std::cerr << "dfb-server: --node " << node << ": a node name is 1-64 characters of [A-Za-z0-9_-]\n";
+        return EXIT_USAGE;
+    }
 
     std::vector<SessionSpec> specs;
-    if (!shotPath.empty()) specs.push_back({nameFromPath(shotPath), shotPath});
+    if (!shotPath.empty()) specs.push_back({dfb::net::sessionNameFromPath(shotPath), shotPath});
     for (const std::string& s : sessionArgs) {
         const size_t eq = s.find('=');
         if (eq == std::string::npos || !validSessionName(s.substr(0, eq)) || eq + 1 == s.size()) {
@@ -221,6 +184,10 @@ int main(int argc, char** argv) {
         }
         specs.push_back({s.substr(0, eq), s.substr(eq + 1)});
     }
+    const size_t namedCount = specs.size(); // the rest are read from --sessions again on each listing
+    // A fleet's nodes open sessions on request (docs/deployment.md): by default when they share
+    // --sessions and --state; the shots may not be baked yet.
+    const bool onRequest = openMode == "on-request" || (openMode == "auto" && !sessionsDir.empty() && !stateDir.empty());
     if (!sessionsDir.empty()) {
         std::error_code ec;
         std::vector<std::string> found;
@@ -232,9 +199,15 @@ int main(int argc, char** argv) {
             return EXIT_INPUT;
         }
         std::sort(found.begin(), found.end());
-        for (const auto& f : found) specs.push_back({nameFromPath(f), f});
+        for (const auto& f : found) specs.push_back({dfb::net::sessionNameFromPath(f), f});
+        if (onRequest) specs.resize(std::min(specs.size(), namedCount + dfb::net::SessionCatalog::MAX_SESSIONS));
     }
-    if (specs.empty()) {
+    if (onRequest && (sessionsDir.empty() || stateDir.empty())) {
+        std::cerr << "dfb-server: --open on-request needs --sessions DIR and --state DIR (sessions are opened, closed and moved "
+                     "between nodes through their saved state)\n";
+        return EXIT_USAGE;
+    }
+    if (specs.empty() && !onRequest) {
         std::cerr << "dfb-server: no shot: give SHOT.exr, --session NAME=SHOT.exr or --sessions DIR (see --help)\n";
         return EXIT_USAGE;
     }
@@ -256,7 +229,7 @@ int main(int argc, char** argv) {
         }
         configured = t.value();
         for (const auto& [name, tk] : configured) {
-            if (std::none_of(specs.begin(), specs.end(), [&](const SessionSpec& s) { return s.name == name; })) {
+            if (!onRequest && std::none_of(specs.begin(), specs.end(), [&](const SessionSpec& s) { return s.name == name; })) {
                 std::cerr << "dfb-server: " << tokenFile << ": tokens for '" << name << "', which is not a session\n";
                 return EXIT_USAGE;
             }
@@ -269,141 +242,37 @@ int main(int argc, char** argv) {
     if (!assets.empty()) state->addPrivateDirectory(assets);
     if (!stateDir.empty()) state->addPrivateDirectory(stateDir);
     if (!sessionsDir.empty()) state->addPrivateDirectory(sessionsDir);
+    finalLimits.timeLimit = std::chrono::seconds(finalTimeout);
+    dfb::net::CatalogOptions catalogOptions{scenePath, assets, stateDir, sessionsDir, defaultRigKind, node, rigLimits,
+                                            snapshotEvery, refineMs, finalLimits, configured};
+    std::vector<SessionSpec> named(specs.begin(), specs.begin() + std::ptrdiff_t(namedCount));
+    auto catalog = std::make_shared<dfb::net::SessionCatalog>(std::move(catalogOptions), std::move(named));
+    dfb::net::OpenPolicy policy;
+    policy.onRequest = onRequest;
+    policy.idleClose = std::chrono::seconds(idleClose);
+    state->setCatalog(catalog, policy);
     std::vector<std::string> banner;
-    // A session that cannot be opened is reported and refused on its own (503 to its clients);
-    // the others are served. Only when none opens does the server stop.
-    int failedExit = 0;
-    auto tokensFor = [&](const SessionSpec& spec, const fs::path& dir) {
-        if (auto it = configured.find(spec.name); it != configured.end()) return it->second;
-        if (!dir.empty()) return persistentTokens(dir);
-        return dfb::net::SessionTokens{randomToken(), randomToken()};
-    };
-    auto failSession = [&](const SessionSpec& spec, const fs::path& dir, const dfb::Error& e, std::string publicReason, int exitCode) {
-        std::cerr << "dfb-server: session " << spec.name << " is not served: " << e.toString() << "\n";
-        state->addFailed({spec.name, tokensFor(spec, dir), std::move(publicReason)});
-        if (failedExit == 0) failedExit = exitCode;
-    };
-    for (const SessionSpec& spec : specs) {
-        const fs::path dir = stateDir.empty() ? fs::path() : fs::path(stateDir) / spec.name;
-        state->addPrivateDirectory(fs::path(spec.shotPath).parent_path().string());
-        auto shot = dfb::readDeepBuffer(spec.shotPath);
-        if (!shot) {
-            failSession(spec, dir, shot.error(), "its shot cannot be read (see the server's log)", EXIT_INPUT);
-            continue;
-        }
-        std::string scene = scenePath;
-        if (scene.empty()) {
-            scene = shot->sourcePath;
-            // A relative source path is relative to where the bake ran; also try beside the shot.
-            if (!fs::exists(scene)) {
-                auto beside = fs::path(spec.shotPath).parent_path() / fs::path(scene).filename();
-                if (fs::exists(beside)) scene = beside.string();
+    if (onRequest) {
+        banner.push_back("dfb-server: node " + node + ": " + std::to_string(specs.size()) + " sessions in " + sessionsDir +
+                         ", each opened on its first request" +
+                         (idleClose > 0 ? " and closed after " + std::to_string(idleClose) + " s idle" : std::string()) + ", state in " + stateDir);
+    } else {
+        // A session that cannot be opened is reported and refused on its own (503 to its
+        // clients); the others are served. Only when none opens does the server stop.
+        int failedExit = 0;
+        for (const SessionSpec& spec : specs) {
+            int exitCode = 0;
+            if (auto line = state->openNow(spec, &exitCode)) {
+                banner.push_back(*line);
+            } else if (failedExit == 0) {
+                failedExit = exitCode;
             }
         }
-        auto loaded = dfb::loadScene(scene);
-        if (!loaded) {
-            failSession(spec, dir,
-                        dfb::makeError(loaded.error().code, "shadow casters: " + loaded.error().message +
-                                                                (scene == shot->sourcePath ? " (the shot's source scene; pass --scene)" : "")),
-                        "its scene cannot be read (see the server's log)", EXIT_INPUT);
-            continue;
+        if (state->sessions().empty()) {
+            std::cerr << "dfb-server: no session could be opened\n";
+            state->stopOpening();
+            return failedExit;
         }
-        bool imported = false;
-        std::vector<std::string> importWarnings;
-        dfb::ShadowGeometry casters = dfb::shadowCasters(loaded.value());
-        dfb::Calibration calibration;
-        auto initial = defaultRigKind == "key-fill"
-                           ? dfb::Result<dfb::Rig>(dfb::initialRig(loaded.value(), &imported, &importWarnings))
-                           : dfb::sessionRig(loaded.value(), shot.value(), casters, &imported, &importWarnings, &calibration);
-        for (const std::string& w : importWarnings) std::fprintf(stderr, "dfb-server: session %s: %s\n", spec.name.c_str(), w.c_str());
-        if (!initial) {
-            failSession(spec, dir, initial.error(), "its default rig cannot be rendered (see the server's log)", EXIT_INPUT);
-            continue;
-        }
-        dfb::Rig rig = std::move(initial.value());
-        auto session = dfb::Session::open(spec.name, shot.value(), spec.shotPath, rig, dir, snapshotEvery);
-        if (!session) {
-            // The journal's own message names the line and the reason; clients get it without
-            // the server's folders.
-            failSession(spec, dir, session.error(), state->redact(session.error().message), EXIT_INPUT);
-            continue;
-        }
-        session.value()->setLimits(rigLimits);
-        std::error_code absoluteError; // on failure the path as given
-        const fs::path sceneAbsolute = fs::absolute(scene, absoluteError);
-        session.value()->setScenePath(absoluteError ? scene : sceneAbsolute.string());
-        state->addPrivateDirectory(fs::path(scene).parent_path().string()); // export errors name the scene
-        if (!session.value()->recoveryReport().empty()) {
-            std::fprintf(stderr, "dfb-server: session %s: journal repaired: %s\n",
-                         spec.name.c_str(), session.value()->recoveryReport().c_str());
-        }
-        if (imported && session.value()->rigVersion() == rig.version) {
-            std::printf("dfb-server: session %s: initial rig from the scene's KHR_lights_punctual (%zu lights)\n", spec.name.c_str(),
-                        rig.lights.size());
-        } else if (!imported && session.value()->rigVersion() == rig.version && calibration.coveredPixels > 0) {
-            std::printf("dfb-server: session %s: default rig (key, fill, rim, dome) x %.4g: median covered-pixel luminance %.4g -> 0.18\n",
-                        spec.name.c_str(), double(calibration.factor), double(calibration.medianBefore));
-        }
-        const std::string assetDir = !assets.empty() ? assets : fs::path(spec.shotPath).parent_path().string();
-        session.value()->setAssetDirectory(assetDir.empty() ? "." : assetDir);
-        const dfb::net::SessionTokens tokens = tokensFor(spec, dir);
-        const size_t triangles = loaded->triangleCount();
-        auto hub = std::make_shared<dfb::net::SessionHub>(ioc, state->metrics(), std::make_unique<dfb::DeepBuffer>(std::move(shot.value())),
-                                                          std::move(session.value()), tokens);
-        std::weak_ptr<dfb::net::SessionHub> weak = hub;
-        auto render = dfb::RenderService::start(hub->shot(), std::move(casters), hub->session(),
-                                                [weak](uint64_t, uint64_t serial) {
-                                                    if (auto h = weak.lock()) h->onNewImage(serial);
-                                                },
-                                                &state->metrics());
-        if (!render) {
-            failSession(spec, dir, render.error(), "the GPU could not render it (see the server's log)", EXIT_GPU);
-            continue;
-        }
-        char line[512];
-        std::snprintf(line, sizeof line, "dfb-server: session %s: %s (%dx%d), %zu shadow-casting triangles, rig version %llu%s, %s",
-                      spec.name.c_str(), spec.shotPath.c_str(), hub->shot().width, hub->shot().height, triangles,
-                      static_cast<unsigned long long>(hub->session().rigVersion()),
-                      hub->session().persistent() ? (", saved in " + dir.string()).c_str() : ", not saved (no --state)",
-                      render.value()->deviceDescription().c_str());
-        banner.push_back(line);
-        render.value()->setRefinement(std::chrono::milliseconds(refineMs), std::chrono::milliseconds(150));
-        hub->setRender(std::move(render.value()));
-        {
-            // Snapshots and saved rigs beside the journal (session/Library.h); a damaged entry is
-            // named and skipped, the others kept.
-            std::vector<std::string> libraryReport;
-            auto library = dfb::Library::open(dir.empty() ? dir : dir / "library", &libraryReport);
-            for (const std::string& skipped : libraryReport) {
-                std::fprintf(stderr, "dfb-server: session %s: library: %s\n", spec.name.c_str(), skipped.c_str());
-            }
-            if (!library) {
-                failSession(spec, dir, library.error(), "its library cannot be opened (see the server's log)", EXIT_INPUT);
-                continue;
-            }
-            hub->setLibrary(std::move(library.value()));
-        }
-        {
-            // Annotations the same way (session/Annotations.h): a damaged one named and skipped.
-            std::vector<std::string> annotationsReport;
-            auto annotations = dfb::Annotations::open(dir.empty() ? dir : dir / "annotations", &annotationsReport);
-            for (const std::string& note : annotationsReport) std::fprintf(stderr, "dfb-server: session %s: annotations: %s\n", spec.name.c_str(), note.c_str());
-            if (!annotations) {
-                failSession(spec, dir, annotations.error(), "its annotations cannot be opened (see the server's log)", EXIT_INPUT);
-                continue;
-            }
-            hub->setAnnotations(std::move(annotations.value()));
-        }
-        finalLimits.timeLimit = std::chrono::seconds(finalTimeout);
-        hub->finals().setLimits(finalLimits);
-        hub->render().requestFrame();
-        hub->startHousekeeping();
-        state->addSession(hub);
-    }
-
-    if (state->sessions().empty()) {
-        std::cerr << "dfb-server: no session could be opened\n";
-        return failedExit;
     }
 
     boost::system::error_code ec;
@@ -438,8 +307,22 @@ int main(int argc, char** argv) {
     }
     listener->run();
 
+    // SIGTERM / SIGINT drain the node (docs/deployment.md "Draining"): not ready, no new
+    // connections, every session closed (rig saved, lease released, clients told to reconnect),
+    // then exit once the clients are gone or after DRAIN_GRACE. A second signal stops at once.
+    constexpr std::chrono::milliseconds DRAIN_GRACE{3000};
     boost::asio::signal_set signals(ioc, SIGINT, SIGTERM);
-    signals.async_wait([&](const boost::system::error_code&, int) { ioc.stop(); });
+    signals.async_wait([&](const boost::system::error_code& sigError, int) {
+        if (sigError) return;
+        std::printf("dfb-server: draining\n");
+        std::fflush(stdout);
+        listener->close();
+        signals.async_wait([&](const boost::system::error_code& again, int) {
+            if (!again) ioc.stop();
+        });
+        state->drain(DRAIN_GRACE, [&] { ioc.stop(); });
+    });
+    state->startHousekeeping();
 
     const std::string host = address.is_v6() ? "[" + bind + "]" : bind;
     const std::string base = std::string(tls ? "https://" : "http://") + host + ":" + std::to_string(listener->port()) + "/";
@@ -449,6 +332,9 @@ int main(int argc, char** argv) {
         std::printf("dfb-server: session %s viewer: %s?session=%s&token=%s\n", id.c_str(), base.c_str(), id.c_str(), t.viewer.c_str());
     };
     for (const auto& [id, hub] : state->sessions()) links(id, hub->tokens());
+    if (onRequest) {
+        for (const SessionSpec& spec : catalog->specs()) links(spec.name, catalog->tokensFor(spec.name));
+    }
     for (const auto& [id, f] : state->failedSessions()) {
         std::printf("dfb-server: session %s FAILED (not served): %s\n", id.c_str(), f.reason.c_str());
         links(id, f.tokens);
@@ -465,7 +351,10 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "dfb-server: internal error in a network handler (continuing): %s\n", e.what());
         }
     }
-    for (const auto& [id, hub] : state->sessions()) hub->session().flushSavedRig();
+    // Every session still open (a second signal cut the drain short) is closed and its lease
+    // released before the process ends.
+    for (const auto& [id, hub] : state->sessions()) hub->shutdown("the server stopped");
+    state->stopOpening();
     std::printf("dfb-server: shutting down\n");
     return 0;
 }

@@ -53,6 +53,8 @@ public:
     Result<nlohmann::json> cancel();
     /// The state as the `final` message has it.
     nlohmann::json status() const;
+    /// A render is being exported or run (the session is not idle).
+    bool busy() const { return mState == State::Exporting || mState == State::Running; }
     /// The finished image encoded as EXR (linear, times the rig's exposure: as the beauty's EXR)
     /// or PNG (the rig's view transform), encoded once per render; null when none is done. A PNG
     /// in a viewer's own view (extra stops, another transform: what the browser compares with its

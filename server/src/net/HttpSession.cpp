@@ -56,7 +56,8 @@ http::status statusFor(ErrorCode code) {
     case ErrorCode::MissingData: return http::status::not_found;
     case ErrorCode::GpuError:
     case ErrorCode::IoError: return http::status::internal_server_error;
-    case ErrorCode::Unavailable: return http::status::service_unavailable;
+    case ErrorCode::Unavailable:
+    case ErrorCode::Moved: return http::status::service_unavailable;
     default: return http::status::bad_request;
     }
 }
@@ -66,7 +67,9 @@ http::response<http::string_body> errorResponse(unsigned version, bool keepAlive
     auto res = makeResponse(version, keepAlive, status.value_or(statusFor(e.code)), "application/json",
                             protocol::encodeError(e.code, e.message, std::nullopt));
     if (e.code == ErrorCode::Unauthorized) res.set(http::field::www_authenticate, "Bearer realm=\"dfb\"");
-    if (res.result() == http::status::service_unavailable) res.set(http::field::retry_after, "5");
+    // A moved session is open on another node, which hands it over within a second or two
+    // (docs/deployment.md "Leases"); a session that failed to open needs its operator.
+    if (res.result() == http::status::service_unavailable) res.set(http::field::retry_after, e.code == ErrorCode::Moved ? "1" : "5");
     return res;
 }
 
@@ -237,12 +240,15 @@ void HttpSession::onRead(error_code ec, size_t) {
         const std::string id = path.substr(prefix.size(), path.size() - prefix.size() - 3);
         const std::string token = tokenOf(req, query);
         if (token.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "no token: add ?token=... or an Authorization: Bearer header"));
-        if (sendIfFailed(req, id, token)) return;
-        auto hub = mState->find(id);
-        auto role = hub ? hub->roleFor(token) : std::nullopt;
-        if (!role) return sendUnauthorized(req, id);
-        beast::get_lowest_layer(mStream).expires_never();
-        std::make_shared<WebSocketSession>(std::move(mStream), mState, hub, *role, std::move(mSlot))->run(std::move(req));
+        // Opened first when it is not open on this node (the read stays paused meanwhile).
+        auto request = std::make_shared<Request>(std::move(req));
+        mState->acquire(id, token, [self = shared_from_this(), request](auto acquired) {
+            if (!acquired) return self->sendRefusal(*request, acquired.error());
+            beast::get_lowest_layer(self->mStream).expires_never();
+            auto [hub, role] = acquired.value();
+            std::make_shared<WebSocketSession>(std::move(self->mStream), self->mState, hub, role, std::move(self->mSlot))
+                ->run(std::move(*request));
+        });
         return;
     }
     handle(mParser->release());
@@ -254,7 +260,7 @@ void HttpSession::handle(Request&& req) {
     const std::string path = target.substr(0, q), query = q == std::string::npos ? "" : target.substr(q + 1);
     const bool get = req.method() == http::verb::get || req.method() == http::verb::head;
     const std::string_view page = webFile(path);
-    if (!page.empty() || path == "/healthz" || path == "/metrics" || path == "/favicon.ico" || path == "/v1/sessions" ||
+    if (!page.empty() || path == "/healthz" || path == "/readyz" || path == "/metrics" || path == "/favicon.ico" || path == "/v1/sessions" ||
         path == "/v1/schema") {
         if (!get) return send(errorResponse(req, ErrorCode::Protocol, "method not allowed on " + path, http::status::method_not_allowed));
     }
@@ -267,6 +273,11 @@ void HttpSession::handle(Request&& req) {
         return send(std::move(res));
     }
     if (path == "/healthz") return send(makeResponse(req, http::status::ok, "text/plain", "ok\n"));
+    // Readiness (docs/deployment.md): false from SIGTERM on, so the router sends nothing new here.
+    if (path == "/readyz") {
+        return send(mState->draining() ? makeResponse(req, http::status::service_unavailable, "text/plain", "draining\n")
+                                       : makeResponse(req, http::status::ok, "text/plain", "ready\n"));
+    }
     if (path == "/metrics") {
         return send(makeResponse(req, http::status::ok, "text/plain; version=0.0.4", mState->metrics().text(mState->limits().metricsSessionNames)));
     }
@@ -280,19 +291,7 @@ void HttpSession::handle(Request&& req) {
     const std::string token = tokenOf(req, query);
     if (path == "/v1/sessions") {
         if (token.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "no token: send Authorization: Bearer TOKEN"));
-        json list = json::array();
-        for (const auto& [id, hub] : mState->sessions()) {
-            auto role = hub->roleFor(token);
-            if (!role) continue;
-            const json& d = hub->session().description();
-            list.push_back({{"id", id}, {"role", protocol::toString(*role)}, {"shot", d["shot"]}, {"width", d["width"]},
-                            {"height", d["height"]}, {"rigVersion", hub->session().rigVersion()}, {"clients", hub->clientCount()},
-                            {"state", "open"}});
-        }
-        for (const auto& [id, f] : mState->failedSessions()) {
-            auto role = f.tokens.roleFor(token);
-            if (role) list.push_back({{"id", id}, {"role", protocol::toString(*role)}, {"state", "failed"}, {"error", f.reason}});
-        }
+        const json list = mState->sessionList(token);
         if (list.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "the token opens no session"));
         return send(makeResponse(req, http::status::ok, "application/json", protocol::dump(json{{"sessions", list}}, 2)));
     }
@@ -302,11 +301,13 @@ void HttpSession::handle(Request&& req) {
         const size_t slash = rest.find('/');
         const std::string id = rest.substr(0, slash), resource = slash == std::string::npos ? "" : rest.substr(slash + 1);
         if (token.empty()) return send(errorResponse(req, ErrorCode::Unauthorized, "no token: send Authorization: Bearer TOKEN"));
-        if (sendIfFailed(req, id, token)) return;
-        auto hub = mState->find(id);
-        auto role = hub ? hub->roleFor(token) : std::nullopt;
-        if (!role) return sendUnauthorized(req, id);
-        return handleSession(req, hub, *role, resource, query);
+        auto request = std::make_shared<Request>(std::move(req));
+        mState->acquire(id, token, [self = shared_from_this(), request, resource, query](auto acquired) {
+            if (!acquired) return self->sendRefusal(*request, acquired.error());
+            auto [hub, role] = acquired.value();
+            self->handleSession(*request, hub, role, resource, query);
+        });
+        return;
     }
     send(errorResponse(req, ErrorCode::MissingData, "no such resource: " + path));
 }
@@ -815,19 +816,8 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
     send(errorResponse(req, ErrorCode::MissingData, "no such resource: " + std::string(req.target().substr(0, req.target().find('?')))));
 }
 
-void HttpSession::sendUnauthorized(const Request& req, const std::string& id) {
-    send(errorResponse(req, ErrorCode::Unauthorized, "the token does not open session '" + id + "'"));
-}
-
-bool HttpSession::sendIfFailed(const Request& req, const std::string& id, const std::string& token) {
-    const FailedSession* f = mState->failed(id);
-    if (!f) return false;
-    if (!f->tokens.roleFor(token)) {
-        sendUnauthorized(req, id);
-    } else {
-        send(errorResponse(req, ErrorCode::Unavailable, "session '" + id + "' is not available: " + f->reason));
-    }
-    return true;
+void HttpSession::sendRefusal(const Request& req, const Error& e) {
+    send(errorResponse(req.version(), req.keep_alive(), makeError(e.code, mState->redact(e.message))));
 }
 
 void HttpSession::send(Response&& res) {

@@ -35,11 +35,10 @@ private:
     void handleSession(const Request& req, const std::shared_ptr<SessionHub>& hub, protocol::Role role,
                        const std::string& resource, const std::string& query);
     void send(Response&& res);
-    // A request for session `id` whose token does not open it, or for no such session: the same
-    // answer for both, so that session names cannot be probed for.
-    void sendUnauthorized(const Request& req, const std::string& id);
-    // A session that failed to open: 503 with its reason to holders of its tokens.
-    bool sendIfFailed(const Request& req, const std::string& id, const std::string& token);
+    // A request for a session that SharedState::acquire refused: a token that does not open it or
+    // no such session (the same answer, so that session names cannot be probed for), a session
+    // that failed to open (503 with its reason), or one open on another node (503 moved).
+    void sendRefusal(const Request& req, const Error& e);
     void onWrite(bool close, error_code ec, size_t bytes);
 
     Stream mStream;

@@ -18,6 +18,11 @@ public:
     Status open(const tcp::endpoint& endpoint);
     unsigned short port() const { return mAcceptor.local_endpoint().port(); }
     void run() { doAccept(); }
+    /// Stops accepting (a draining node): new connections are refused by the kernel.
+    void close() {
+        error_code ignored;
+        mAcceptor.close(ignored);
+    }
 
 private:
     void doAccept();

@@ -9,12 +9,14 @@
 #include "session/Annotations.h"
 #include "session/Library.h"
 #include "session/Metrics.h"
+#include "session/Lease.h"
 #include "session/RenderService.h"
 #include "session/Session.h"
 
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/protocol/Messages.h>
 
+#include <chrono>
 #include <memory>
 #include <optional>
 #include <set>
@@ -91,11 +93,27 @@ public:
     /// clients pull it when they can.
     void onNewImage(uint64_t imageSerial);
 
+    /// The session's lease (session/Lease.h), held while it is open on this node.
+    void setLease(std::unique_ptr<Lease> lease) { mLease = std::move(lease); }
+    /// A request or a client's message: the session is in use (SharedState's idle close).
+    void touch() { mLastActivity = std::chrono::steady_clock::now(); }
+    std::chrono::steady_clock::duration idleFor() const { return std::chrono::steady_clock::now() - mLastActivity; }
+    std::chrono::steady_clock::duration openFor() const { return std::chrono::steady_clock::now() - mOpened; }
+    /// Ends the session on this node (idle, handed over, or the node drains): rig.json written,
+    /// later changes refused (Session::close), the lease released, and every client closed with
+    /// code 1012 and `reason` so that it reconnects, through the router, to the next owner. The
+    /// render thread and memory go when the last connection lets go of the hub.
+    void shutdown(const std::string& reason);
+    bool closed() const { return mClosed; }
+
 private:
     void makeFinalRenders();
 
     asio::io_context& mIoc;
     Metrics& mMetrics;
+    // Destroyed after the session (its journal) and the render thread, should shutdown() not have
+    // released it earlier.
+    std::unique_ptr<Lease> mLease;
     std::unique_ptr<DeepBuffer> mShot;
     std::unique_ptr<Session> mSession;
     std::unique_ptr<RenderService> mRender;
@@ -105,6 +123,9 @@ private:
     std::unique_ptr<FinalRenders> mFinals;
     std::unique_ptr<Library> mLibrary = Library::open({}).value();
     std::unique_ptr<Annotations> mAnnotations = Annotations::open({}).value();
+    std::chrono::steady_clock::time_point mOpened = std::chrono::steady_clock::now();
+    std::chrono::steady_clock::time_point mLastActivity = mOpened;
+    bool mClosed = false;
 };
 
 } // namespace dfb::net

@@ -1,12 +1,18 @@
 #pragma once
-// State shared by every connection of the server (Beast chat-multi's shared_state): the sessions
-// by id and the metrics. Built before the listener starts and not changed after, so lookups need
-// no lock; the hubs themselves are touched only from the I/O thread, except where noted.
+// State shared by every connection of the server (Beast chat-multi's shared_state): the open
+// sessions by id, the catalog of those that can be opened, and the metrics. The maps are touched
+// only from the I/O thread (the server runs one), so lookups need no lock; sessions are opened on
+// a thread of their own and handed back to the I/O thread.
 
 #include "net/Beast.h"
+#include "net/SessionCatalog.h"
 #include "net/SessionHub.h"
 #include "session/Metrics.h"
 
+#include <boost/asio/thread_pool.hpp>
+
+#include <chrono>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -35,6 +41,23 @@ struct FailedSession {
     std::string id;
     SessionTokens tokens;
     std::string reason; ///< for clients: no server paths
+    /// Sessions opened on request are tried again after this time (a shot re-baked, a journal
+    /// repaired); at-start ones are not.
+    std::optional<std::chrono::steady_clock::time_point> retryAt;
+};
+
+/// When sessions are opened and closed (docs/deployment.md).
+struct OpenPolicy {
+    /// Open each session on its first request (a fleet's nodes) instead of all at start.
+    bool onRequest = false;
+    /// A session opened on request with no client and no request for this long is closed (its
+    /// GPU objects and memory freed, its lease released; the journal stays). 0: never.
+    std::chrono::seconds idleClose{600};
+    /// A session is handed over to the node that asks (Lease::HANDOFF_FILE_NAME) only after it
+    /// has been open this long here, so that a client reaching two nodes cannot bounce it.
+    std::chrono::seconds handoffAfter{2};
+    /// How often idle sessions and handoff requests are looked for.
+    std::chrono::milliseconds housekeepingInterval{500};
 };
 
 class SharedState : public std::enable_shared_from_this<SharedState> {
@@ -56,10 +79,36 @@ public:
 
     asio::io_context& ioc() { return mIoc; }
     Metrics& metrics() { return mMetrics; }
-    void addSession(std::shared_ptr<SessionHub> hub) { mSessions[hub->id()] = std::move(hub); }
-    /// Null when there is no such session.
+    void addSession(std::shared_ptr<SessionHub> hub);
+    /// Null when there is no such session open.
     std::shared_ptr<SessionHub> find(const std::string& id) const;
     const std::map<std::string, std::shared_ptr<SessionHub>>& sessions() const { return mSessions; }
+
+    /// The sessions this server can open, and when it opens and closes them.
+    void setCatalog(std::shared_ptr<SessionCatalog> catalog, OpenPolicy policy);
+    SessionCatalog& catalog() { return *mCatalog; }
+    const OpenPolicy& policy() const { return mPolicy; }
+    /// The session `id` for a request carrying `token`, opened first if it is not open (on the
+    /// opener thread; `done` runs on the I/O thread). Errors: Unauthorized (no such session or a
+    /// token that does not open it: the same answer), Unavailable (it failed to open), Moved
+    /// (another node holds it; a handoff is asked for). I/O thread.
+    using Acquired = std::function<void(Result<std::pair<std::shared_ptr<SessionHub>, protocol::Role>>)>;
+    void acquire(const std::string& id, const std::string& token, Acquired done);
+    /// GET /v1/sessions: every session of the catalog the token opens, open here or not.
+    nlohmann::json sessionList(const std::string& token);
+    /// Starts the periodic idle close and handoff check. I/O thread.
+    void startHousekeeping();
+    /// Closes session `id` here (SessionHub::shutdown) and forgets it. I/O thread.
+    void closeSession(const std::string& id, const std::string& reason);
+    /// SIGTERM: not ready any more (GET /readyz 503), every session closed, then `done` once their
+    /// clients are gone (or after at most `grace`). I/O thread.
+    void drain(std::chrono::milliseconds grace, std::function<void()> done);
+    bool draining() const { return mDraining; }
+    /// Opens `spec` now, on this thread (at start): its banner line, or nothing when it failed
+    /// (then it is listed as failed, and Moved sessions not at all) and `exitCode` says why.
+    std::optional<std::string> openNow(const SessionSpec& spec, int* exitCode);
+    /// Waits for the opener thread's jobs (before the server exits).
+    void stopOpening();
     /// Client ids are unique across sessions and never reused while the server runs.
     uint64_t nextClientId() { return ++mLastClientId; }
 
@@ -70,6 +119,18 @@ private:
     std::map<std::string, FailedSession> mFailed;
     uint64_t mLastClientId = 0;
     ServerLimits mLimits;
+    std::shared_ptr<SessionCatalog> mCatalog;
+    OpenPolicy mPolicy;
+    // Opens (and closes) run here one at a time, in order: a close's lease is gone before the
+    // next open of that session takes it.
+    boost::asio::thread_pool mOpener{1};
+    std::map<std::string, std::vector<Acquired>> mOpening; // opens in progress, with their waiters
+    std::unique_ptr<asio::steady_timer> mHousekeeping;
+    bool mDraining = false;
+    std::vector<std::weak_ptr<SessionHub>> mClosing; // closed sessions whose clients may still be leaving
+    // A session opened on request that failed is tried again after this.
+    static constexpr std::chrono::seconds FAILED_RETRY_AFTER{5};
+    std::optional<std::string> install(const SessionSpec& spec, std::variant<SessionCatalog::Opened, SessionCatalog::Failed> result);
     std::vector<std::string> mPrivateDirs;
     std::mutex mConnectionsMutex;
     std::map<asio::ip::address, size_t> mConnections;

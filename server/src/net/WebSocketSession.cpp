@@ -118,6 +118,12 @@ void WebSocketSession::doRead() {
 
 void WebSocketSession::onRead(error_code ec, size_t) {
     if (ec) return fail(ec, "websocket read");
+    if (mClosing || mCloseWith) {
+        // Going away: no more reads (async_close reads up to the peer's close frame itself).
+        mBuffer.consume(mBuffer.size());
+        return;
+    }
+    mHub->touch();
     if (!mWs.got_text()) {
         replyError(makeError(ErrorCode::Protocol, "binary messages are not accepted from clients"), std::nullopt);
     } else {
@@ -302,6 +308,25 @@ void WebSocketSession::handleDrag(const protocol::DragMessage& m) {
                 s.answerChange(seq, s.mHub->session().edit(state->restore, me, std::nullopt, std::nullopt, /*merge=*/true), {{"drag", j}});
             });
         }
+    });
+}
+
+void WebSocketSession::closeWith(websocket::close_code code, std::string reason) {
+    if (mClosing || mCloseWith) return;
+    // A close reason must stay under 123 bytes (RFC 6455 section 5.5).
+    if (reason.size() > 120) reason.resize(120);
+    mCloseWith = websocket::close_reason(code, reason);
+    if (!mWriting) sendClose();
+}
+
+void WebSocketSession::sendClose() {
+    mClosing = true;
+    mTextQueue.clear();
+    mPendingChanges.clear();
+    mFlushTimer.cancel();
+    mStallTimer.cancel();
+    mWs.async_close(*mCloseWith, [self = shared_from_this()](error_code e) {
+        if (e) fail(e, "websocket close");
     });
 }
 
@@ -500,6 +525,7 @@ void WebSocketSession::onWrite(error_code ec, size_t) {
         mClosing = true;
         return fail(ec, "websocket write");
     }
+    if (mCloseWith) return sendClose();
     writeNext();
     pumpFrames();
 }

@@ -42,6 +42,10 @@ public:
     /// A new image (serial) has been rendered: pull it when the connection is free.
     void frameAvailable(uint64_t imageSerial);
     protocol::ClientInfo info() const;
+    /// Closes the connection with a close frame (after the write in flight, if any): the session
+    /// moved to another node or this node is draining (code 1012, service restart: the page and
+    /// dfb-client reconnect). Messages read after it are ignored.
+    void closeWith(websocket::close_code code, std::string reason);
 
 private:
     void onAccept(error_code ec);
@@ -69,6 +73,7 @@ private:
     void armFlush();
     void armStallCheck();
     void disconnect(const char* why);
+    void sendClose();
 
     std::shared_ptr<void> mSlot;
     websocket::stream<Stream> mWs;
@@ -81,6 +86,7 @@ private:
     std::string mEditing;
     bool mJoined = false;
     bool mClosing = false;
+    std::optional<websocket::close_reason> mCloseWith; // closeWith() waits for the write in flight
 
     protocol::ViewSettings mView;
     bool mViewDirty = true;          // the next frame must be encoded for new view settings

@@ -468,6 +468,9 @@ Result<ChangeOutcome> Session::apply(const json& op, bool record) {
     if (record && (kind == "edit" || kind == "replace")) {
         if (auto st = checkImages(next); !st) return st.error();
     }
+    if (record && mClosed) {
+        return makeError(ErrorCode::Moved, "session '" + mId + "' was closed on this node (it moves to another, or reopens): retry");
+    }
     if (record) {
         json line = op;
         line["v"] = next.version;
@@ -542,6 +545,17 @@ void Session::saveRigNow() {
 }
 
 Session::~Session() { flushSavedRig(); }
+
+void Session::close() {
+    std::lock_guard lock(mMutex);
+    if (mJournal && mRigSaveDue) saveRigNow();
+    mClosed = true;
+}
+
+bool Session::closed() const {
+    std::lock_guard lock(mMutex);
+    return mClosed;
+}
 
 void Session::flushSavedRig() {
     std::lock_guard lock(mMutex);

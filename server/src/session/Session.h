@@ -131,6 +131,11 @@ public:
     void flushSavedRig();
     /// Writes a rig.json left behind (flushSavedRig).
     ~Session();
+    /// Ends the session on this node before its lease is released (another node may open it
+    /// next): rig.json is brought up to date and every later change is refused with Moved, so
+    /// nothing is written to the journal without the lease. Reading goes on working.
+    void close();
+    bool closed() const;
 
     Rig rig() const;
     uint64_t rigVersion() const;
@@ -191,6 +196,7 @@ private:
     protocol::RigLimits mLimits;
     size_t mSnapshotEvery = SNAPSHOT_EVERY;
     bool mRigSaveDue = false;
+    bool mClosed = false; // close(): changes refused (the lease is about to go)
     std::chrono::steady_clock::time_point mLastRigSave{};
     std::string mRecoveryReport;
     nlohmann::json mDescription;

@@ -25,7 +25,8 @@ enum class ErrorCode {
     Forbidden,     ///< the token is valid but its role may not do this (a viewer editing; HTTP 403)
     Conflict,      ///< a precondition on the rig version failed (If-Match, `ifVersion`; HTTP 412)
     LimitExceeded, ///< an input or a rig is over a configured limit; the message names it and its value
-    Unavailable,   ///< (last: errorCodeFromString walks up to it) the session cannot serve now (its journal is damaged, it failed to load; HTTP 503)
+    Unavailable,   ///< the session cannot serve now (its journal is damaged, it failed to load; HTTP 503)
+    Moved,         ///< (last: errorCodeFromString walks up to it) another node holds the session's lease (HTTP 503 + Retry-After: retry through the router)
 };
 
 /// Short stable name of an error code (used in protocol error messages).
@@ -45,13 +46,14 @@ inline const char* toString(ErrorCode code) {
     case ErrorCode::Conflict: return "conflict";
     case ErrorCode::LimitExceeded: return "limit_exceeded";
     case ErrorCode::Unavailable: return "unavailable";
+    case ErrorCode::Moved: return "moved";
     }
     return "unknown";
 }
 
 /// The code named `name` (as toString writes it); nullopt for an unknown name.
 inline std::optional<ErrorCode> errorCodeFromString(std::string_view name) {
-    for (int c = int(ErrorCode::Ok); c <= int(ErrorCode::Unavailable); ++c) {
+    for (int c = int(ErrorCode::Ok); c <= int(ErrorCode::Moved); ++c) {
         if (name == toString(ErrorCode(c))) return ErrorCode(c);
     }
     return std::nullopt;
