@@ -25,8 +25,10 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <random>
 #include <functional>
 #include <set>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -180,7 +182,67 @@ Staged stage(const ChannelSpec& c, DeepBuffer& b) {
     return s;
 }
 
-Status writeFlat(const DeepBuffer& b, const std::string& tmp) {
+// The output stream of writeDeepBuffer: a file written with pwrite that keeps its first error.
+// OpenEXR's output files write their line offset table in their destructors and swallow any
+// exception there, and its own stream (std::ofstream) flushes its last buffer in its destructor
+// unchecked: with them a disk that filled up at the end of the file went unnoticed and a short
+// file was renamed into place. finish() reports that error, else makes the file durable.
+class CheckedOutput final : public Imf::OStream {
+public:
+    explicit CheckedOutput(const std::string& path) : Imf::OStream(path.c_str()), mPath(path) {
+        // O_EXCL: the name is this writer's alone (writeDeepBuffer), never another's file.
+        mFd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+        if (mFd < 0) fail("cannot create");
+    }
+    ~CheckedOutput() override {
+        if (mFd >= 0) ::close(mFd);
+    }
+    CheckedOutput(const CheckedOutput&) = delete;
+    CheckedOutput& operator=(const CheckedOutput&) = delete;
+
+    void write(const char c[], int n) override {
+        if (!mError.empty()) throw IEX_NAMESPACE::IoExc(mError); // nothing after a failure
+        size_t done = 0;
+        while (done < size_t(n)) {
+            const ssize_t w = ::pwrite(mFd, c + done, size_t(n) - done, off_t(mPos + done));
+            if (w < 0 && errno == EINTR) continue;
+            if (w <= 0) {
+                if (w == 0) errno = ENOSPC;
+                fail("write");
+            }
+            done += size_t(w);
+        }
+        mPos += uint64_t(n);
+    }
+    uint64_t tellp() override { return mPos; }
+    void seekp(uint64_t pos) override { mPos = pos; }
+
+    /// After the OpenEXR file object is gone: the first error of any write, else fsync and close
+    /// (a network filesystem may report a failed write only there).
+    Status finish() {
+        if (mError.empty() && ::fsync(mFd) != 0) record("fsync");
+        if (::close(mFd) != 0 && mError.empty()) record("close");
+        mFd = -1;
+        if (!mError.empty()) return makeError(ErrorCode::IoError, mError);
+        return okStatus();
+    }
+
+private:
+    void record(const char* what) {
+        if (mError.empty()) mError = mPath + ": " + what + ": " + std::strerror(errno);
+    }
+    [[noreturn]] void fail(const char* what) {
+        record(what);
+        throw IEX_NAMESPACE::IoExc(mError);
+    }
+
+    std::string mPath;
+    std::string mError;
+    int mFd = -1;
+    uint64_t mPos = 0;
+};
+
+Status writeFlat(const DeepBuffer& b, Imf::OStream& out) {
     Imf::Header header(b.width, b.height);
     header.compression() = Imf::ZIP_COMPRESSION;
     writeHeaderAttributes(header, b);
@@ -194,13 +256,13 @@ Status writeFlat(const DeepBuffer& b, const std::string& tmp) {
         fb.insert(c.name, Imf::Slice(c.fileType, staged.back().base, staged.back().stride,
                                      staged.back().stride * size_t(b.width)));
     }
-    Imf::OutputFile file(tmp.c_str(), header);
+    Imf::OutputFile file(out, header);
     file.setFrameBuffer(fb);
     file.writePixels(b.height);
     return okStatus();
 }
 
-Status writeDeep(const DeepBuffer& b, const std::string& tmp) {
+Status writeDeep(const DeepBuffer& b, Imf::OStream& out) {
     Imf::Header header(b.width, b.height);
     header.setType(Imf::DEEPSCANLINE);
     header.compression() = Imf::ZIPS_COMPRESSION;
@@ -225,7 +287,7 @@ Status writeDeep(const DeepBuffer& b, const std::string& tmp) {
         fb.insert(c.name, Imf::DeepSlice(c.fileType, reinterpret_cast<char*>(ptrs.data()), sizeof(char*),
                                          sizeof(char*) * size_t(b.width), staged.back().stride));
     }
-    Imf::DeepScanLineOutputFile file(tmp.c_str(), header);
+    Imf::DeepScanLineOutputFile file(out, header);
     file.setFrameBuffer(fb);
     file.writePixels(b.height);
     return okStatus();
@@ -518,22 +580,42 @@ Status writeDeepBuffer(const DeepBuffer& b, const std::string& path) {
         (b.hasEnvTransfer() && b.envTransfer.size() != b.sampleCount() * ENV_TRANSFER_COEFFICIENTS)) {
         return makeError(ErrorCode::InvalidValue, "refusing to write " + path + ": deep buffer is empty or inconsistent");
     }
-    const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+    // The temporary name is this writer's alone: the process id is not enough where every writer
+    // is PID 1 of its own container on one shared folder (two pods of the bake Job baking one
+    // shot). It does not end in .exr, so dfb-server --sessions never takes it for a shot.
+    char suffix[40];
+    std::snprintf(suffix, sizeof suffix, ".tmp%ld-%08x", long(::getpid()), unsigned(std::random_device{}()));
+    const std::string tmp = path + suffix;
+    bool created = false;
+    std::string failure;
     try {
-        Status s = b.isFlat() ? writeFlat(b, tmp) : writeDeep(b, tmp);
-        if (!s) {
-            std::remove(tmp.c_str());
-            return s;
-        }
+        CheckedOutput out(tmp);
+        created = true;
+        Status s = b.isFlat() ? writeFlat(b, out) : writeDeep(b, out);
+        if (s) s = out.finish();
+        if (!s) failure = s.error().message;
     } catch (const std::exception& e) {
-        std::remove(tmp.c_str());
-        return makeError(ErrorCode::IoError, "writing " + path + ": " + e.what());
+        failure = e.what();
+    }
+    if (!failure.empty()) {
+        if (created) std::remove(tmp.c_str());
+        return makeError(ErrorCode::IoError, "writing " + path + ": " + failure);
     }
     std::error_code ec;
     std::filesystem::rename(tmp, path, ec);
     if (ec) {
         std::remove(tmp.c_str());
         return makeError(ErrorCode::IoError, "renaming " + tmp + " to " + path + ": " + ec.message());
+    }
+    // The rename durable too. A filesystem that cannot fsync a folder (EINVAL) has the file in
+    // place all the same.
+    const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+    const int dfd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    const int rc = dfd < 0 ? -1 : ::fsync(dfd);
+    const int err = errno;
+    if (dfd >= 0) ::close(dfd);
+    if (rc != 0 && err != EINVAL && err != ENOTSUP) {
+        return makeError(ErrorCode::IoError, "fsync of the folder of " + path + " after renaming the shot into place: " + std::strerror(err));
     }
     return okStatus();
 }

@@ -12,11 +12,17 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <random>
+
+#include <sys/resource.h>
+#include <unistd.h>
 
 using namespace dfb;
 
@@ -399,4 +405,80 @@ TEST(ExrIO, InconsistentEnvTransferIsNotWritten) {
     DeepBuffer b = randomBuffer(8, 8, 15);
     b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS - 1, 0.f);
     EXPECT_FALSE(writeDeepBuffer(b, tempPath("env_short.exr")).ok());
+}
+
+// Writing is atomic (a temporary file beside the output, renamed into place), also when the output
+// is on a folder many machines share (docs/deployment.md: the bake Job writes the shots the
+// nodes open).
+
+namespace {
+
+// Entries of the folder of `path` whose names start with its file name and ".tmp".
+std::vector<std::string> tempFilesOf(const std::string& path) {
+    const std::filesystem::path p(path);
+    std::vector<std::string> found;
+    for (const auto& e : std::filesystem::directory_iterator(p.parent_path())) {
+        if (e.path().filename().string().rfind(p.filename().string() + ".tmp", 0) == 0) found.push_back(e.path().string());
+    }
+    return found;
+}
+
+// A deep buffer (0..3 samples per pixel, zero channels: only the writing is tested).
+DeepBuffer deepZeros(int w, int h) {
+    std::vector<uint32_t> counts(size_t(w * h));
+    for (size_t i = 0; i < counts.size(); ++i) counts[i] = uint32_t(i % 4);
+    DeepBuffer b;
+    b.allocateSamples(w, h, counts);
+    b.samplesPerPixel = 4;
+    return b;
+}
+
+} // namespace
+
+// Two bake pods of one shot are both PID 1 in their containers: the temporary name must not be
+// one that another writer of the same output may be using.
+TEST(ExrIO, AnotherWritersTemporaryFileIsLeftAlone) {
+    const std::string path = tempPath("shared.exr");
+    const std::string other = path + ".tmp" + std::to_string(::getpid());
+    std::ofstream(other) << "another writer's half-written shot";
+    ASSERT_TRUE(writeDeepBuffer(randomBuffer(8, 8, 21), path).ok());
+    EXPECT_TRUE(readDeepBuffer(path).ok());
+    EXPECT_EQ(readBytes(other), "another writer's half-written shot");
+    EXPECT_EQ(tempFilesOf(path), std::vector<std::string>{other});
+    std::filesystem::remove(other);
+    std::filesystem::remove(path);
+}
+
+// A disk that fills up at the very end of the file (here the file size limit, a few bytes short):
+// OpenEXR writes the line offset table from its output files' destructors and swallows any error
+// there, and std::ofstream flushes its last buffer in its destructor unchecked, so the end of a
+// file is where a failure could pass unseen and a short shot be renamed into place. The write
+// must fail (IoError), leaving neither the output nor a temporary file. Flat and deep files.
+TEST(ExrIO, WriteFailingAtTheEndOfTheFileIsAnErrorAndLeavesNothing) {
+    GTEST_FLAG_SET(death_test_style, "threadsafe");
+    for (const bool deep : {false, true}) {
+        const DeepBuffer b = deep ? deepZeros(40, 30) : randomBuffer(40, 30, 22);
+        ASSERT_EQ(b.isFlat(), !deep);
+        const std::string whole = tempPath("whole.exr"), path = tempPath("short.exr");
+        ASSERT_TRUE(writeDeepBuffer(b, whole).ok());
+        const auto size = std::filesystem::file_size(whole);
+        std::filesystem::remove(whole);
+        const auto attempt = [&] {
+            // Writing past the limit fails with EFBIG instead of raising SIGXFSZ.
+            ::signal(SIGXFSZ, SIG_IGN);
+            const rlimit limit{rlim_t(size - 8), rlim_t(size - 8)};
+            ::setrlimit(RLIMIT_FSIZE, &limit);
+            const Status s = writeDeepBuffer(b, path);
+            if (s.ok()) {
+                std::fprintf(stderr, "the write succeeded\n");
+                std::exit(1);
+            }
+            std::fprintf(stderr, "%s\n", s.error().toString().c_str());
+            std::exit(s.error().code == ErrorCode::IoError && !std::filesystem::exists(path) && tempFilesOf(path).empty() ? 0 : 2);
+        };
+        EXPECT_EXIT(attempt(), ::testing::ExitedWithCode(0), "io_error: .*short\\.exr")
+            << (deep ? "deep" : "flat");
+        std::filesystem::remove(path);
+        for (const auto& t : tempFilesOf(path)) std::filesystem::remove(t);
+    }
 }
