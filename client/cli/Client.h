@@ -19,6 +19,7 @@
 #include <iostream>
 #include <memory>
 #include <string>
+#include <thread>
 
 namespace dfb::cli {
 
@@ -48,6 +49,9 @@ struct Options {
     std::string name = loginName();
     double timeoutS = 30.0;
     std::string caCert;
+    /// --retry: seconds a request, a WebSocket connect and `watch` keep retrying a session that
+    /// is moving to another node of a fleet (docs/deployment.md "Failover"); 0: never.
+    double retryS = 20.0;
 };
 
 /// Thrown inside a subcommand to leave with an exit code (caught in main only).
@@ -73,10 +77,14 @@ public:
     std::chrono::milliseconds timeout() const { return std::chrono::milliseconds(long(mOpt.timeoutS * 1000)); }
 
     /// One request; a refusal (non-2xx) prints "error CODE: message" (the server's words) and
-    /// exits 3.
+    /// exits 3. A session moving between nodes is waited for (retryable()).
     client::HttpResponse request(const std::string& method, const std::string& target, const std::string& body = "",
                                  const std::string& ifMatch = "") {
+        Backoff backoff(mOpt.retryS);
         auto r = client::httpRequest(mUrl, method, target, mToken, body, ifMatch, timeout(), mOpt.name);
+        while (r && retryable(*r, method) && backoff.wait()) {
+            r = client::httpRequest(mUrl, method, target, mToken, body, ifMatch, timeout(), mOpt.name);
+        }
         if (!r) fail(r.error());
         if (r->status / 100 != 2) {
             auto parsed = protocol::parseJson(r->body, 1 << 20, "the server's answer");
@@ -111,9 +119,12 @@ public:
     }
     std::string base() { return "/v1/sessions/" + session(); }
 
-    /// A WebSocket on the session, greeted: returns the welcome message.
+    /// A WebSocket on the session, greeted: returns the welcome message. A session moving
+    /// between nodes (Moved, or the router's 502/503) is waited for up to --retry.
     std::unique_ptr<client::Connection> connect(json* welcome) {
+        Backoff backoff(mOpt.retryS);
         auto c = client::Connection::open(mUrl, base() + "/ws?token=" + mToken, timeout());
+        while (!c && movingRefusal(c.error()) && backoff.wait()) c = client::Connection::open(mUrl, base() + "/ws?token=" + mToken, timeout());
         if (!c) fail(c.error());
         if (auto s = c.value()->sendText(protocol::encode(protocol::HelloMessage{protocol::PROTOCOL_VERSION, mOpt.name})); !s) fail(s.error());
         for (;;) {
@@ -127,6 +138,48 @@ public:
                 if (t->json.value("type", "") == "error") die(EXIT_REFUSED, serverErrorText(t->json, t->json.dump()));
             }
         }
+    }
+
+    const Options& options() const { return mOpt; }
+
+    /// Waits between retries: 100 ms doubling to 2 s, until `budgetS` seconds have passed.
+    class Backoff {
+    public:
+        explicit Backoff(double budgetS)
+            : mDeadline(std::chrono::steady_clock::now() + std::chrono::milliseconds(long(budgetS * 1000))) {}
+        /// Sleeps and returns true, or returns false when the budget would be exceeded.
+        bool wait() {
+            if (std::chrono::steady_clock::now() + mDelay > mDeadline) return false;
+            std::this_thread::sleep_for(mDelay);
+            mDelay = std::min(mDelay * 2, std::chrono::milliseconds(2000));
+            return true;
+        }
+
+    private:
+        std::chrono::steady_clock::time_point mDeadline;
+        std::chrono::milliseconds mDelay{100};
+    };
+
+    /// What a fleet answers while a session moves between nodes (docs/deployment.md "Failover"):
+    /// 503 `moved` from a node (nothing was done), or the router's own 503 (no node up) or, for a
+    /// GET, 502/504 (the node died with the request). A POST that got 502 may have been applied:
+    /// it is not sent again.
+    static bool retryable(const client::HttpResponse& r, const std::string& method) {
+        if (r.status == 503) {
+            auto parsed = protocol::parseJson(r.body, 1 << 20, "the server's answer");
+            // A node's own 503s are JSON; `unavailable` (a damaged journal) will not heal by waiting.
+            return !parsed || !parsed.value().is_object() || parsed.value().value("code", "") != "unavailable";
+        }
+        return (r.status == 502 || r.status == 504) && (method == "GET" || method == "HEAD");
+    }
+    /// The same for a WebSocket upgrade refused (Connection::open's error).
+    static bool movingRefusal(const Error& e) {
+        if (e.code == ErrorCode::Moved) return true;
+        if (e.code == ErrorCode::Unavailable) return false;
+        for (const char* status : {"(HTTP 502)", "(HTTP 503)", "(HTTP 504)"}) {
+            if (e.message.find(status) != std::string::npos) return true;
+        }
+        return false;
     }
 
 private:

@@ -87,7 +87,7 @@ void setDeadline(tcp::socket& s, std::chrono::milliseconds timeout) {
 
 Error netError(const std::string& what, const beast::error_code& ec) {
     std::string m = ec.message();
-    if (ec == asio::error::would_block || ec == asio::error::try_again || ec == asio::error::timed_out) {
+    if (ec == asio::error::would_block || ec == asio::error::try_again || ec == asio::error::timed_out || ec == beast::error::timeout) {
         m = "timed out";
     }
     return makeError(ErrorCode::Network, what + ": " + m);

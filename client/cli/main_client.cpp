@@ -354,6 +354,10 @@ int main(int argc, char** argv) {
     app.add_option("--timeout", opt.timeoutS, "seconds to wait for each answer (watch: how long the server may stay silent, "
                                               "answers to pings included, before the connection counts as lost)")
         ->check(CLI::Range(0.1, 3600.0));
+    app.add_option("--retry", opt.retryS, "seconds to keep retrying while a session moves to another node of a fleet (the node "
+                                          "answers 503 moved, the router 502/503; watch: the connection closed): 0 = never")
+        ->check(CLI::Range(0.0, 3600.0))
+        ->capture_default_str();
     app.add_option("--name", opt.name, "your name: the author of your edits in the history, shown to the other clients (default: "
                                        "the login name)");
     bool asJson = false;
@@ -539,6 +543,19 @@ int main(int argc, char** argv) {
                     // The deadline of --duration is reached as a receive timeout (the timer may
                     // fire a little before the steady clock says the deadline passed).
                     if (watchSeconds > 0 && std::chrono::steady_clock::now() + std::chrono::milliseconds(50) >= end) break;
+                    // Closed (the node went away or handed the session over: close code 1012)
+                    // rather than silent: connect again, through the router, to the session's
+                    // next node (docs/deployment.md "Failover").
+                    if (cl.options().retryS > 0 && m.error().message.find("timed out") == std::string::npos) {
+                        std::cerr << "dfb-client: watch: " << m.error().message << "; reconnecting" << std::endl;
+                        conn = cl.connect(&welcome);
+                        conn->keepAlive(cl.timeout());
+                        human << "reconnected to session " << welcome.value("sessionId", "") << ", rig version "
+                              << welcome["rig"].value("version", uint64_t(0)) << std::endl;
+                        if (auto st = conn->sendText(protocol::encode(v)); !st) cl.fail(st.error());
+                        viewSet = false;
+                        continue;
+                    }
                     die(EXIT_BROKEN, "watch: " + m.error().message + " (no answer from the server for --timeout " +
                                          json(cl.timeout().count() / 1000.0).dump() + " s, pings included)");
                 }

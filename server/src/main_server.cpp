@@ -307,20 +307,24 @@ int main(int argc, char** argv) {
     }
     listener->run();
 
-    // SIGTERM / SIGINT drain the node (docs/deployment.md "Draining"): not ready, no new
-    // connections, every session closed (rig saved, lease released, clients told to reconnect),
-    // then exit once the clients are gone or after DRAIN_GRACE. A second signal stops at once.
+    // SIGTERM / SIGINT drain the node (docs/deployment.md "Draining"): not ready, every session
+    // closed (rig saved, lease released, clients told to reconnect), then exit once the clients
+    // are gone or after DRAIN_GRACE. A second signal stops at once.
     constexpr std::chrono::milliseconds DRAIN_GRACE{3000};
     boost::asio::signal_set signals(ioc, SIGINT, SIGTERM);
     signals.async_wait([&](const boost::system::error_code& sigError, int) {
         if (sigError) return;
         std::printf("dfb-server: draining\n");
         std::fflush(stdout);
-        listener->close();
         signals.async_wait([&](const boost::system::error_code& again, int) {
             if (!again) ioc.stop();
         });
-        state->drain(DRAIN_GRACE, [&] { ioc.stop(); });
+        // The listener stays open while clients leave: /readyz answers 503 (the router and
+        // Kubernetes stop sending here) and session requests 503 moved (clients retry).
+        state->drain(DRAIN_GRACE, [&] {
+            listener->close();
+            ioc.stop();
+        });
     });
     state->startHousekeeping();
 

@@ -331,12 +331,8 @@ test("the nodes' flags are dfb-server's", () => {
     const server = process.env.DFB_SERVER_EXE;
     assert.ok(server && fs.existsSync(server), `DFB_SERVER_EXE (the built dfb-server) is set and exists: ${server}`);
     const help = spawnSync(server, ["--help"], { encoding: "utf8" }).stdout;
-    // Flags of issue 21 that the server gains in parallel with these manifests: accepted until its
-    // --help lists them.
-    const coming = new Set(["--node", "--idle-close"]);
     for (const a of container(find("Deployment", "dfb-node")).args) {
         const flag = a.split("=")[0];
-        if (!help.includes(`${flag} `) && coming.has(flag)) continue;
         assert.match(help, new RegExp(`(^|[ ,])${flag}[ =]`, "m"), flag);
     }
 });

@@ -45,6 +45,7 @@ public:
     Process& operator=(const Process&) = delete;
 
     bool started() const { return mPid > 0; }
+    pid_t pid() const { return mPid; }
 
     /// Reads output until `pattern` matches a line or the timeout passes; returns the match.
     std::optional<std::smatch> waitForLine(const std::regex& pattern, std::chrono::milliseconds timeout) {

@@ -94,6 +94,12 @@ void SharedState::acquire(const std::string& id, const std::string& token, Acqui
     if (!spec) return done(unauthorized);
     const auto role = mCatalog->tokensFor(id).roleFor(token);
     if (!role) return done(unauthorized);
+    if (auto it = mHandedOver.find(id); it != mHandedOver.end()) {
+        if (std::chrono::steady_clock::now() < it->second) {
+            return done(makeError(ErrorCode::Moved, "session '" + id + "' was just handed over to another node; retry through the router"));
+        }
+        mHandedOver.erase(it);
+    }
     auto& waiters = mOpening[id];
     waiters.push_back([done = std::move(done), role = *role](Result<std::pair<std::shared_ptr<SessionHub>, protocol::Role>> r) {
         if (r) r.value().second = role;
@@ -178,6 +184,7 @@ void SharedState::startHousekeeping() {
             std::error_code fsError;
             if (!dir.empty() && hub->openFor() >= s->mPolicy.handoffAfter && std::filesystem::exists(dir / Lease::HANDOFF_FILE_NAME, fsError)) {
                 closing.emplace_back(id, "session moved to another node: reconnect");
+                s->mHandedOver[id] = std::chrono::steady_clock::now() + s->mPolicy.handoffCooldown;
             } else if (s->mPolicy.onRequest && s->mPolicy.idleClose.count() > 0 && hub->session().persistent() && hub->clientCount() == 0 &&
                        hub->idleFor() >= s->mPolicy.idleClose && !hub->finals().busy()) {
                 closing.emplace_back(id, "closed after being idle");

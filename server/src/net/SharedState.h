@@ -56,6 +56,9 @@ struct OpenPolicy {
     /// A session is handed over to the node that asks (Lease::HANDOFF_FILE_NAME) only after it
     /// has been open this long here, so that a client reaching two nodes cannot bounce it.
     std::chrono::seconds handoffAfter{2};
+    /// A session handed over is not reopened here for this long (this node answers `moved`), so
+    /// that the node that asked gets it even while requests still reach this one.
+    std::chrono::seconds handoffCooldown{5};
     /// How often idle sessions and handoff requests are looked for.
     std::chrono::milliseconds housekeepingInterval{500};
 };
@@ -128,6 +131,7 @@ private:
     std::unique_ptr<asio::steady_timer> mHousekeeping;
     bool mDraining = false;
     std::vector<std::weak_ptr<SessionHub>> mClosing; // closed sessions whose clients may still be leaving
+    std::map<std::string, std::chrono::steady_clock::time_point> mHandedOver; // until when each is not reopened here
     // A session opened on request that failed is tried again after this.
     static constexpr std::chrono::seconds FAILED_RETRY_AFTER{5};
     std::optional<std::string> install(const SessionSpec& spec, std::variant<SessionCatalog::Opened, SessionCatalog::Failed> result);
