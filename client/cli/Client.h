@@ -167,8 +167,9 @@ public:
     static bool retryable(const client::HttpResponse& r, const std::string& method) {
         if (r.status == 503) {
             auto parsed = protocol::parseJson(r.body, 1 << 20, "the server's answer");
-            // A node's own 503s are JSON; `unavailable` (a damaged journal) will not heal by waiting.
-            return !parsed || !parsed.value().is_object() || parsed.value().value("code", "") != "unavailable";
+            // A node's own 503s are JSON: only `moved` passes by waiting (not `unavailable`, a
+            // damaged journal, nor `limit_exceeded`, too many connections).
+            return !parsed || !parsed.value().is_object() || parsed.value().value("code", "") == "moved";
         }
         return (r.status == 502 || r.status == 504) && (method == "GET" || method == "HEAD");
     }

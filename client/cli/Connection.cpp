@@ -191,9 +191,14 @@ Result<std::unique_ptr<Connection>> Connection::open(const Url& url, const std::
     }
     impl->timeout = timeout;
     websocket::response_type res;
-    impl->withWs([&](auto& ws) {
-        ws.read_message_max(256u << 20);
-        ws.handshake(res, url.host + ":" + url.port, target, ec);
+    // Asynchronous (run for at most `timeout`): Boost 1.74's synchronous handshake leaves `res`
+    // empty when the upgrade is declined, and the refusal's status and body are what tell a client
+    // why (a token, or a session moving between the nodes of a fleet).
+    ec = runFor(impl->ioc, impl->socket(), timeout, [&](auto handler) {
+        impl->withWs([&](auto& ws) {
+            ws.read_message_max(256u << 20);
+            ws.async_handshake(res, url.host + ":" + url.port, target, [handler](beast::error_code e) mutable { handler(e, 0); });
+        });
     });
     if (ec == websocket::error::upgrade_declined) {
         // The server said why (no token, unknown session): its JSON error, verbatim.

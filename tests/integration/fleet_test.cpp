@@ -399,10 +399,11 @@ TEST(Fleet, FailoverThroughHAProxyKeepsEveryAcknowledgedEdit) {
         killed = true;
     }
     const auto [setRc, setOut] = dfb::test::run({DFB_CLIENT_EXE, "--server", link, "set", "key.coneAngle=33"}, 60s);
-    EXPECT_EQ(setRc, 0) << "dfb-client set through the router while the session moves: " << setOut;
+    EXPECT_EQ(setRc, 0) << "dfb-client set through the router while the session moves: " << setOut << "\nrouter:\n"
+                        << router.process->output();
     ta.join();
     tb.join();
-    EXPECT_EQ(watch.wait(30s), 0) << watch.output();
+    EXPECT_EQ(watch.wait(30s), 0) << watch.output() << "\nrouter:\n" << router.process->output();
     EXPECT_NE(watch.output().find("reconnected to session " + session), std::string::npos) << watch.output();
     for (const ClientLog* log : {&logA, &logB}) {
         std::printf("fleet: %zu edits acknowledged, reconnected %.2f s after the kill\n", log->acked.size(), log->reconnectSeconds);
