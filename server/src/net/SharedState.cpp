@@ -4,6 +4,7 @@
 
 #include "session/Lease.h"
 
+#include <dfb/server/Engine.h>
 #include <dfb/server/GltfExport.h>
 
 #include <algorithm>
@@ -207,7 +208,11 @@ void SharedState::closeSession(const std::string& id, const std::string& reason)
     mClosing.push_back(hub);
     // Its render thread and GPU memory go with the last reference: off the I/O thread when that
     // is this one (clients still closing hold theirs until they are gone).
-    asio::post(mOpener, [hub = std::move(hub)]() mutable { hub.reset(); });
+    asio::post(mOpener, [hub = std::move(hub)]() mutable {
+        const bool last = hub.use_count() == 1;
+        hub.reset();
+        if (last) releaseFreedMemory();
+    });
 }
 
 void SharedState::drain(std::chrono::milliseconds grace, std::function<void()> done) {

@@ -84,6 +84,9 @@ ShadowGeometry shadowCasters(const Scene& scene);
 /// position edit 65 -> 36 ms, the shadow map 37 -> 14 ms). Process-wide; call once at start
 /// (dfb-server and the benchmarks do).
 void keepFreedMemoryForFrames();
+/// Hands the heap's free memory back to the system (malloc_trim): after a session closes, whose
+/// textures (on llvmpipe) and buffers the tuning above would otherwise keep in the process.
+void releaseFreedMemory();
 
 /// Where the time of one render went, in milliseconds of wall time (GPU work is waited for at
 /// each stage boundary, so the split is honest on llvmpipe and on discrete GPUs).
