@@ -6,6 +6,7 @@
 
 #include "support/NetClient.h"
 #include "support/Process.h"
+#include "support/TestServer.h"
 
 #include <gtest/gtest.h>
 
@@ -25,6 +26,7 @@ using namespace std::chrono_literals;
 using dfb::test::http;
 using dfb::test::HttpReply;
 using dfb::test::Process;
+using dfb::test::Tokens;
 using json = nlohmann::json;
 
 const std::string SHOT = DFB_TEST_DATA "/tabletop_320.exr";
@@ -45,10 +47,6 @@ void addShots(const fs::path& dir, int n) {
     for (int i = 1; i <= n; ++i) fs::copy_file(SHOT, dir / "sessions" / ("s" + std::to_string(i) + ".exr"), fs::copy_options::overwrite_existing);
 }
 
-struct Tokens {
-    std::string editor, viewer;
-};
-
 // One node of the fleet: --sessions and --state in `dir`, a free loopback port.
 struct Node {
     Node(const fs::path& dir, const std::string& nodeName, std::vector<std::string> extra = {}) : name(nodeName) {
@@ -59,12 +57,7 @@ struct Node {
         auto m = process->waitForLine(std::regex(R"(listening on http://127\.0\.0\.1:(\d+)/)"), 60s);
         if (!m) return;
         port = (*m)[1];
-        const std::string out = process->output();
-        const std::regex line(R"(session (\S+) (editor|viewer): http://\S+token=([\w.~-]+))");
-        for (auto it = std::sregex_iterator(out.begin(), out.end(), line); it != std::sregex_iterator(); ++it) {
-            auto& t = tokens[(*it)[1]];
-            ((*it)[2] == "editor" ? t.editor : t.viewer) = (*it)[3];
-        }
+        tokens = dfb::test::printedTokens(process->output());
     }
     std::string name;
     std::unique_ptr<Process> process;

@@ -21,6 +21,17 @@ struct Tokens {
     std::string editor, viewer;
 };
 
+/// The tokens in a dfb-server's output ("session ID editor|viewer: URL...token=T"), by session.
+inline std::map<std::string, Tokens> printedTokens(const std::string& out) {
+    std::map<std::string, Tokens> tokens;
+    const std::regex line(R"(session (\S+) (editor|viewer): https?://\S+token=([\w.~-]+))");
+    for (auto it = std::sregex_iterator(out.begin(), out.end(), line); it != std::sregex_iterator(); ++it) {
+        auto& t = tokens[(*it)[1]];
+        ((*it)[2] == "editor" ? t.editor : t.viewer) = (*it)[3];
+    }
+    return tokens;
+}
+
 // A dfb-server on a free loopback port; knows the tokens it printed.
 struct Server {
     explicit Server(std::vector<std::string> args) {
@@ -34,12 +45,7 @@ struct Server {
         auto m = process->waitForLine(std::regex(R"(listening on https?://127\.0\.0\.1:(\d+)/)"), std::chrono::seconds(60));
         if (!m) return;
         port = (*m)[1];
-        const std::string out = process->output();
-        const std::regex line(R"(session (\S+) (editor|viewer): https?://\S+token=([\w.~-]+))");
-        for (auto it = std::sregex_iterator(out.begin(), out.end(), line); it != std::sregex_iterator(); ++it) {
-            auto& t = tokens[(*it)[1]];
-            ((*it)[2] == "editor" ? t.editor : t.viewer) = (*it)[3];
-        }
+        tokens = printedTokens(process->output());
     }
     bool up() const { return !port.empty(); }
     /// The editor link the server printed for `session` (what a user gives dfb-client).
