@@ -28,7 +28,7 @@ layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
 layout(binding = TEX_ENV_PREFILTERED) uniform sampler2D envPrefiltered; // lat-long, ENV_LEVELS mips by roughness
 layout(binding = TEX_ENV_DFG) uniform sampler2D envDfg;                 // (A, B) by (N.v, roughness)
-layout(binding = TEX_ENV_IRRADIANCE) uniform sampler2D envIrradiance;   // exact E(N) / pi by world normal
+layout(binding = TEX_ENV_IRRADIANCE) uniform sampler2D envIrradiance;   // E(N) / pi less the expansion, by map-frame normal
 #ifdef ENV_TRANSFER
 layout(binding = TEX_GBUFFER_ENV0) uniform sampler2D gEnv0; // the baked transfer T_0..T_3
 layout(binding = TEX_GBUFFER_ENV1) uniform sampler2D gEnv1; // T_4..T_7
@@ -91,8 +91,9 @@ vec3 shadeSample(ivec2 t) {
         shadowed += envSh[i].rgb * T[i];
         unshadowed += envSh[i].rgb * open[i];
     }
-    // The grid's rows run from pole to pole inclusive (envIrradianceNormal).
-    vec2 uv = envLatLong(N);
+    // The grid is in the map's frame (read at R^T N: a rotation turns where it is read) and its
+    // rows run from pole to pole inclusive (envIrradianceNormal).
+    vec2 uv = envLatLong(normalize(mat3(uLight.worldToLightClip) * N));
     float rows = float(ENV_IRRADIANCE_WIDTH / 2);
     vec3 residual = texture(envIrradiance, vec2(uv.x, (uv.y * (rows - 1.0) + 0.5) / rows)).rgb;
     vec3 irradiance = max(unshadowed + residual, vec3(0.0));

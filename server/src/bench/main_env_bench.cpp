@@ -181,11 +181,36 @@ int main(int argc, char** argv) {
             ms.push_back(msSince(t0));
         }
         if (ms.empty()) return;
-        std::printf("  %-30s first %7.1f ms, median %7.1f ms (%d edits; last: %d lights shaded, %d shadow maps)\n", what, ms[0],
-                    median(ms), edits, st.lightsShaded, st.shadowMapsRendered);
+        std::printf("  %-30s first %7.1f ms, median %7.1f ms (%d edits; last: %d lights shaded, %d shadow maps: shadow %.1f, shade "
+                    "%.1f, composite %.1f, readback %.1f ms)\n",
+                    what, ms[0], median(ms), edits, st.lightsShaded, st.shadowMapsRendered, st.shadowMs, st.shadeMs, st.compositeMs,
+                    st.readbackMs);
     };
     std::printf(" edit -> frame at %dx%d (the default key and fill plus the environment):\n", g.width, g.height);
     timed("environment rotation (yaw)", [&](int i) { dome.envRotationDeg[0] = float(10 * (i + 1)); });
+    // The same turn as the server renders it while the rotation is dragged (--refine-window:
+    // preview shadow maps and half-resolution shading, DESIGN section 6), and the full-quality
+    // frame that refines it once the drag stops.
+    {
+        std::vector<double> dragged, refined;
+        for (int i = 0; i < edits; ++i) {
+            engine.setPreview(true);
+            dome.envRotationDeg[0] = float(5 + 10 * i);
+            ++rig.version;
+            auto t0 = Clock::now();
+            if (!engine.render(rig, &st)) break;
+            dragged.push_back(msSince(t0));
+            engine.setPreview(false);
+            t0 = Clock::now();
+            if (!engine.render(rig, &st)) break;
+            refined.push_back(msSince(t0));
+        }
+        if (!dragged.empty()) {
+            std::printf("  %-30s median %7.1f ms; the full-quality frame that refines it when the drag stops: median %7.1f ms\n",
+                        "rotation while dragged", median(dragged), median(refined));
+        }
+    }
+    if (std::getenv("DFB_ENV_BENCH_ROTATION_ONLY")) return 0;
     timed("environment intensity", [&](int i) { dome.intensityCd = 0.5f + 0.1f * float(i); });
     timed("key light move", [&](int i) { rig.lights[0].position[0] += (i % 2 ? -0.05f : 0.05f); });
     // The first swap reads and prefilters the map; the engine keeps the last few, so later ones don't.

@@ -3,6 +3,7 @@
 #include "EnvironmentMap.h"
 #include "GpuInterface.h"
 
+#include <dfb/lightmath/Environment.h>
 #include <dfb/server/AreaPattern.h>
 #include <dfb/server/ImageCodec.h>
 
@@ -68,6 +69,35 @@ Result<Cookies::Pattern> Cookies::pattern(const Light& l) {
     return Pattern{it->second.first.id(), it->second.second};
 }
 
+namespace {
+// What the order-3 expansion misses of the map's exact irradiance, E(N) / pi less the expansion's,
+// at the normals of an ENV_IRRADIANCE_WIDTH x /2 grid in the map's own frame (a few milliseconds:
+// 512 normals x the map's small copy). The shader reads it at R^T N and adds the turned
+// expansion: rotating the map is rotating where both are read, exactly, since the expansion's
+// coefficients turn with their directions (envProjectSh) and E_turned(N) = E(R^T N).
+gl::Texture irradianceResidual(const std::vector<float>& sh, int w, int h) {
+    constexpr int IW = int(ENV_IRRADIANCE_WIDTH), IH = IW / 2;
+    const glm::dmat3 identity(1.0);
+    const auto L = lightmath::envProjectSh(sh.data(), w, h, 4, identity);
+    std::vector<float> E = lightmath::envIrradianceMap(sh.data(), w, h, 4, identity, IW, IH);
+    for (int j = 0; j < IH; ++j)
+        for (int i = 0; i < IW; ++i) {
+            const auto T = lightmath::shUnshadowedTransfer(lightmath::envIrradianceNormal(i, j, IW, IH));
+            glm::dvec3 e(0.0);
+            for (int k = 0; k < lightmath::SH_COEFFICIENTS; ++k) e += L[size_t(k)] * T[size_t(k)];
+            float* o = &E[(size_t(j) * size_t(IW) + size_t(i)) * 4];
+            for (int ch = 0; ch < 3; ++ch) o[ch] -= float(e[ch]);
+        }
+    gl::Texture t = gl::makeTexture2D(GL_RGBA32F, IW, IH);
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glTextureSubImage2D(t.id(), 0, 0, 0, IW, IH, GL_RGBA, GL_FLOAT, E.data());
+    return t;
+}
+} // namespace
+
 Result<Cookies::Environment> Cookies::environment(const Light& l) {
     auto it = mEnvironments.find(l.envMap);
     if (it == mEnvironments.end()) {
@@ -105,9 +135,11 @@ Result<Cookies::Environment> Cookies::environment(const Light& l) {
         e.shWidth = levels.shWidth;
         e.shHeight = levels.shHeight;
         e.sun = sun;
+        e.irradianceResidual = irradianceResidual(e.sh, e.shWidth, e.shHeight);
         it = mEnvironments.emplace(l.envMap, std::move(e)).first;
     }
-    return Environment{it->second.texture.id(), &it->second.sh, it->second.shWidth, it->second.shHeight, it->second.sun};
+    return Environment{it->second.texture.id(), it->second.irradianceResidual.id(), &it->second.sh, it->second.shWidth,
+                       it->second.shHeight, it->second.sun};
 }
 
 } // namespace dfb::engine

@@ -43,6 +43,9 @@ public:
     /// valid until the next call.
     struct Environment {
         GLuint texture = 0;
+        /// The map's exact E(N) / pi less its order-3 expansion, by normal in the map's own frame
+        /// (TEX_ENV_IRRADIANCE): made once per map, since a rotation only turns where it is read.
+        GLuint irradianceResidual = 0;
         const std::vector<float>* sh = nullptr;
         int shWidth = 0, shHeight = 0;
         EnvSun sun; // taken out of the map (texture and sh hold the rest)
@@ -52,6 +55,7 @@ public:
 private:
     struct EnvEntry {
         gl::Texture texture;
+        gl::Texture irradianceResidual;
         std::vector<float> sh;
         int shWidth = 0, shHeight = 0;
         EnvSun sun;

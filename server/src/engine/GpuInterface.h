@@ -51,7 +51,7 @@
     X(TEX_GBUFFER_ENV0, 23, "RGBA16F: the baked environment transfer T_0..T_3 (DeepBuffer::envTransfer)") \
     X(TEX_GBUFFER_ENV1, 24, "RGBA16F: T_4..T_7")                                                         \
     X(TEX_GBUFFER_ENV2, 25, "R16F: T_8")                                                                \
-    X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of world normals: the turned map's exact E(N) / pi (envIrradianceMap)")
+    X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of normals in the map's frame: its exact E(N) / pi less the order-3 expansion (envIrradianceMap)")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).
 #define DFB_GPU_STORAGE_BINDINGS(X)                                                                    \

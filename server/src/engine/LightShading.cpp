@@ -313,28 +313,8 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         for (int i = 0; i < lightmath::SH_COEFFICIENTS; ++i) sh[i] = glm::vec4(glm::vec3(L[size_t(i)]), 0.f);
         c.envSh = gl::makeBuffer(sh, sizeof sh);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_ENV_SH, c.envSh.id());
-        // The exact irradiance per world normal (a few milliseconds: 512 normals x the small copy).
-        constexpr int IW = int(ENV_IRRADIANCE_WIDTH), IH = IW / 2;
-        std::vector<float> E = lightmath::envIrradianceMap(env->sh->data(), env->shWidth, env->shHeight, 4,
-                                                           lightmath::envRotation(l.envRotationDeg), IW, IH);
-        // Less what the expansion gives there: the shader adds the expansion back at its own N.
-        for (int j = 0; j < IH; ++j)
-            for (int i = 0; i < IW; ++i) {
-                const auto T = lightmath::shUnshadowedTransfer(lightmath::envIrradianceNormal(i, j, IW, IH));
-                glm::dvec3 e(0.0);
-                for (int k = 0; k < lightmath::SH_COEFFICIENTS; ++k) e += L[size_t(k)] * T[size_t(k)];
-                float* o = &E[(size_t(j) * size_t(IW) + size_t(i)) * 4];
-                for (int ch = 0; ch < 3; ++ch) o[ch] -= float(e[ch]);
-            }
-        if (!c.envIrradiance) {
-            c.envIrradiance = gl::makeTexture2D(GL_RGBA32F, IW, IH);
-            glTextureParameteri(c.envIrradiance.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-            glTextureParameteri(c.envIrradiance.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-            glTextureParameteri(c.envIrradiance.id(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-            glTextureParameteri(c.envIrradiance.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        }
-        glTextureSubImage2D(c.envIrradiance.id(), 0, 0, 0, IW, IH, GL_RGBA, GL_FLOAT, E.data());
-        glBindTextureUnit(TEX_ENV_IRRADIANCE, c.envIrradiance.id());
+        // What the expansion misses, in the map's frame (Cookies::irradianceResidual).
+        glBindTextureUnit(TEX_ENV_IRRADIANCE, env->irradianceResidual);
         glBindTextureUnit(TEX_ENV_PREFILTERED, env->texture);
         glBindTextureUnit(TEX_ENV_DFG, mEnvDfg.id());
     }
