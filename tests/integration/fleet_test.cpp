@@ -143,6 +143,29 @@ TEST(Fleet, SessionsOpenOnRequestAreListedAllAndCloseWhenIdle) {
     const json rig = http(node.port, "GET", "/v1/sessions/s2/rig", t.viewer).json();
     EXPECT_EQ(rig.value("version", 0), 2);
     EXPECT_DOUBLE_EQ(intensityOf(rig, "key"), 2.5) << rig.dump();
+
+    // A new shot of the session's name (a batch bake writes it beside and renames it into place)
+    // is what the session opens next time, with its rig and history kept.
+    const fs::path baked = dir.path / "s2.exr.new";
+    auto [bakeRc, bakeOut] = dfb::test::run({DFB_BAKE_EXE, DFB_SOURCE_DIR "/scenes/tabletop.glb", "-o", baked.string(), "--width", "64",
+                                              "--height", "36", "--env-rays", "0"},
+                                             120s);
+    ASSERT_EQ(bakeRc, 0) << bakeOut;
+    // Closed again after the reopening above (waitForLine reads the whole output: count them).
+    auto closings = [&] {
+        node.process->waitForLine(std::regex("^$^"), 200ms); // reads what arrived
+        const std::string& out = node.process->output();
+        size_t n = 0;
+        for (size_t at = 0; (at = out.find("session s2 closed on this node", at)) != std::string::npos; ++at) ++n;
+        return n;
+    };
+    for (int i = 0; i < 50 && closings() < 2; ++i) {
+    }
+    ASSERT_EQ(closings(), 2u) << node.process->output();
+    fs::rename(baked, dir.path / "sessions" / "s2.exr");
+    const json info = http(node.port, "GET", "/v1/sessions/s2", t.viewer).json();
+    EXPECT_EQ(info["session"].value("width", 0), 64) << info.dump();
+    EXPECT_EQ(info.value("rigVersion", 0), 2) << "the journal is replayed onto the new shot";
     // A token of no session and a session of no shot get the same answer.
     EXPECT_EQ(http(node.port, "GET", "/v1/sessions/nosuch/rig", t.editor).status, 401);
     EXPECT_EQ(http(node.port, "GET", "/v1/sessions/s3/rig", t.editor).status, 401);
