@@ -155,6 +155,12 @@ int main(int argc, char** argv) {
                                               "(GPU objects and memory freed, lease released; the journal stays); 0 = never")
         ->check(CLI::Range(0, 86400 * 365))
         ->capture_default_str();
+    size_t maxOpenSessions = dfb::net::OpenPolicy{}.maxOpen;
+    app.add_option("--max-open-sessions", maxOpenSessions,
+                   "most sessions open at once (opened on request): one more closes the session idle longest that has no client, "
+                   "or is refused when all have clients")
+        ->check(CLI::Range(size_t(1), size_t(100000)))
+        ->capture_default_str();
     app.add_option("--node", node, "this node's name in session leases and logs (default: the host name)");
     std::string tlsCert, tlsKey;
     auto* certOpt = app.add_option("--tls-cert", tlsCert, "PEM certificate chain: serve HTTPS and WSS (with --tls-key) instead of "
@@ -250,6 +256,7 @@ int main(int argc, char** argv) {
     dfb::net::OpenPolicy policy;
     policy.onRequest = onRequest;
     policy.idleClose = std::chrono::seconds(idleClose);
+    policy.maxOpen = maxOpenSessions;
     state->setCatalog(catalog, policy);
     std::vector<std::string> banner;
     if (onRequest) {

@@ -171,6 +171,31 @@ TEST(Fleet, SessionsOpenOnRequestAreListedAllAndCloseWhenIdle) {
     EXPECT_EQ(http(node.port, "GET", "/v1/sessions/s3/rig", t.editor).status, 401);
 }
 
+// A node holds at most --max-open-sessions: one more closes the session idle longest that has no
+// client, and when every open one has clients the request is refused, naming the limit.
+TEST(Fleet, OpenSessionsAreBounded) {
+    TempDir dir("bounded");
+    addShots(dir.path, 3);
+    Node node(dir.path, "n1", {"--max-open-sessions", "2"});
+    ASSERT_FALSE(node.port.empty()) << node.process->output();
+    auto rig = [&](const std::string& id) { return http(node.port, "GET", "/v1/sessions/" + id + "/rig", node.tokens[id].viewer); };
+    ASSERT_EQ(rig("s1").status, 200);
+    std::this_thread::sleep_for(50ms);
+    ASSERT_EQ(rig("s2").status, 200);
+    ASSERT_EQ(rig("s3").status, 200);
+    EXPECT_TRUE(node.process->waitForLine(std::regex("session s1 closed on this node: closed to make room for another \\(--max-open-sessions 2\\)"), 5s))
+        << node.process->output();
+    // s2 and s3 in use: no room for s1.
+    dfb::test::WsClient a(node.port, "s2", node.tokens["s2"].viewer), b(node.port, "s3", node.tokens["s3"].viewer);
+    ASSERT_EQ(a.nextText()["type"], "welcome");
+    ASSERT_EQ(b.nextText()["type"], "welcome");
+    const HttpReply refused = rig("s1");
+    EXPECT_EQ(refused.status, 503);
+    EXPECT_EQ(refused.json().value("code", ""), "unavailable") << refused.body;
+    EXPECT_NE(refused.body.find("--max-open-sessions"), std::string::npos) << refused.body;
+    EXPECT_EQ(rig("s2").status, 200) << "the open ones are served";
+}
+
 // Point 2: one owner per session. Two nodes take requests for one session at once (no router:
 // the worst case); each edit is acknowledged by the lease holder only, the other answers 503
 // moved and asks for a handoff, and the session moves between them. Every acknowledged edit is in

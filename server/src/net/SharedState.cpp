@@ -101,6 +101,10 @@ void SharedState::acquire(const std::string& id, const std::string& token, Acqui
         }
         mHandedOver.erase(it);
     }
+    if (!mOpening.count(id) && !makeRoom()) {
+        return done(makeError(ErrorCode::Unavailable, "this node has its maximum of " + std::to_string(mPolicy.maxOpen) +
+                                                          " sessions open, each with clients (--max-open-sessions); retry later"));
+    }
     auto& waiters = mOpening[id];
     waiters.push_back([done = std::move(done), role = *role](Result<std::pair<std::shared_ptr<SessionHub>, protocol::Role>> r) {
         if (r) r.value().second = role;
@@ -134,6 +138,22 @@ void SharedState::acquire(const std::string& id, const std::string& token, Acqui
             }
         });
     });
+}
+
+bool SharedState::makeRoom() {
+    if (mSessions.size() + mOpening.size() < mPolicy.maxOpen) return true;
+    std::string oldest;
+    std::chrono::steady_clock::duration longest{};
+    for (const auto& [id, hub] : mSessions) {
+        if (hub->clientCount() > 0 || hub->finals().busy() || !hub->session().persistent()) continue;
+        if (oldest.empty() || hub->idleFor() > longest) {
+            oldest = id;
+            longest = hub->idleFor();
+        }
+    }
+    if (oldest.empty()) return false;
+    closeSession(oldest, "closed to make room for another (--max-open-sessions " + std::to_string(mPolicy.maxOpen) + ")");
+    return mSessions.size() + mOpening.size() < mPolicy.maxOpen;
 }
 
 nlohmann::json SharedState::sessionList(const std::string& token) {

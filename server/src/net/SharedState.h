@@ -59,6 +59,10 @@ struct OpenPolicy {
     /// A session handed over is not reopened here for this long (this node answers `moved`), so
     /// that the node that asked gets it even while requests still reach this one.
     std::chrono::seconds handoffCooldown{5};
+    /// Most sessions open at once on this node (--max-open-sessions): opening one more first
+    /// closes the session idle longest that has no client; when every open session has clients
+    /// the request is refused (503 unavailable, naming the limit).
+    size_t maxOpen = 64;
     /// How often idle sessions and handoff requests are looked for.
     std::chrono::milliseconds housekeepingInterval{500};
 };
@@ -135,6 +139,9 @@ private:
     // A session opened on request that failed is tried again after this.
     static constexpr std::chrono::seconds FAILED_RETRY_AFTER{5};
     std::optional<std::string> install(const SessionSpec& spec, std::variant<SessionCatalog::Opened, SessionCatalog::Failed> result);
+    // Room for one more open session under OpenPolicy::maxOpen: true when there is (an idle one
+    // closed if need be).
+    bool makeRoom();
     std::vector<std::string> mPrivateDirs;
     std::mutex mConnectionsMutex;
     std::map<asio::ip::address, size_t> mConnections;
