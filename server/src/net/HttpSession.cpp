@@ -513,6 +513,10 @@ void HttpSession::handleSession(const Request& req, const std::shared_ptr<Sessio
                         self->send(errorResponse(httpVersion, alive, makeError(e.code, self->mState->redact(e.message))));
                     };
                     if (!f) return fail(f.error());
+                    // The session closed on this node while the frame was rendered: its state
+                    // folder may be another node's by now.
+                    if (hub->closed()) return fail(makeError(ErrorCode::Moved, "session '" + hub->id() + "' moved while the snapshot was "
+                                                                                                       "rendered: take it again"));
                     const EncodedFrame& frame = *f.value();
                     const Rig rig = hub->session().rig();
                     if (rig.version != frame.rigVersion) {
