@@ -215,16 +215,20 @@ TEST(Fleet, TwoNodesNeverWriteOneJournal) {
     std::mutex mutex;
     std::vector<Acked> acked;
     std::atomic<int> moved{0};
+    // Both edit until each has had the session for a while (20 edits acknowledged each, with a
+    // hand-over at least one way), at most 40 s: at ~50 edits a second each the whole run fits
+    // the history's 10,000 records. Not a fixed time: a loaded machine opens sessions slowly.
+    std::atomic<bool> stop{false};
+    std::atomic<int> ackedBy[3] = {0, 0, 0};
     auto editor = [&](const std::string& port, int who) {
-        // ~50 edits a second each for 6 s: the whole run fits the history's 10,000 records.
-        const auto end = std::chrono::steady_clock::now() + 6s;
-        for (int i = 0; std::chrono::steady_clock::now() < end; std::this_thread::sleep_for(20ms)) {
+        for (int i = 0; !stop; std::this_thread::sleep_for(20ms)) {
             const double value = who * 1000 + i + 1;
             const HttpReply r = tryHttp(port, "POST", "/v1/sessions/s1/edits", token,
                                         R"({"changes": [{"path": "key.intensity", "value": )" + std::to_string(value) + "}]}");
             if (r.status == 200) {
                 std::lock_guard lock(mutex);
                 acked.push_back({r.json()["rigVersion"].get<uint64_t>(), value});
+                ++ackedBy[who];
                 ++i;
             } else {
                 ASSERT_EQ(r.status, 503) << r.body;
@@ -236,13 +240,15 @@ TEST(Fleet, TwoNodesNeverWriteOneJournal) {
         }
     };
     std::thread ta(editor, a.port, 1), tb(editor, b.port, 2);
+    for (int i = 0; i < 400 && (ackedBy[1] < 20 || ackedBy[2] < 20); ++i) std::this_thread::sleep_for(100ms);
+    stop = true;
     ta.join();
     tb.join();
     EXPECT_GT(moved.load(), 0) << "one node at a time holds the session";
     std::set<double> valuesByA, valuesByB;
     for (const Acked& e : acked) (e.value < 2000 ? valuesByA : valuesByB).insert(e.value);
-    EXPECT_FALSE(valuesByA.empty());
-    EXPECT_FALSE(valuesByB.empty()) << "the session was handed over to the second node";
+    EXPECT_GE(valuesByA.size(), 20u);
+    EXPECT_GE(valuesByB.size(), 20u) << "the session was handed over to the second node";
     a.process->stop();
     b.process->stop();
 
@@ -288,7 +294,7 @@ TEST(Fleet, SigtermDrainsTheNode) {
     }
     EXPECT_EQ(ws.closeReason().code, 1012) << ws.closeReason().reason;
     EXPECT_EQ(a.process->wait(10s), 0) << a.process->output();
-    EXPECT_LT(std::chrono::steady_clock::now() - sent, 6s);
+    EXPECT_LT(std::chrono::steady_clock::now() - sent, 15s) << "the drain waits at most 3 s for clients";
 }
 
 // A free loopback port (bound, read, released) for HAProxy's front.
