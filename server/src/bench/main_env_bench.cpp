@@ -20,6 +20,7 @@
 #include <dfb/server/EnvironmentReference.h>
 
 #include "BenchShot.h"
+#include "EnvFigures.h"
 
 #include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
@@ -32,6 +33,9 @@
 #include <iostream>
 
 using namespace dfb;
+using dfb::bench::compare;
+using dfb::bench::Figures;
+using dfb::bench::variant;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -42,54 +46,6 @@ double median(std::vector<double> v) {
     if (v.empty()) return 0;
     std::sort(v.begin(), v.end());
     return v[v.size() / 2];
-}
-
-double luminance(const ImageF& img, size_t p) {
-    return 0.2126 * img.rgba[p * 4] + 0.7152 * img.rgba[p * 4 + 1] + 0.0722 * img.rgba[p * 4 + 2];
-}
-
-struct Figures {
-    double mean = 0, p95 = 0, aggregate = 0;
-    size_t pixels = 0;
-};
-
-Figures compare(const ImageF& fast, const ImageF& ref, const DeepBuffer& g) {
-    double sumRef = 0;
-    size_t covered = 0;
-    for (size_t p = 0; p < g.pixelCount(); ++p)
-        if (g.sampleOffset[p + 1] > g.sampleOffset[p]) sumRef += luminance(ref, p), ++covered;
-    const double floor = 1e-3 * sumRef / double(std::max<size_t>(covered, 1));
-    std::vector<double> rel;
-    double sumAbs = 0, sumR = 0;
-    for (size_t p = 0; p < g.pixelCount(); ++p) {
-        if (g.sampleOffset[p + 1] == g.sampleOffset[p]) continue;
-        const double r = luminance(ref, p), f = luminance(fast, p);
-        sumAbs += std::abs(f - r);
-        sumR += r;
-        if (r > floor) rel.push_back(std::abs(f - r) / r);
-    }
-    Figures out;
-    out.pixels = rel.size();
-    if (rel.empty()) return out;
-    for (double x : rel) out.mean += x;
-    out.mean /= double(rel.size());
-    std::sort(rel.begin(), rel.end());
-    out.p95 = rel[std::min(rel.size() - 1, size_t(0.95 * double(rel.size())))];
-    out.aggregate = sumR > 0 ? sumAbs / sumR : 0;
-    return out;
-}
-
-// The shot with its materials changed: "diffuse" (Lambert), "specular" (a metal) or as baked.
-DeepBuffer variant(const DeepBuffer& g, const std::string& kind) {
-    DeepBuffer v = g;
-    if (kind == "baked") return v;
-    for (size_t s = 0; s < v.A.size(); ++s) {
-        v.brdf[s * 4] = kind == "specular" ? 1.f : 0.f; // metallic
-        if (kind == "diffuse") v.brdf[s * 4 + 2] = 0.f;  // specular level 0: Lambert
-        for (int c = 0; c < 4; ++c) v.sheen[s * 4 + size_t(c)] = 0.f;
-        v.coat[s * 2] = 0.f;
-    }
-    return v;
 }
 
 } // namespace

@@ -1,0 +1,52 @@
+// The environment light on the bundled tabletop (its bowl and vases are concave) against the
+// ray-traced reference, as dfb-env-bench measures it: the specular term of a metal version of the
+// shot under the sunrise map. The specular occlusion looks towards the lobe through the baked
+// transfer (relight_env.frag, directionalVisibility); with the ambient-visibility formula alone
+// the mean per-pixel error was 67 % here (the sky reflected inside the bowl), now 27 %.
+
+#include "bench/BenchShot.h"
+#include "bench/EnvFigures.h"
+
+#include <dfb/bvh/TriangleBvh.h>
+#include <dfb/server/EnvironmentReference.h>
+
+#include <gtest/gtest.h>
+
+namespace {
+
+using namespace dfb;
+
+TEST(EnvironmentTabletop, SpecularOcclusionFollowsTheOpening) {
+    bench::BenchShot opened;
+    ASSERT_EQ(bench::openBenchShot("env_tabletop_test", DFB_TEST_DATA "/tabletop_320.exr", DFB_SOURCE_DIR "/scenes/tabletop.glb", opened), 0);
+    ASSERT_TRUE(opened.shot.hasEnvTransfer());
+    TriangleBvh bvh;
+    for (const MeshPart& p : opened.scene.parts) bvh.addMesh(p.positions, p.indices);
+    bvh.commit();
+    const Bounds& b = opened.scene.bounds;
+    const float radius = 0.5f * glm::length(b.max - b.min);
+    const std::string maps = DFB_SOURCE_DIR "/scenes/env";
+    Light env;
+    env.name = "dome";
+    env.type = LightType::Environment;
+    env.envMap = "sunrise.exr";
+    env.shadow = true;
+    const DeepBuffer metal = bench::variant(opened.shot, "specular");
+    auto engine = Engine::create(metal, opened.casters);
+    ASSERT_TRUE(engine.ok()) << engine.error().toString();
+    engine.value()->setAssetDirectory(maps);
+    Rig rig;
+    rig.lights = {env};
+    auto fast = engine.value()->renderLightLinear(rig, env.name);
+    ASSERT_TRUE(fast.ok()) << fast.error().toString();
+    auto ref = renderEnvironmentReference(metal, &bvh, radius, env, maps, 256);
+    ASSERT_TRUE(ref.ok()) << ref.error().toString();
+    const bench::Figures f = bench::compare(fast.value(), ref.value(), metal);
+    std::printf("tabletop, metal, sunrise: specular mean %.2f%% p95 %.2f%% aggregate %.2f%% over %zu pixels\n", 100 * f.mean, 100 * f.p95,
+                100 * f.aggregate, f.pixels);
+    EXPECT_GT(f.pixels, 20000u);
+    EXPECT_LT(f.mean, 0.35); // 0.67 with the ambient-visibility formula
+    EXPECT_LT(f.aggregate, 0.12);
+}
+
+} // namespace
