@@ -57,9 +57,7 @@ std::string randomToken() {
 }
 
 std::optional<SessionTokens> readTokens(const fs::path& p) {
-    auto text = Journal::readFileBounded(p, 1 << 16);
-    if (!text) return std::nullopt;
-    auto parsed = protocol::parseJson(text.value(), 1 << 16, p.string());
+    auto parsed = Journal::readJsonBounded(p, 1 << 16);
     if (!parsed) return std::nullopt;
     const json& j = parsed.value();
     if (!j.is_object() || !j.contains("editor") || !j.contains("viewer") || !j["editor"].is_string() || !j["viewer"].is_string()) {
@@ -252,27 +250,20 @@ std::variant<SessionCatalog::Opened, SessionCatalog::Failed> SessionCatalog::ope
     opened.banner = line;
     render.value()->setRefinement(std::chrono::milliseconds(mOptions.refineMs), std::chrono::milliseconds(150));
     hub->setRender(std::move(render.value()));
-    {
-        // Snapshots and saved rigs beside the journal (session/Library.h); a damaged entry is
-        // named and skipped, the others kept.
-        std::vector<std::string> libraryReport;
-        auto library = Library::open(dir.empty() ? dir : dir / "library", &libraryReport);
-        for (const std::string& skipped : libraryReport) {
-            std::fprintf(stderr, "dfb-server: session %s: library: %s\n", spec.name.c_str(), skipped.c_str());
-        }
-        if (!library) return failed(library.error(), "its library cannot be opened (see the server's log)");
-        hub->setLibrary(std::move(library.value()));
-    }
-    {
-        // Annotations the same way (session/Annotations.h): a damaged one named and skipped.
-        std::vector<std::string> annotationsReport;
-        auto annotations = Annotations::open(dir.empty() ? dir : dir / "annotations", &annotationsReport);
-        for (const std::string& note : annotationsReport) {
-            std::fprintf(stderr, "dfb-server: session %s: annotations: %s\n", spec.name.c_str(), note.c_str());
-        }
-        if (!annotations) return failed(annotations.error(), "its annotations cannot be opened (see the server's log)");
-        hub->setAnnotations(std::move(annotations.value()));
-    }
+    // Snapshots and saved rigs (session/Library.h) and annotations (session/Annotations.h) beside
+    // the journal; a damaged entry is named and skipped, the others kept.
+    auto openStore = [&](auto openFolder, const char* folder) {
+        std::vector<std::string> report;
+        auto store = openFolder(dir.empty() ? dir : dir / folder, &report);
+        for (const std::string& entry : report) std::fprintf(stderr, "dfb-server: session %s: %s: %s\n", spec.name.c_str(), folder, entry.c_str());
+        return store;
+    };
+    auto library = openStore(&Library::open, "library");
+    if (!library) return failed(library.error(), "its library cannot be opened (see the server's log)");
+    hub->setLibrary(std::move(library.value()));
+    auto annotations = openStore(&Annotations::open, "annotations");
+    if (!annotations) return failed(annotations.error(), "its annotations cannot be opened (see the server's log)");
+    hub->setAnnotations(std::move(annotations.value()));
     hub->finals().setLimits(mOptions.finalLimits);
     hub->setLease(std::move(lease));
     opened.hub = std::move(hub);

@@ -70,17 +70,12 @@ Result<std::unique_ptr<Annotations>> Annotations::open(const fs::path& dir, std:
     if (ec) return makeError(ErrorCode::IoError, dir.string() + ": cannot list: " + ec.message());
     std::sort(records.begin(), records.end());
     for (const auto& [id, p] : records) {
-        auto text = Journal::readFileBounded(p, MAX_RECORD_BYTES);
-        if (!text) {
-            skip(p, text.error().message);
+        auto j = Journal::readJsonBounded(p, MAX_RECORD_BYTES);
+        if (!j) {
+            skip(p, j.error().message);
             continue;
         }
-        json j = json::parse(text.value(), nullptr, false);
-        if (j.is_discarded()) {
-            skip(p, "not JSON");
-            continue;
-        }
-        auto a = fromJson(j, id);
+        auto a = fromJson(j.value(), id);
         if (!a) {
             skip(p, a.error().message);
             continue;

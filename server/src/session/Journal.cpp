@@ -429,6 +429,14 @@ Result<std::string> Journal::readFileBounded(const std::filesystem::path& path, 
     return text.str();
 }
 
+Result<nlohmann::json> Journal::readJsonBounded(const std::filesystem::path& path, uintmax_t maxBytes) {
+    auto text = readFileBounded(path, maxBytes);
+    if (!text) return text.error();
+    nlohmann::json j = nlohmann::json::parse(text.value(), nullptr, false);
+    if (j.is_discarded()) return makeError(ErrorCode::InvalidFile, "not JSON");
+    return j;
+}
+
 std::string Journal::utcTimestamp() {
     const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
     std::tm tm{};

@@ -92,6 +92,9 @@ public:
     /// one is not one the server wrote, refused with LimitExceeded instead of read into memory).
     /// Error messages do not repeat the path: callers name the file.
     static Result<std::string> readFileBounded(const std::filesystem::path& path, uintmax_t maxBytes);
+    /// readFileBounded, parsed as JSON ("not JSON" when it is not): the library's, the
+    /// annotations' and the tokens' records.
+    static Result<nlohmann::json> readJsonBounded(const std::filesystem::path& path, uintmax_t maxBytes);
     /// Now, UTC, ISO 8601 to the second ("2026-12-05T19:47:41Z"): the time of library entries and
     /// annotations.
     static std::string utcTimestamp();

@@ -95,17 +95,12 @@ Result<std::unique_ptr<Library>> Library::open(const fs::path& dir, std::vector<
                 skip(p, protocol::NAME_RULE);
                 continue;
             }
-            auto text = Journal::readFileBounded(p, MAX_FILE_BYTES);
-            if (!text) {
-                skip(p, text.error().message);
+            auto j = Journal::readJsonBounded(p, MAX_FILE_BYTES);
+            if (!j) {
+                skip(p, j.error().message);
                 continue;
             }
-            json j = json::parse(text.value(), nullptr, false);
-            if (j.is_discarded()) {
-                skip(p, "not JSON");
-                continue;
-            }
-            auto e = entryFromJson(j, name);
+            auto e = entryFromJson(j.value(), name);
             if (!e) {
                 skip(p, e.error().message);
                 continue;
@@ -122,8 +117,8 @@ Result<std::unique_ptr<Library>> Library::open(const fs::path& dir, std::vector<
                 skip(p, "its image: " + (!image ? image.error().message : thumb.error().message));
                 continue;
             }
-            s->width = j.value("width", 0);
-            s->height = j.value("height", 0);
+            s->width = j->value("width", 0);
+            s->height = j->value("height", 0);
             s->image = std::make_shared<const std::string>(std::move(image.value()));
             s->thumbnail = std::make_shared<const std::string>(std::move(thumb.value()));
             if (lib->mSnapshots.size() < MAX_SNAPSHOTS) lib->mSnapshots.emplace(name, std::move(s));
