@@ -5,7 +5,7 @@
 // or fails.
 //
 //   dfb-env-bench SHOT.exr [--scene S.glb] [--maps DIR] [--map NAME ...] [--rays N] [--edits N]
-//                 [--no-errors] [--unshadowed]
+//                 [--no-errors] [--unshadowed] [--transfer-bands]
 //
 // Errors, per map (default: scenes/env's sunrise, an outdoor map with a sun, and interior): the
 // shot as Lambert (specular 0, metallic 0: the diffuse term), as a metal of its own roughness
@@ -13,6 +13,10 @@
 // |fast - ref| / ref (pixels with ref above 1e-3 of the mean), mean and 95th percentile, and the
 // aggregate sum |fast - ref| / sum ref. Shadowed when the shot holds the transfer (dfb-bake
 // --env-rays), unshadowed otherwise (the reference then traces no rays either).
+//
+// --transfer-bands: per map, the diffuse row as the engine's formula would give it with a transfer
+// of 3, 5, 7 and 9 spherical-harmonic bands (TransferBands.h, on the CPU): what the order-3
+// visibility costs, and what a finer one would give.
 
 #include <dfb/core/Stats.h>
 #include <dfb/core/Version.h>
@@ -21,6 +25,9 @@
 
 #include "BenchShot.h"
 #include "EnvFigures.h"
+#include "TransferBands.h"
+
+#include <dfb/server/ImageCodec.h>
 
 #include <dfb/core/CommandLine.h>
 #include <CLI/CLI.hpp>
@@ -66,6 +73,9 @@ int main(int argc, char** argv) {
     app.add_flag("--no-errors", skipErrors, "only the edit -> frame times");
     bool unshadowed = false;
     app.add_flag("--unshadowed", unshadowed, "without visibility on both sides (the split sum and the irradiance alone)");
+    bool transferBands = false;
+    app.add_flag("--transfer-bands", transferBands,
+                 "the diffuse row with a transfer of 3, 5, 7 and 9 bands (the engine's formula on the CPU)");
     if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-env-bench"); rc >= 0) return rc;
     keepFreedMemoryForFrames();
 
@@ -111,6 +121,34 @@ int main(int argc, char** argv) {
                 const Figures f = compare(fast.value(), ref.value(), v);
                 std::printf("  %-14s %-9s mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%  (%zu pixels; reference %.1f s)\n", map.c_str(),
                             kind, 100 * f.mean, 100 * f.p95, 100 * f.aggregate, f.pixels, refMs / 1000);
+            }
+        }
+    }
+
+    if (transferBands) {
+        const std::vector<int> bands{3, 5, 7, 9};
+        const DeepBuffer lambert = variant(g, "diffuse");
+        Light shadowed = env;
+        shadowed.shadow = true;
+        std::printf(" the diffuse row with a transfer of more bands (the engine's formula on the CPU, the transfer on %d rays\n"
+                    " per sample, against the reference): mean / p95 / aggregate\n", rays);
+        for (const std::string& map : maps) {
+            auto img = readHdrImage((std::filesystem::path(mapDir) / map).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+            if (!img) {
+                std::cerr << "dfb-env-bench: " << img.error().toString() << "\n";
+                return 2;
+            }
+            shadowed.envMap = map;
+            auto ref = renderEnvironmentReference(lambert, &bvh, radius, shadowed, mapDir, rays);
+            if (!ref) {
+                std::cerr << "dfb-env-bench: " << ref.error().toString() << "\n";
+                return 1;
+            }
+            const auto images = bench::transferBandImages(lambert, bvh, radius, std::move(img.value()), rays, bands);
+            for (size_t i = 0; i < bands.size(); ++i) {
+                const Figures f = compare(images[i], ref.value(), lambert);
+                std::printf("  %-14s %d bands (%2d coefficients)  mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%\n", map.c_str(), bands[i],
+                            bands[i] * bands[i], 100 * f.mean, 100 * f.p95, 100 * f.aggregate);
             }
         }
     }

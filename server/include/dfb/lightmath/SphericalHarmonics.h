@@ -18,7 +18,9 @@
 
 #include "Scalar.h"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 
 namespace dfb::lightmath {
 
@@ -36,6 +38,47 @@ template <typename T> std::array<T, SH_COEFFICIENTS> shEvaluate(const vec3<T>& d
             T(0.315391565252520) * (T(3) * d.z * d.z - T(1)), // sqrt(5 / (16 pi))
             T(1.092548430592079) * d.x * d.z,
             T(0.546274215296040) * (d.x * d.x - d.y * d.y)}; // sqrt(15 / (16 pi))
+}
+
+/// Bands shEvaluateBands evaluates at most (100 coefficients).
+constexpr int SH_MAX_BANDS = 10;
+
+/// Y_0 .. Y_{bands^2 - 1} at the unit direction d, any number of bands up to SH_MAX_BANDS, coefficient
+/// l (l + 1) + m for band l, m = -l..l, in shEvaluate's convention (its nine values for bands 0-2:
+/// polar axis +Z, m > 0 with cos m phi and m < 0 with sin |m| phi of phi = atan2(y, x), no
+/// Condon-Shortley phase): Y_lm = sqrt(2) K_lm P_l^|m|(z) (cos or sin) |m| phi for m != 0, K_l0
+/// P_l(z) for m = 0, with K_lm = sqrt((2l + 1) (l - |m|)! / (4 pi (l + |m|)!)) and the associated
+/// Legendre functions by their standard recurrences (Green, "Spherical Harmonic Lighting: The
+/// Gritty Details", GDC 2003, section 2). Higher bands than the engine's three are what a finer
+/// visibility transfer would store: dfb-env-bench --transfer-bands measures what each would give.
+template <typename T> void shEvaluateBands(const vec3<T>& d, int bands, T* out) {
+    const double z = std::clamp(double(d.z), -1.0, 1.0), phi = std::atan2(double(d.y), double(d.x));
+    const double sinTheta = std::sqrt(std::max(0.0, (1.0 - z) * (1.0 + z)));
+    bands = std::clamp(bands, 0, SH_MAX_BANDS);
+    for (int m = 0; m < bands; ++m) {
+        // P_m^m = (2m - 1)!! sin^m theta, then P_{m+1}^m = z (2m + 1) P_m^m, then the three-term
+        // recurrence (l - m) P_l^m = z (2l - 1) P_{l-1}^m - (l + m - 1) P_{l-2}^m.
+        double pmm = 1.0;
+        for (int i = 1; i <= m; ++i) pmm *= double(2 * i - 1) * sinTheta;
+        double prev = 0.0, cur = pmm;
+        for (int l = m; l < bands; ++l) {
+            if (l == m + 1) prev = cur, cur = z * double(2 * m + 1) * pmm;
+            else if (l > m + 1) {
+                const double next = (z * double(2 * l - 1) * cur - double(l + m - 1) * prev) / double(l - m);
+                prev = cur, cur = next;
+            }
+            // K_lm: (l - m)! / (l + m)! as a running product, exact for these small l.
+            double ratio = 1.0;
+            for (int k = l - m + 1; k <= l + m; ++k) ratio /= double(k);
+            const double k = std::sqrt(double(2 * l + 1) * ratio / (4.0 * 3.14159265358979323846));
+            if (m == 0) {
+                out[l * (l + 1)] = T(k * cur);
+            } else {
+                out[l * (l + 1) + m] = T(std::sqrt(2.0) * k * cur * std::cos(m * phi));
+                out[l * (l + 1) - m] = T(std::sqrt(2.0) * k * cur * std::sin(m * phi));
+            }
+        }
+    }
 }
 
 /// The band of coefficient i.

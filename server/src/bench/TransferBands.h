@@ -1,0 +1,137 @@
+#pragma once
+// dfb-env-bench --transfer-bands: what the environment light's diffuse term with visibility would
+// measure if its transfer had more spherical-harmonic bands than the engine's three (issue 19
+// point 4: the shadowed diffuse error). The engine's diffuse formula (relight_env.frag,
+// docs/lighting.md "Environment light") is evaluated here on the CPU, per sample, at B bands:
+//   albedo x (E_open / pi x clamp(sum_i L_i T_i / sum_i L_i T°_i, 0, 1) + E_sun / pi x max(0, N.s) V(s))
+// - E_open: the exact unshadowed irradiance of the map without its sun (engine::extractSun), from
+//   its 128 x 64 box-filtered copy as the engine's (direct integration instead of the engine's
+//   expansion plus residual grid, which equals it);
+// - L_i: that map on B bands; T_i and T°_i: the sample's shadowed and unshadowed transfer on the
+//   same `rays` cosine-distributed directions (as the bake's, dfb-bake --env-rays);
+// - the sun: its irradiance and direction as the engine extracts them, visibility by one ray (the
+//   engine's shadow map);
+// against the brute-force reference (renderEnvironmentReference, multiple importance sampling),
+// with EnvFigures.h's figures. At three bands it stands in for the engine's own diffuse row.
+
+#include "EnvFigures.h"
+#include "engine/EnvironmentMap.h"
+
+#include <dfb/bvh/TriangleBvh.h>
+#include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/lightmath/Environment.h>
+#include <dfb/lightmath/SphericalHarmonics.h>
+#include <dfb/server/Engine.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+namespace dfb::bench {
+
+/// `map` (RGBA float) averaged over blocks of texels to `width` x width / 2 (the engine's
+/// spherical-harmonic source is such a 128 x 64 copy).
+inline ImageF boxFilteredMap(const ImageF& map, int width) {
+    const int f = std::max(1, map.width / width), w = std::max(1, map.width / f), h = std::max(1, map.height / f);
+    ImageF out{w, h, std::vector<float>(size_t(w) * size_t(h) * 4, 0.f)};
+    for (int j = 0; j < h * f; ++j)
+        for (int i = 0; i < w * f; ++i)
+            for (int c = 0; c < 4; ++c)
+                out.rgba[(size_t(j / f) * size_t(w) + size_t(i / f)) * 4 + size_t(c)] +=
+                    map.rgba[(size_t(j) * size_t(map.width) + size_t(i)) * 4 + size_t(c)] / float(f * f);
+    return out;
+}
+
+/// Per pixel (the coverage-weighted sum of its samples, RGBA) the diffuse radiance of the Lambert
+/// shot `g` (bench::variant "diffuse") under `map` (RGBA float lat-long, unrotated, with its sun)
+/// at each of `bandCounts` (each <= SH_MAX_BANDS).
+inline std::vector<ImageF> transferBandImages(const DeepBuffer& g, const TriangleBvh& bvh, float radius, ImageF map, int rays,
+                                              const std::vector<int>& bandCounts) {
+    namespace lm = lightmath;
+    constexpr int K = lm::SH_MAX_BANDS * lm::SH_MAX_BANDS;
+    const engine::EnvSun sun = engine::extractSun(map);
+    const ImageF small = boxFilteredMap(map, 128);
+    // The small map's texels as directions with radiance x solid angle, and its L_i on every band.
+    std::vector<glm::dvec3> dirs, weighted;
+    std::vector<glm::dvec3> L(K, glm::dvec3(0.0));
+    double y[K];
+    for (int j = 0; j < small.height; ++j)
+        for (int i = 0; i < small.width; ++i) {
+            const glm::dvec3 d = lm::envDirection((i + 0.5) / small.width, (j + 0.5) / small.height);
+            const float* t = &small.rgba[(size_t(j) * size_t(small.width) + size_t(i)) * 4];
+            const glm::dvec3 c = glm::dvec3(t[0], t[1], t[2]) * lm::envTexelSolidAngle(j, small.width, small.height);
+            dirs.push_back(d);
+            weighted.push_back(c);
+            lm::shEvaluateBands(d, lm::SH_MAX_BANDS, y);
+            for (int k = 0; k < K; ++k) L[size_t(k)] += c * y[k];
+        }
+    const size_t n = g.sampleCount(), nb = bandCounts.size();
+    std::vector<glm::dvec3> radiance(n * nb, glm::dvec3(0.0));
+    std::atomic<size_t> next{0};
+    auto work = [&] {
+        std::vector<double> T(K), open(K);
+        double w[K];
+        for (size_t s; (s = next.fetch_add(1)) < n;) {
+            if (g.A[s] <= 0.f) continue;
+            const glm::dvec3 P(g.position(s));
+            const glm::dvec3 N = glm::normalize(glm::dvec3(g.N[s * 3], g.N[s * 3 + 1], g.N[s * 3 + 2]));
+            const glm::dvec3 Ng = glm::normalize(glm::dvec3(g.Ng[s * 3], g.Ng[s * 3 + 1], g.Ng[s * 3 + 2]));
+            if (!std::isfinite(N.x) || !std::isfinite(Ng.x)) continue;
+            const glm::vec3 from = glm::vec3(P + Ng * (1e-5 * double(radius)));
+            auto visible = [&](const glm::dvec3& d) {
+                return glm::dot(Ng, d) > 0 && !bvh.occluded(from, from + glm::vec3(d) * (4.f * radius), 1e-6f);
+            };
+            glm::dvec3 openIrradiance(0.0); // E_open / pi
+            for (size_t t = 0; t < dirs.size(); ++t) openIrradiance += weighted[t] * std::max(0.0, glm::dot(N, dirs[t]));
+            openIrradiance /= lm::ENV_PI;
+            const glm::dvec3 t = glm::normalize(glm::cross(N, std::abs(N.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0)));
+            const glm::dvec3 b = glm::cross(N, t);
+            std::fill(T.begin(), T.end(), 0.0);
+            std::fill(open.begin(), open.end(), 0.0);
+            // Stratified in the first coordinate, golden-ratio in the second, shifted per sample
+            // (Cranley and Patterson 1976, as the bake's).
+            const double du = std::fmod(double(s) * 0.7548776662466927, 1.0), dv = std::fmod(double(s) * 0.5698402909980532, 1.0);
+            for (int k = 0; k < rays; ++k) {
+                const double u = std::fmod((k + 0.5) / rays + du, 1.0), v = std::fmod(k * 0.6180339887498949 + dv, 1.0);
+                const double r = std::sqrt(u), phi = 2 * lm::ENV_PI * v, z = std::sqrt(std::max(0.0, 1 - u));
+                const glm::dvec3 dir = glm::normalize(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + N * z);
+                lm::shEvaluateBands(dir, lm::SH_MAX_BANDS, w);
+                for (int i = 0; i < K; ++i) open[size_t(i)] += w[i];
+                if (!visible(dir)) continue;
+                for (int i = 0; i < K; ++i) T[size_t(i)] += w[i];
+            }
+            glm::dvec3 sunPart(0.0);
+            if (sun.found) {
+                const glm::dvec3 s0 = glm::normalize(glm::dvec3(sun.direction));
+                if (glm::dot(N, s0) > 0 && visible(s0)) sunPart = glm::dvec3(sun.irradiance) * (glm::dot(N, s0) / lm::ENV_PI);
+            }
+            const glm::dvec3 albedo(g.albedo[s * 3], g.albedo[s * 3 + 1], g.albedo[s * 3 + 2]);
+            for (size_t c = 0; c < nb; ++c) {
+                const int count = bandCounts[c] * bandCounts[c];
+                glm::dvec3 shadowed(0.0), unshadowed(0.0);
+                for (int i = 0; i < count; ++i) shadowed += L[size_t(i)] * T[size_t(i)], unshadowed += L[size_t(i)] * open[size_t(i)];
+                const glm::dvec3 ratio = glm::clamp(shadowed / glm::max(unshadowed, glm::dvec3(1e-12)), 0.0, 1.0);
+                radiance[s * nb + c] = double(g.A[s]) * albedo * (openIrradiance * ratio + sunPart);
+            }
+        }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned i = 1; i < std::max(1u, std::thread::hardware_concurrency()); ++i) pool.emplace_back(work);
+    work();
+    for (std::thread& th : pool) th.join();
+    std::vector<ImageF> out;
+    for (size_t c = 0; c < nb; ++c) {
+        ImageF img{g.width, g.height, std::vector<float>(g.pixelCount() * 4, 1.f)};
+        for (size_t p = 0; p < g.pixelCount(); ++p) {
+            glm::dvec3 sum(0.0);
+            for (uint32_t s = g.sampleOffset[p]; s < g.sampleOffset[p + 1]; ++s) sum += radiance[s * nb + c];
+            for (int k = 0; k < 3; ++k) img.rgba[p * 4 + size_t(k)] = float(sum[k]);
+        }
+        out.push_back(std::move(img));
+    }
+    return out;
+}
+
+} // namespace dfb::bench

@@ -1,0 +1,75 @@
+// Real spherical harmonics of any order (lightmath/SphericalHarmonics.h, shEvaluateBands): the
+// engine's nine for bands 0-2, orthonormal over the sphere, and each band's addition theorem.
+
+#include <dfb/lightmath/SphericalHarmonics.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+namespace {
+
+namespace lm = dfb::lightmath;
+constexpr double PI = 3.14159265358979323846;
+
+std::vector<glm::dvec3> randomDirections(size_t n) {
+    std::mt19937 rng(7);
+    std::normal_distribution<double> g;
+    std::vector<glm::dvec3> out;
+    while (out.size() < n) {
+        const glm::dvec3 d(g(rng), g(rng), g(rng));
+        if (glm::length(d) > 1e-6) out.push_back(glm::normalize(d));
+    }
+    // The poles and the equator, where the recurrences' sin theta and atan2 are at their limits.
+    out.push_back({0, 0, 1});
+    out.push_back({0, 0, -1});
+    out.push_back({1, 0, 0});
+    return out;
+}
+
+TEST(SphericalHarmonics, FirstThreeBandsAreTheEnginesNine) {
+    for (const glm::dvec3& d : randomDirections(200)) {
+        double y[lm::SH_MAX_BANDS * lm::SH_MAX_BANDS];
+        lm::shEvaluateBands(d, 3, y);
+        const auto nine = lm::shEvaluate(d);
+        for (int i = 0; i < lm::SH_COEFFICIENTS; ++i) EXPECT_NEAR(y[i], nine[size_t(i)], 1e-12) << "coefficient " << i;
+    }
+}
+
+TEST(SphericalHarmonics, EachBandKeepsTheAdditionTheorem) {
+    // sum over m of Y_lm(d)^2 = (2l + 1) / (4 pi) at every direction: every coefficient's
+    // normalisation, whichever m, without a quadrature.
+    for (const glm::dvec3& d : randomDirections(200)) {
+        double y[lm::SH_MAX_BANDS * lm::SH_MAX_BANDS];
+        lm::shEvaluateBands(d, lm::SH_MAX_BANDS, y);
+        for (int l = 0; l < lm::SH_MAX_BANDS; ++l) {
+            double sum = 0;
+            for (int m = -l; m <= l; ++m) sum += y[l * (l + 1) + m] * y[l * (l + 1) + m];
+            EXPECT_NEAR(sum, (2 * l + 1) / (4 * PI), 1e-10) << "band " << l;
+        }
+    }
+}
+
+TEST(SphericalHarmonics, AreOrthonormalOverTheSphere) {
+    // Gauss-free midpoint quadrature on a fine latitude-longitude grid (z = cos theta uniform in
+    // rows: the rows' solid angles are equal): good to 1e-4 for these polynomials of degree <= 14.
+    constexpr int B = 8, K = B * B, ROWS = 400, COLS = 800;
+    std::vector<double> gram(size_t(K * K), 0.0);
+    double y[K];
+    const double dOmega = 4 * PI / (ROWS * COLS);
+    for (int j = 0; j < ROWS; ++j) {
+        const double z = 1.0 - 2.0 * (j + 0.5) / ROWS, s = std::sqrt(1 - z * z);
+        for (int i = 0; i < COLS; ++i) {
+            const double phi = 2 * PI * (i + 0.5) / COLS;
+            lm::shEvaluateBands(glm::dvec3(s * std::cos(phi), s * std::sin(phi), z), B, y);
+            for (int a = 0; a < K; ++a)
+                for (int b = a; b < K; ++b) gram[size_t(a * K + b)] += y[a] * y[b] * dOmega;
+        }
+    }
+    for (int a = 0; a < K; ++a)
+        for (int b = a; b < K; ++b) EXPECT_NEAR(gram[size_t(a * K + b)], a == b ? 1.0 : 0.0, 1e-3) << a << ", " << b;
+}
+
+} // namespace
