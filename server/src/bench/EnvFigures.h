@@ -50,6 +50,39 @@ inline Figures compare(const ImageF& fast, const ImageF& ref, const DeepBuffer& 
     return out;
 }
 
+/// Per-pixel relative errors (pixels whose reference luminance is over 1e-3 of the mean) in cells
+/// by quarter of N.v (first index) and of roughness (second), from each pixel's first sample.
+struct QuarterBins {
+    struct Cell {
+        double absolute = 0, signedSum = 0;
+        size_t pixels = 0;
+    } cell[4][4];
+};
+
+inline QuarterBins binByViewAndRoughness(const ImageF& fast, const ImageF& ref, const DeepBuffer& g) {
+    double sumRef = 0;
+    size_t covered = 0;
+    for (size_t p = 0; p < g.pixelCount(); ++p)
+        if (g.sampleOffset[p + 1] > g.sampleOffset[p]) sumRef += luminance(ref, p), ++covered;
+    const double floor = 1e-3 * sumRef / double(std::max<size_t>(covered, 1));
+    const glm::vec3 eye = g.camera.position();
+    QuarterBins out;
+    for (size_t p = 0; p < g.pixelCount(); ++p) {
+        if (g.sampleOffset[p + 1] == g.sampleOffset[p]) continue;
+        const double r = luminance(ref, p), f = luminance(fast, p);
+        if (r <= floor) continue;
+        const size_t s = g.sampleOffset[p];
+        const glm::vec3 N = glm::normalize(glm::vec3(g.N[s * 3], g.N[s * 3 + 1], g.N[s * 3 + 2]));
+        const glm::vec3 V = g.camera.orthographic ? -g.camera.forward() : glm::normalize(eye - g.position(s));
+        const auto quarter = [](float x) { return std::clamp(int(4.f * x), 0, 3); };
+        auto& c = out.cell[quarter(glm::dot(N, V))][quarter(g.brdf[s * 4 + 1])];
+        c.absolute += std::abs(f - r) / r;
+        c.signedSum += (f - r) / r;
+        ++c.pixels;
+    }
+    return out;
+}
+
 // The shot with its materials changed: "diffuse" (Lambert), "specular" (a metal) or as baked.
 inline DeepBuffer variant(const DeepBuffer& g, const std::string& kind) {
     DeepBuffer v = g;

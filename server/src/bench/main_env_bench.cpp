@@ -5,7 +5,7 @@
 // or fails.
 //
 //   dfb-env-bench SHOT.exr [--scene S.glb] [--maps DIR] [--map NAME ...] [--rays N] [--edits N]
-//                 [--no-errors] [--unshadowed] [--transfer-bands]
+//                 [--no-errors] [--unshadowed] [--transfer-bands] [--specular-bins]
 //
 // Errors, per map (default: scenes/env's sunrise, an outdoor map with a sun, and interior): the
 // shot as Lambert (specular 0, metallic 0: the diffuse term), as a metal of its own roughness
@@ -16,7 +16,9 @@
 //
 // --transfer-bands: per map, the diffuse row as the engine's formula would give it with a transfer
 // of 3, 5, 7 and 9 spherical-harmonic bands (TransferBands.h, on the CPU): what the order-3
-// visibility costs, and what a finer one would give.
+// visibility costs, and what a finer one would give. --specular-bins: the specular row's error per
+// quarter of N.v and of roughness, unshadowed and shadowed: where the split sum and the specular
+// occlusion miss.
 
 #include <dfb/core/Stats.h>
 #include <dfb/core/Version.h>
@@ -73,6 +75,8 @@ int main(int argc, char** argv) {
     app.add_flag("--no-errors", skipErrors, "only the edit -> frame times");
     bool unshadowed = false;
     app.add_flag("--unshadowed", unshadowed, "without visibility on both sides (the split sum and the irradiance alone)");
+    bool specularBins = false;
+    app.add_flag("--specular-bins", specularBins, "the specular row's error by N.v and roughness, unshadowed and shadowed");
     bool transferBands = false;
     app.add_flag("--transfer-bands", transferBands,
                  "the diffuse row with a transfer of 3, 5, 7 and 9 bands (the engine's formula on the CPU)");
@@ -125,6 +129,44 @@ int main(int argc, char** argv) {
         }
     }
 
+    if (specularBins) {
+        // Where the specular row's error is: per pixel by N.v and roughness (the first sample's).
+        const DeepBuffer metal = variant(g, "specular");
+        std::printf(" the specular row by N.v (rows) and roughness (columns), quarters of [0, 1]: mean |error| (mean signed\n"
+                    " error) [pixels], against the reference on %d rays\n", rays);
+        for (const std::string& map : maps)
+            for (bool shadowed : {false, true}) {
+                if (shadowed && !transfer) continue;
+                Light l = env;
+                l.envMap = map;
+                l.shadow = shadowed;
+                auto engine = Engine::create(metal, opened.casters);
+                if (!engine) {
+                    std::cerr << "dfb-env-bench: " << engine.error().toString() << "\n";
+                    return 3;
+                }
+                engine.value()->setAssetDirectory(mapDir);
+                Rig rig;
+                rig.lights = {l};
+                auto fast = engine.value()->renderLightLinear(rig, l.name);
+                auto ref = renderEnvironmentReference(metal, shadowed ? &bvh : nullptr, radius, l, mapDir, rays);
+                if (!fast || !ref) {
+                    std::cerr << "dfb-env-bench: " << (fast ? ref.error() : fast.error()).toString() << "\n";
+                    return 1;
+                }
+                const bench::QuarterBins bins = bench::binByViewAndRoughness(fast.value(), ref.value(), metal);
+                std::printf("  %s, %s:\n", map.c_str(), shadowed ? "shadowed" : "unshadowed");
+                for (int a = 0; a < 4; ++a) {
+                    std::printf("   N.v < %.2f", 0.25 * (a + 1));
+                    for (int r = 0; r < 4; ++r) {
+                        const auto& c = bins.cell[a][r];
+                        if (c.pixels) std::printf("  %6.1f%% (%+6.1f%%) [%5zu]", 100 * c.absolute / double(c.pixels), 100 * c.signedSum / double(c.pixels), c.pixels);
+                        else std::printf("  %26s", "-");
+                    }
+                    std::printf("\n");
+                }
+            }
+    }
     if (transferBands) {
         const std::vector<int> bands{3, 5, 7, 9};
         const DeepBuffer lambert = variant(g, "diffuse");
