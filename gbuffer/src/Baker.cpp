@@ -55,6 +55,7 @@ struct Group {
     uint32_t count = 0;
     float sum[FLOATS];
     float env[ENV_TRANSFER_COEFFICIENTS]; // summed environment transfer of the points (when baked)
+    double lobe[EnvTracer::LOBE_SUMS];    // summed specular-lobe sums of the points (when baked)
 };
 
 using Clock = std::chrono::steady_clock;
@@ -356,6 +357,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
     std::vector<float> readback(np * 4);
     std::vector<std::vector<float>> pass(TARGETS);
     std::vector<float> passEnv(env ? np * ENV_TRANSFER_COEFFICIENTS : 0);
+    std::vector<double> passLobe(env ? np * EnvTracer::LOBE_SUMS : 0);
 
     const std::vector<glm::vec2> offsets = sampleOffsets(o.samples);
     for (int s = 0; s < o.samples; ++s) {
@@ -437,6 +439,9 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
                     };
                     mine += env->estimate(at(0), at(1), at(2), uint64_t(dst), firstRay, stride,
                                           &passEnv[dst * ENV_TRANSFER_COEFFICIENTS]);
+                    // The specular lobe as the camera sees this point (roughness: target 5's y).
+                    mine += env->lobe(at(0), at(1), at(2), cam.towardsEye(at(0)), pass[5][src * 4 + 1], uint64_t(dst), firstRay,
+                                      stride, &passLobe[dst * EnvTracer::LOBE_SUMS]);
                 }
                 envTraced.fetch_add(mine);
             });
@@ -465,6 +470,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
                 g->material = material;
                 std::fill(std::begin(g->sum), std::end(g->sum), 0.f);
                 std::fill(std::begin(g->env), std::end(g->env), 0.f);
+                std::fill(std::begin(g->lobe), std::end(g->lobe), 0.0);
             }
             ++g->count;
             for (int t = 0; t < TARGETS; ++t)
@@ -472,6 +478,8 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
             if (env) {
                 const float* t = &passEnv[dst * ENV_TRANSFER_COEFFICIENTS];
                 for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i) g->env[i] += t[i];
+                const double* l = &passLobe[dst * EnvTracer::LOBE_SUMS];
+                for (int i = 0; i < EnvTracer::LOBE_SUMS; ++i) g->lobe[i] += l[i];
             }
         }
         progress();
@@ -489,6 +497,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
     b.allocateSamples(W, H, counts);
     if (env) {
         b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
+        b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
         b.envRays = o.envRays;
     }
     b.samplesPerPixel = o.samples;
@@ -531,6 +540,8 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
             // point, and the sample stands for their average, as for every attribute above.
             for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i)
                 b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)] = g.env[i] * inv;
+            // The lobe's sums add over the points (a ratio and a direction: no mean needed).
+            EnvTracer::encodeLobe(g.lobe, N, cam.towardsEye(P), &b.envLobe[s * ENV_LOBE_COMPONENTS]);
             envStats.samples += b.A[s] > 0.f;
         }
     };

@@ -32,6 +32,7 @@ void DeepBuffer::allocateSamples(int w, int h, const std::vector<uint32_t>& coun
     // Optional: the samples it held are gone, and a stale layer of the old size would be read as
     // this buffer's (copies made with `DeepBuffer d = f; d.allocateSamples(...)`).
     envTransfer.clear();
+    envLobe.clear();
     envRays = 0;
     A.assign(n, 0.f);
     objectId.assign(n, 0);

@@ -34,6 +34,21 @@ public:
     size_t estimate(const glm::vec3& P, const glm::vec3& N, const glm::vec3& Ng, uint64_t seed, size_t first,
                     size_t stride, float out[ENV_TRANSFER_COEFFICIENTS]) const;
 
+    /// Sums over the sample's GGX specular lobe seen along `view` (unit, from the point towards the
+    /// camera; `roughness` as the G-buffer's), the same pattern's directions k = first, first +
+    /// stride, ... mapped through lightmath::ggxHalfVector and shifted by another hash of `seed`:
+    /// out[0] = sum of the weights w (lightmath::ggxLobeWeight), out[1] = that of the visible ones
+    /// (V as estimate()'s), out[2..4] = the visible ones' sum of w l. Sums of several calls (a
+    /// merged sample's points) add; encodeLobe turns them into DeepBuffer::envLobe's values.
+    /// Returns the rays traced.
+    static constexpr int LOBE_SUMS = 5;
+    size_t lobe(const glm::vec3& P, const glm::vec3& N, const glm::vec3& Ng, const glm::vec3& view, float roughness,
+                uint64_t seed, size_t first, size_t stride, double out[LOBE_SUMS]) const;
+    /// DeepBuffer::envLobe's three values from lobe()'s sums: the visible mean direction,
+    /// octahedral-encoded (the mirror direction of V about N where none is visible), and the
+    /// visible share (1 where the lobe has no weight above the surface).
+    static void encodeLobe(const double sums[LOBE_SUMS], const glm::vec3& N, const glm::vec3& V, float out[ENV_LOBE_COMPONENTS]);
+
     int patternRays() const { return int(mPattern.size()); }
     double bvhMs() const { return mBvhMs; } ///< building the hierarchy, milliseconds
 

@@ -11,6 +11,7 @@
 
 #include "EnvTracer.h"
 
+#include <dfb/lightmath/Environment.h>
 #include <dfb/lightmath/SphericalHarmonics.h>
 
 #include <algorithm>
@@ -128,6 +129,56 @@ size_t EnvTracer::estimate(const glm::vec3& P, const glm::vec3& normal, const gl
     return traced;
 }
 
+size_t EnvTracer::lobe(const glm::vec3& P, const glm::vec3& normal, const glm::vec3& geometric, const glm::vec3& view,
+                       float roughness, uint64_t seed, size_t first, size_t stride, double out[LOBE_SUMS]) const {
+    const float len = glm::length(normal), lenV = glm::length(view);
+    const glm::vec3 N = len > 0.f ? normal / len : glm::vec3(0, 1, 0);
+    const glm::vec3 V = lenV > 0.f ? view / lenV : N;
+    const float lenG = glm::length(geometric);
+    const glm::vec3 Ng = lenG > 0.f ? geometric / lenG : N;
+    const double alpha = std::max(double(roughness) * double(roughness), lightmath::MIN_ALPHA);
+    const double NdotV = glm::dot(N, V);
+    glm::vec3 t, bt;
+    frameAbout(N, t, bt);
+    // Its own shift of the pattern (another hash of the seed than the transfer's): the lobe's and
+    // the transfer's errors stay independent.
+    const uint64_t h = mix64(seed ^ 0x6c6f6265ull);
+    const double du = double(h >> 40) * (1.0 / 16777216.0), dv = double((h >> 16) & 0xffffffull) * (1.0 / 16777216.0);
+    const glm::vec3 from = P + Ng * mHair;
+    for (int i = 0; i < LOBE_SUMS; ++i) out[i] = 0.0;
+    size_t traced = 0;
+    for (size_t k = first; k < mPattern.size(); k += std::max<size_t>(stride, 1)) {
+        double u = double(mPattern[k].x) + du, v = double(mPattern[k].y) + dv;
+        u -= std::floor(u);
+        v -= std::floor(v);
+        const glm::dvec3 hl = lightmath::ggxHalfVector({u, v}, alpha);
+        const glm::vec3 H = glm::normalize(t * float(hl.x) + bt * float(hl.y) + N * float(hl.z));
+        const double VdotH = glm::dot(V, H);
+        const glm::vec3 L = glm::normalize(2.f * float(VdotH) * H - V);
+        const double w = lightmath::ggxLobeWeight(glm::dot(N, L), NdotV, hl.z, VdotH, alpha);
+        if (w <= 0) continue;
+        out[0] += w;
+        if (glm::dot(Ng, L) <= 0.f) continue; // below its own surface: occluded
+        ++traced;
+        if (mBvh.occluded(from, from + L * mLength, 1e-6f)) continue;
+        out[1] += w;
+        for (int c = 0; c < 3; ++c) out[2 + c] += w * double(L[c]);
+    }
+    return traced;
+}
+
+void EnvTracer::encodeLobe(const double sums[LOBE_SUMS], const glm::vec3& N, const glm::vec3& V, float out[ENV_LOBE_COMPONENTS]) {
+    const glm::dvec3 mean(sums[2], sums[3], sums[4]);
+    // Nothing of the lobe above the surface (a view past the terminator), or nothing of it
+    // visible: the mirror direction stands in (the share says how much it counts).
+    glm::dvec3 d = glm::length(mean) > 0.0 ? glm::normalize(mean) : glm::dvec3(glm::reflect(-V, N));
+    if (!(glm::length(d) > 0.0)) d = glm::dvec3(N);
+    const glm::dvec2 e = lightmath::octEncode(glm::normalize(d));
+    out[0] = float(std::clamp(e.x, -1.0, 1.0));
+    out[1] = float(std::clamp(e.y, -1.0, 1.0));
+    out[2] = sums[0] > 0.0 ? float(std::clamp(sums[1] / sums[0], 0.0, 1.0)) : 1.f;
+}
+
 unsigned parallelChunks(size_t count, unsigned threads, const std::function<void(size_t, size_t)>& fn,
                         const std::function<void(size_t, size_t)>& progress) {
     unsigned workers = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
@@ -167,7 +218,8 @@ Result<EnvTransferStats> bakeEnvTransfer(const Scene& scene, DeepBuffer& b, int 
     std::vector<size_t> covered;
     for (size_t s = 0; s < n; ++s)
         if (b.A[s] > 0.f) covered.push_back(s);
-    std::vector<float> transfer(n * K, 0.f);
+    std::vector<float> transfer(n * K, 0.f), lobe(n * ENV_LOBE_COMPONENTS, 0.f);
+    const bool hasRoughness = b.brdf.size() == n * 4;
     std::atomic<size_t> traced{0};
     EnvTransferStats stats;
     // Seeds: the sample index, which for a flat buffer is the pixel's, as in the bake (Baker.cpp).
@@ -179,11 +231,16 @@ Result<EnvTransferStats> bakeEnvTransfer(const Scene& scene, DeepBuffer& b, int 
                 const size_t s = covered[c];
                 const glm::vec3 Ng = hasNg ? glm::vec3(b.Ng[s * 3], b.Ng[s * 3 + 1], b.Ng[s * 3 + 2]) : b.normal(s);
                 mine += tracer.estimate(b.position(s), b.normal(s), Ng, uint64_t(s), 0, 1, &transfer[s * K]);
+                double sums[EnvTracer::LOBE_SUMS];
+                const glm::vec3 V = b.camera.towardsEye(b.position(s));
+                mine += tracer.lobe(b.position(s), b.normal(s), Ng, V, hasRoughness ? b.brdf[s * 4 + 1] : 1.f, uint64_t(s), 0, 1, sums);
+                EnvTracer::encodeLobe(sums, b.normal(s), V, &lobe[s * ENV_LOBE_COMPONENTS]);
             }
             traced.fetch_add(mine);
         },
         progress);
     b.envTransfer = std::move(transfer);
+    b.envLobe = std::move(lobe);
     b.envRays = rays;
     stats.samples = covered.size();
     stats.rays = traced.load();

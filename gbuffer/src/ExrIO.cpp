@@ -36,6 +36,8 @@ namespace dfb {
 namespace {
 
 // A file channel and where its samples live in a DeepBuffer layer.
+enum class OptionalLayer { None, EnvTransfer, EnvLobe };
+
 struct ChannelSpec {
     const char* name;
     Imf::PixelType fileType;
@@ -43,15 +45,25 @@ struct ChannelSpec {
     int components; // components per sample in the layer
     bool required;
     std::function<char*(DeepBuffer&)> base;
-    // An optional layer (DeepBuffer::envTransfer): its channels are written only when the buffer
-    // holds the layer, and a file holds all of them or none.
-    bool optionalLayer = false;
+    // An optional layer's channels are written only when the buffer holds the layer, and a file
+    // holds all of them or none.
+    OptionalLayer layer = OptionalLayer::None;
 };
 
-// The first of the environment transfer's channels: its absence means the file has none.
-constexpr const char* ENV_CHANNEL0 = "env.sh0";
+// The optional layers: the first channel of each (its absence means the file has none), what a
+// refusal of a partial layer names, and whether a buffer holds it.
+struct LayerInfo {
+    const char* firstChannel;
+    const char* channels;
+    bool (*held)(const DeepBuffer&);
+};
+LayerInfo layerInfo(OptionalLayer l) {
+    if (l == OptionalLayer::EnvLobe) return {"env.lobe.u", "env.lobe.u, env.lobe.v, env.lobe.vis", [](const DeepBuffer& b) { return b.hasEnvLobe(); }};
+    return {"env.sh0", "env.sh0 .. env.sh8", [](const DeepBuffer& b) { return b.hasEnvTransfer(); }};
+}
+constexpr OptionalLayer OPTIONAL_LAYERS[] = {OptionalLayer::EnvTransfer, OptionalLayer::EnvLobe};
 
-// The channel table of format v3 (docs/gbuffer-format.md). Positions and depth are float for
+// The channel table of format v4 (docs/gbuffer-format.md). Positions and depth are float for
 // precision over large scenes; directions, colours, lobe parameters and the environment transfer
 // are half; ids are uint.
 const std::vector<ChannelSpec>& channelSpecs() {
@@ -98,22 +110,28 @@ const std::vector<ChannelSpec>& channelSpecs() {
         {"id.material", PT::UINT, 0, 1, true, u(&DeepBuffer::materialId)},
         // Half: |T_i| <= max |Y_i| <= 0.631 (the cosine lobe's (1/pi) integral is 1), where half's
         // steps (2.4e-4 at most) are far below the Monte Carlo error of a bake at MAX_ENV_RAYS.
-        {"env.sh0", PT::HALF, 0, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
-        {"env.sh1", PT::HALF, 1, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
-        {"env.sh2", PT::HALF, 2, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
-        {"env.sh3", PT::HALF, 3, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
-        {"env.sh4", PT::HALF, 4, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
-        {"env.sh5", PT::HALF, 5, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
-        {"env.sh6", PT::HALF, 6, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
-        {"env.sh7", PT::HALF, 7, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
-        {"env.sh8", PT::HALF, 8, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), true},
+        {"env.sh0", PT::HALF, 0, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        {"env.sh1", PT::HALF, 1, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        {"env.sh2", PT::HALF, 2, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        {"env.sh3", PT::HALF, 3, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        {"env.sh4", PT::HALF, 4, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        {"env.sh5", PT::HALF, 5, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        {"env.sh6", PT::HALF, 6, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        {"env.sh7", PT::HALF, 7, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        {"env.sh8", PT::HALF, 8, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
+        // Half: the octahedral coordinates in [-1, 1] (steps of 4.9e-4 at most: a direction to
+        // within 0.05 degrees) and the visible share in [0, 1].
+        {"env.lobe.u", PT::HALF, 0, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
+        {"env.lobe.v", PT::HALF, 1, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
+        {"env.lobe.vis", PT::HALF, 2, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
     };
     static_assert(ENV_TRANSFER_COEFFICIENTS == 9, "the table lists env.sh0 .. env.sh8");
+    static_assert(ENV_LOBE_COMPONENTS == 3, "the table lists env.lobe.u, .v, .vis");
     return specs;
 }
 
 // Whether a buffer writes channel c: every channel, but an optional layer's only when it holds it.
-bool writes(const ChannelSpec& c, const DeepBuffer& b) { return !c.optionalLayer || b.hasEnvTransfer(); }
+bool writes(const ChannelSpec& c, const DeepBuffer& b) { return c.layer == OptionalLayer::None || layerInfo(c.layer).held(b); }
 
 Imath::M44f toImath(const glm::mat4& m) {
     Imath::M44f r;
@@ -421,17 +439,18 @@ Status readHeaderAttributes(const Imf::Header& h, const std::string& path, DeepB
 // An optional layer's channels come all or none: a file with some is refused naming the first
 // absent one (half a transfer would be read as zeros, a wrong transfer rather than none).
 Status checkChannels(const Imf::Header& h, const std::string& path, std::set<std::string>& missing) {
-    bool anyOfLayer = false;
+    std::set<OptionalLayer> anyOfLayer;
     for (const ChannelSpec& c : channelSpecs())
-        anyOfLayer = anyOfLayer || (c.optionalLayer && h.channels().findChannel(c.name));
+        if (c.layer != OptionalLayer::None && h.channels().findChannel(c.name)) anyOfLayer.insert(c.layer);
     for (const ChannelSpec& c : channelSpecs()) {
         const Imf::Channel* ch = h.channels().findChannel(c.name);
         if (!ch) {
             if (c.required) return fileError(ErrorCode::MissingData, path, std::string("required channel '") + c.name + "' is missing");
-            if (c.optionalLayer && anyOfLayer) {
-                return fileError(ErrorCode::MissingData, path, std::string("channel '") + c.name +
-                                                                   "' is missing (the environment transfer needs all of "
-                                                                   "env.sh0 .. env.sh8, or none)");
+            if (anyOfLayer.count(c.layer)) {
+                return fileError(ErrorCode::MissingData, path,
+                                 std::string("channel '") + c.name + "' is missing (the " +
+                                     (c.layer == OptionalLayer::EnvLobe ? "specular lobe" : "environment transfer") + " needs all of " +
+                                     layerInfo(c.layer).channels + ", or none)");
             }
             missing.insert(c.name);
             continue;
@@ -472,10 +491,11 @@ Result<Imath::Box2i> readPrelude(File& file, const std::string& path, DeepBuffer
     return dw;
 }
 
-// After allocateSamples, which leaves the optional layer empty: the environment transfer's layer
-// and ray count when the file has its channels.
+// After allocateSamples, which leaves the optional layers empty: the environment transfer's layer
+// and ray count, and the specular lobe's layer, when the file has their channels.
 void allocateEnvTransfer(const Imf::Header& h, const std::set<std::string>& missing, DeepBuffer& b) {
-    if (missing.count(ENV_CHANNEL0)) return;
+    if (!missing.count(layerInfo(OptionalLayer::EnvLobe).firstChannel)) b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
+    if (missing.count(layerInfo(OptionalLayer::EnvTransfer).firstChannel)) return;
     b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
     if (const auto* a = h.findTypedAttribute<Imf::IntAttribute>("dfb.envRays")) b.envRays = a->value();
 }
@@ -577,7 +597,8 @@ Status readDeep(const std::string& path, DeepBuffer& b, std::set<std::string>& m
 Status writeDeepBuffer(const DeepBuffer& b, const std::string& path) {
     if (b.width <= 0 || b.height <= 0 || b.sampleOffset.size() != b.pixelCount() + 1 ||
         b.P.size() != b.sampleCount() * 3 ||
-        (b.hasEnvTransfer() && b.envTransfer.size() != b.sampleCount() * ENV_TRANSFER_COEFFICIENTS)) {
+        (b.hasEnvTransfer() && b.envTransfer.size() != b.sampleCount() * ENV_TRANSFER_COEFFICIENTS) ||
+        (b.hasEnvLobe() && b.envLobe.size() != b.sampleCount() * ENV_LOBE_COMPONENTS)) {
         return makeError(ErrorCode::InvalidValue, "refusing to write " + path + ": deep buffer is empty or inconsistent");
     }
     // The temporary name is this writer's alone: the process id is not enough where every writer
@@ -705,6 +726,20 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
                         return makeError(ErrorCode::InvalidValue, path + ": non-finite environment transfer in channel 'env.sh" +
                                                                       std::to_string(i) + "' at pixel (" + std::to_string(x) +
                                                                       ", " + std::to_string(y) + ")");
+                    }
+                }
+            }
+            // The lobe: octahedral coordinates within [-1, 1], a share within [0, 1] (half's
+            // rounding of values written in range stays in range).
+            for (uint32_t s = b.firstSample(x, y); s < b.firstSample(x, y) + b.pixelSamples(x, y) && b.hasEnvLobe(); ++s) {
+                static const char* names[ENV_LOBE_COMPONENTS] = {"env.lobe.u", "env.lobe.v", "env.lobe.vis"};
+                for (int i = 0; i < ENV_LOBE_COMPONENTS; ++i) {
+                    const float v = b.envLobe[size_t(s) * ENV_LOBE_COMPONENTS + size_t(i)];
+                    const float lo = i == 2 ? 0.f : -1.f;
+                    if (!std::isfinite(v) || v < lo || v > 1.f) {
+                        return makeError(ErrorCode::InvalidValue, path + ": channel '" + names[i] + "' at pixel (" + std::to_string(x) + ", " +
+                                                                      std::to_string(y) + ") is " + std::to_string(v) + ", outside [" +
+                                                                      (i == 2 ? "0" : "-1") + ", 1]");
                     }
                 }
             }

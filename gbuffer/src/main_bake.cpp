@@ -103,8 +103,9 @@ int printInfo(const std::string& path) {
     std::printf("source:      %s\n", b->sourcePath.c_str());
     std::printf("sha256:      %s\n", b->sourceSha256.empty() ? "(unknown)" : b->sourceSha256.c_str());
     if (b->hasEnvTransfer()) {
-        if (b->envRays > 0) std::printf("env:         SH transfer (env.sh0..8), %d rays per sample\n", b->envRays);
-        else std::printf("env:         SH transfer (env.sh0..8), rays per sample not recorded\n");
+        const char* lobe = b->hasEnvLobe() ? " and specular lobe (env.lobe.*)" : "";
+        if (b->envRays > 0) std::printf("env:         SH transfer (env.sh0..8)%s, %d rays per sample\n", lobe, b->envRays);
+        else std::printf("env:         SH transfer (env.sh0..8)%s, rays per sample not recorded\n", lobe);
     } else {
         std::printf("env:         no environment transfer\n");
     }
@@ -169,9 +170,9 @@ int main(int argc, char** argv) {
     app.add_option("--look-at", lookAt, "target position x,y,z (with --look-from)")->expected(3)->delimiter(',');
     app.add_option("--fov", opts.fovDegrees, "vertical field of view in degrees for --look-from or automatic framing")
         ->check(CLI::Range(1.0, 170.0));
-    int envRays = 64;
+    int envRays = 256;
     app.add_option("--env-rays", envRays,
-                   "rays per sample for the environment light's SH visibility transfer (env.sh0..8; 0 = none, at most " +
+                   "rays per sample for the environment light's SH visibility transfer and specular lobe (env.sh0..8, env.lobe.*; 0 = none, at most " +
                        std::to_string(dfb::MAX_ENV_RAYS) + ")")
         ->capture_default_str();
     app.add_option("--info", infoPath, "print what a baked EXR holds and exit");

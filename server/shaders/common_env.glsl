@@ -1,5 +1,5 @@
 // The environment light's parameterisation and spherical harmonics: the GLSL mirror of
-// dfb/lightmath/Environment.h (envLatLong) and SphericalHarmonics.h (shEvaluate,
+// dfb/lightmath/Environment.h (envLatLong, octDecode) and SphericalHarmonics.h (shEvaluate,
 // shUnshadowedTransfer), line for line (STYLE.md, "Shaders and CPU/GPU parity"). Include after
 // common_brdf.glsl (PI).
 
@@ -7,6 +7,18 @@
 // the top row (+Y). The map is uploaded with its top row at t = 0.
 vec2 envLatLong(vec3 d) {
     return vec2(0.5 + atan(d.x, -d.z) / (2.0 * PI), acos(clamp(d.y, -1.0, 1.0)) / PI);
+}
+
+// The unit direction of octahedral coordinates e in [-1, 1]^2 (lightmath::octDecode): the
+// G-buffer's bent specular direction.
+vec3 octDecode(vec2 e) {
+    vec3 d = vec3(e.x, e.y, 1.0 - abs(e.x) - abs(e.y));
+    if (d.z < 0.0) {
+        vec2 f = vec2(1.0 - abs(d.y), 1.0 - abs(d.x));
+        d.x = d.x >= 0.0 ? f.x : -f.x;
+        d.y = d.y >= 0.0 ? f.y : -f.y;
+    }
+    return normalize(d);
 }
 
 // Y_0..Y_8 at the unit direction d (no Condon-Shortley phase).

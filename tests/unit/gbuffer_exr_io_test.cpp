@@ -88,6 +88,20 @@ void addRandomEnvTransfer(DeepBuffer& b, uint32_t seed) {
     b.envRays = 64;
 }
 
+// A random specular lobe (octahedral coordinates in [-1, 1], shares in [0, 1]) on the covered
+// samples, zeros elsewhere, as the bake stores it.
+void addRandomEnvLobe(DeepBuffer& b, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.f, 1.f), share(0.f, 1.f);
+    b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
+    for (size_t s = 0; s < b.sampleCount(); ++s)
+        if (b.A[s] > 0.f) {
+            b.envLobe[s * 3] = u(rng);
+            b.envLobe[s * 3 + 1] = u(rng);
+            b.envLobe[s * 3 + 2] = share(rng);
+        }
+}
+
 std::string readBytes(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), {});
@@ -303,7 +317,7 @@ TEST(ExrIO, EnvTransferRoundTripsFlatAndDeep) {
             }
             const auto* version = f.header().findTypedAttribute<Imf::IntAttribute>("dfb.formatVersion");
             ASSERT_NE(version, nullptr);
-            EXPECT_EQ(version->value(), 3);
+            EXPECT_EQ(version->value(), GBUFFER_FORMAT_VERSION);
             const auto* rays = f.header().findTypedAttribute<Imf::IntAttribute>("dfb.envRays");
             ASSERT_NE(rays, nullptr);
             EXPECT_EQ(rays->value(), in->envRays);
@@ -399,6 +413,85 @@ TEST(ExrIO, NonFiniteEnvTransferIsRefusedNamingTheChannel) {
         EXPECT_NE(r.error().message.find(pixel), std::string::npos) << r.error().message;
         std::filesystem::remove(path);
     }
+}
+
+TEST(ExrIO, EnvLobeRoundTripsAndAVersion3FileLoadsWithoutIt) {
+    DeepBuffer b = randomBuffer(16, 9, 21);
+    addRandomEnvTransfer(b, 22);
+    addRandomEnvLobe(b, 23);
+    b.envLobe[0] = -1.f; // the range's ends survive half precision
+    b.envLobe[1] = 1.f;
+    const std::string path = tempPath("env_lobe.exr");
+    ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+    {
+        Imf::InputFile f(path.c_str());
+        for (const char* c : {"env.lobe.u", "env.lobe.v", "env.lobe.vis"}) {
+            const Imf::Channel* ch = f.header().channels().findChannel(c);
+            ASSERT_NE(ch, nullptr) << c;
+            EXPECT_EQ(ch->type, Imf::HALF) << c;
+        }
+    }
+    auto r = readDeepBuffer(path);
+    ASSERT_TRUE(r.ok()) << r.error().toString();
+    ASSERT_TRUE(r->hasEnvLobe());
+    ASSERT_EQ(r->envLobe.size(), b.envLobe.size());
+    for (size_t k = 0; k < b.envLobe.size(); ++k)
+        ASSERT_NEAR(r->envLobe[k], b.envLobe[k], std::max(std::abs(b.envLobe[k]) * 4.9e-4f, 3e-8f)) << "element " << k;
+    // Without the lobe (a version 3 shot): no env.lobe channels, and it reads back without one.
+    b.envLobe.clear();
+    ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+    {
+        Imf::InputFile f(path.c_str());
+        EXPECT_EQ(f.header().channels().findChannel("env.lobe.u"), nullptr);
+    }
+    r = readDeepBuffer(path);
+    ASSERT_TRUE(r.ok()) << r.error().toString();
+    EXPECT_TRUE(r->hasEnvTransfer());
+    EXPECT_FALSE(r->hasEnvLobe());
+    std::filesystem::remove(path);
+}
+
+TEST(ExrIO, EnvLobeOutOfRangeOrPartialIsRefusedNamingTheChannel) {
+    struct Case {
+        int component;
+        float value;
+        const char* channel;
+    };
+    for (const Case& c : {Case{0, std::nanf(""), "env.lobe.u"}, Case{1, -1.5f, "env.lobe.v"}, Case{2, 1.25f, "env.lobe.vis"},
+                          Case{2, -0.5f, "env.lobe.vis"}}) {
+        DeepBuffer b = randomBuffer(16, 16, 24);
+        addRandomEnvTransfer(b, 25);
+        addRandomEnvLobe(b, 26);
+        const size_t i = 37;
+        b.envLobe[i * ENV_LOBE_COMPONENTS + size_t(c.component)] = c.value;
+        const std::string path = tempPath("env_lobe_bad.exr");
+        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+        auto r = readDeepBuffer(path);
+        ASSERT_FALSE(r.ok()) << c.channel << " = " << c.value;
+        EXPECT_EQ(r.error().code, ErrorCode::InvalidValue);
+        EXPECT_NE(r.error().message.find(std::string("'") + c.channel + "'"), std::string::npos) << r.error().message;
+        EXPECT_NE(r.error().message.find("(" + std::to_string(i % 16) + ", " + std::to_string(i / 16) + ")"), std::string::npos)
+            << r.error().message;
+        std::filesystem::remove(path);
+    }
+    // Some but not all of the lobe's channels: refused naming the first absent one.
+    const std::string path = tempPath("env_lobe_partial.exr");
+    {
+        Imf::Header h(4, 4);
+        Imf::addWorldToCamera(h, Imath::M44f());
+        Imf::addWorldToNDC(h, Imath::M44f());
+        for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
+        for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A",
+                              "env.lobe.u", "env.lobe.vis"})
+            h.channels().insert(c, Imf::Channel(Imf::HALF));
+        for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
+        Imf::OutputFile f(path.c_str(), h);
+    }
+    auto r = readDeepBuffer(path);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::MissingData);
+    EXPECT_NE(r.error().message.find("'env.lobe.v' is missing"), std::string::npos) << r.error().message;
+    std::filesystem::remove(path);
 }
 
 TEST(ExrIO, InconsistentEnvTransferIsNotWritten) {

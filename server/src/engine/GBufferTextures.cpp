@@ -66,14 +66,20 @@ Status GBufferTextures::upload(const DeepBuffer& g) {
     }
     for (size_t i = 0; i < g.sampleCount() && !hasCoat; ++i) hasCoat = g.coat[i * 2] > 0.f;
     hasEnvTransfer = g.hasEnvTransfer();
+    hasEnvLobe = hasEnvTransfer && g.hasEnvLobe();
     if (hasEnvTransfer) {
         // The environment transfer T_0..T_8 (relight_env.frag's ENV_TRANSFER) in three sample
-        // textures of four, four and one coefficients.
+        // textures of four, four and one coefficients; the third's other three hold the specular
+        // lobe (ENV_LOBE: its direction's octahedral coordinates and its visible share).
         const size_t n = g.sampleCount();
         std::vector<float> part[3];
         for (int k = 0; k < 3; ++k) part[k].resize(n * 4, 0.f);
-        for (size_t i = 0; i < n; ++i)
-            for (int c = 0; c < 9; ++c) part[c / 4][i * 4 + size_t(c % 4)] = g.envTransfer[i * 9 + size_t(c)];
+        for (size_t i = 0; i < n; ++i) {
+            for (int c = 0; c < ENV_TRANSFER_COEFFICIENTS; ++c)
+                part[c / 4][i * 4 + size_t(c % 4)] = g.envTransfer[i * ENV_TRANSFER_COEFFICIENTS + size_t(c)];
+            for (int c = 0; c < ENV_LOBE_COMPONENTS && hasEnvLobe; ++c)
+                part[2][i * 4 + 1 + size_t(c)] = g.envLobe[i * ENV_LOBE_COMPONENTS + size_t(c)];
+        }
         for (int k = 0; k < 3; ++k) envTransfer[k] = uploadLayer(GL_RGBA16F, sampleRow, rows, part[k], 4, nullptr);
     }
     {

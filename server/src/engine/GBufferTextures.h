@@ -28,13 +28,14 @@ struct GBufferTextures {
     bool flat = false;  // one sample per pixel, stored at the pixel: specialised shaders
     bool hasSheen = false, hasCoat = false; // any sample with a sheen / clear-coat lobe
     bool hasEnvTransfer = false;            // the shot holds the environment transfer (DeepBuffer::envTransfer)
+    bool hasEnvLobe = false;                // and the specular lobe (DeepBuffer::envLobe)
     uint32_t maxObjectId = 0;
     // Edge taps per sample over its pixel footprint (common_pixel_footprint.glsl): the shot's
     // samples per pixel, at most FOOTPRINT_MAX_TAPS; 1 = one lookup at the sample (flat shots).
     int footprintTaps = 1;
     std::vector<glm::vec2> footprintOffsets; // their offsets from the pixel centre, pixels (y down)
     gl::Texture P, N, Ng, albedo, brdf, emission, sheen, coat, pixelSamples, ids;
-    gl::Texture envTransfer[3]; // T_0..3, T_4..7, T_8 when hasEnvTransfer
+    gl::Texture envTransfer[3]; // T_0..3, T_4..7, (T_8, lobe u, v, share) when hasEnvTransfer
 };
 
 } // namespace dfb::engine

@@ -50,7 +50,7 @@
     X(TEX_ENV_DFG, 22, "RG32F ENV_DFG_SIZE^2: the split sum's (A, B) by (N.v, roughness) (Environment.h dfgTable)") \
     X(TEX_GBUFFER_ENV0, 23, "RGBA16F: the baked environment transfer T_0..T_3 (DeepBuffer::envTransfer)") \
     X(TEX_GBUFFER_ENV1, 24, "RGBA16F: T_4..T_7")                                                         \
-    X(TEX_GBUFFER_ENV2, 25, "R16F: T_8")                                                                \
+    X(TEX_GBUFFER_ENV2, 25, "RGBA16F: T_8, the specular lobe (DeepBuffer::envLobe) u, v, share")          \
     X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of normals in the map's frame: its exact E(N) / pi less the order-3 expansion (envIrradianceMap)")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).

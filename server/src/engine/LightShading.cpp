@@ -343,6 +343,7 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         (area && referenceCells > 0 ? "#define AREA_REFERENCE " + std::to_string(referenceCells) + "\n" : "") +
         // Whether the shot holds the environment transfer is not a specialisation either.
         (environment && mGBuffer.hasEnvTransfer ? "#define ENV_TRANSFER 1\n" : "") +
+        (environment && mGBuffer.hasEnvLobe ? "#define ENV_LOBE 1\n" : "") +
         // Which shading the light asks for is not a specialisation: generic shaders need it too.
         // 1: a rectangle, 2: a disk (common_ltc.glsl runs only that one's integral).
         (area && referenceCells == 0 && shadesWithLtc(l)

@@ -12,13 +12,15 @@
 namespace dfb {
 
 /// Version of the file format written by this build (header attribute `dfb.formatVersion`).
-/// Readers accept versions 1, 2 and 3; see docs/gbuffer-format.md (version 3 added the
-/// environment transfer, `env.sh0` .. `env.sh8`).
-constexpr int GBUFFER_FORMAT_VERSION = 3;
+/// Readers accept versions 1 to 4; see docs/gbuffer-format.md (version 3 added the environment
+/// transfer, `env.sh0` .. `env.sh8`; version 4 the specular lobe, `env.lobe.u/v/vis`).
+constexpr int GBUFFER_FORMAT_VERSION = 4;
 
 /// Coefficients of a sample's environment transfer (order-3 spherical harmonics, bands 0..2; the
 /// relight engine's dfb::lightmath::SH_COEFFICIENTS, dfb/lightmath/SphericalHarmonics.h).
 constexpr int ENV_TRANSFER_COEFFICIENTS = 9;
+/// Floats per sample of the environment light's specular lobe (DeepBuffer::envLobe).
+constexpr int ENV_LOBE_COMPONENTS = 3;
 
 /// Largest number of rays per sample the bake traces for the environment transfer (dfb-bake
 /// --env-rays). A bound on cost: a 960x540 shot at 4096 rays is 2 billion rays (64 times the
@@ -51,6 +53,9 @@ struct CameraInfo {
     glm::vec3 position() const { return glm::vec3(glm::inverse(worldToCamera)[3]); }
     /// Unit direction the camera looks along, world space.
     glm::vec3 forward() const { return -glm::normalize(glm::vec3(glm::inverse(worldToCamera)[2])); }
+    /// The unit direction from world point P towards the eye: -forward() for orthographic views
+    /// (the relight shaders' viewVector).
+    glm::vec3 towardsEye(const glm::vec3& P) const { return orthographic ? -forward() : glm::normalize(position() - P); }
 };
 
 /// Per-sample surface data. A pixel holds 0..MAX_SAMPLES_PER_PIXEL samples, each a surface
@@ -89,6 +94,15 @@ struct DeepBuffer {
     /// Zero on uncovered samples (A = 0). Layers that resize or copy samples keep it empty or
     /// sized sampleCount() * 9, never anything else.
     std::vector<float> envTransfer;
+    /// 3 per sample (ENV_LOBE_COMPONENTS), empty when not baked (format version 4; baked with
+    /// the transfer): the sample's GGX specular lobe as the shot's camera sees it (the view is
+    /// fixed, so is the lobe), against the scene: over the lobe's reflected directions l with
+    /// weights w(l) = the BRDF's D Vis N.l without Fresnel (lightmath::ggxLobeWeight), the octahedral
+    /// encoding (lightmath::octEncode) of the visible directions' weighted mean direction
+    /// (components 0, 1) and the visible share sum w V / sum w (component 2, [0,1]). The
+    /// environment light reads its prefiltered map towards that direction and scales by that share
+    /// (relight_env.frag; docs/lighting.md, "Environment light"). Zero on uncovered samples.
+    std::vector<float> envLobe;
     std::vector<float> A;        ///< 1: coverage in [0,1]
     std::vector<uint32_t> objectId;   ///< 1: object id (1-based index into objectNames; 0 = none)
     std::vector<uint32_t> materialId; ///< 1: material id (1-based index into materialNames; 0 = none)
@@ -114,11 +128,14 @@ struct DeepBuffer {
 
     /// True when the environment transfer is baked: envTransfer holds 9 floats per sample.
     bool hasEnvTransfer() const { return !envTransfer.empty(); }
+    /// True when the specular lobe is baked: envLobe holds 3 floats per sample.
+    bool hasEnvLobe() const { return !envLobe.empty(); }
 
     /// Allocates a flat buffer: one zero-filled sample per pixel.
     void allocate(int w, int h);
-    /// Allocates `counts[p]` zero-filled samples for each pixel p. The optional envTransfer is
-    /// left empty (and envRays 0): a bake or a reader that has it allocates it after this.
+    /// Allocates `counts[p]` zero-filled samples for each pixel p. The optional envTransfer and
+    /// envLobe are left empty (and envRays 0): a bake or a reader that has them allocates them
+    /// after this.
     void allocateSamples(int w, int h, const std::vector<uint32_t>& counts);
 
     /// Sample accessors.

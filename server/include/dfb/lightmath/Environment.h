@@ -134,6 +134,16 @@ inline glm::dvec3 ggxHalfVector(const glm::dvec2& xi, double alpha) {
     return {sinTheta * std::cos(phi), sinTheta * std::sin(phi), cosTheta};
 }
 
+/// The weight of one reflected direction of the GGX lobe (roughness -> alpha) sampled through
+/// ggxHalfVector: the BRDF's D Vis N.L over the half vector's density D N.H / (4 V.H), without
+/// the Fresnel factor, Vis 4 V.H N.L / N.H (dfgIntegral's sum); 0 below the surface. The specular
+/// lobe the bake stores per sample (DeepBuffer::envLobe) is these weights' visible share and
+/// their visible mean direction.
+inline double ggxLobeWeight(double NdotL, double NdotV, double NdotH, double VdotH, double alpha) {
+    if (NdotL <= 0 || VdotH <= 0 || NdotH <= 0) return 0;
+    return visibilitySmithGGX(NdotL, std::max(NdotV, MIN_NDOTV), alpha) * 4 * VdotH * NdotL / NdotH;
+}
+
 /// The split sum's second factor (Karis 2013): for the lobe D Vis N.L of roughness r at N.v,
 /// the integrals A (of (1 - Fc) ...) and B (of Fc ...), Fc = (1 - v.h)^5, so that the reflected
 /// radiance of a uniform environment of radiance 1 is F0 A + F90 B. `samples` GGX samples.
@@ -145,10 +155,9 @@ inline glm::dvec2 dfgIntegral(double NdotV, double roughness, int samples) {
         const glm::dvec3 H = ggxHalfVector(hammersley(uint32_t(i), uint32_t(samples)), alpha);
         const double VdotH = glm::dot(V, H);
         const glm::dvec3 L = 2.0 * VdotH * H - V;
-        const double NdotL = L.z, NdotH = H.z;
-        if (NdotL <= 0 || VdotH <= 0) continue;
         // f cos / pdf_L with pdf_L = D NdotH / (4 VdotH): Vis 4 VdotH NdotL / NdotH.
-        const double g = visibilitySmithGGX(NdotL, NdotV, alpha) * 4 * VdotH * NdotL / NdotH;
+        const double g = ggxLobeWeight(L.z, NdotV, H.z, VdotH, alpha);
+        if (g <= 0) continue;
         const double fc = std::pow(1 - VdotH, 5.0);
         ab += glm::dvec2((1 - fc) * g, fc * g);
     }
@@ -166,6 +175,31 @@ inline std::vector<float> dfgTable(int size, int samples) {
             t[(size_t(j) * size_t(size) + size_t(i)) * 2 + 1] = float(ab.y);
         }
     return t;
+}
+
+/// Octahedral encoding of a unit direction into [-1, 1]^2 (Meyer, Sorge, Hormann, Dachsbacher and
+/// Sander, "On Floating-Point Normal Vectors", 2010; the layout of Cigolle, Donow, Evangelakos,
+/// Mara, McGuire and Meyer, "A Survey of Efficient Representations for Independent Unit
+/// Vectors", JCGT 2014): the G-buffer's bent specular direction (env.lobe.u, env.lobe.v). The
+/// GLSL mirror is common_env.glsl octDecode.
+template <typename T> vec2<T> octEncode(const vec3<T>& d) {
+    const T l1 = std::abs(d.x) + std::abs(d.y) + std::abs(d.z);
+    vec2<T> e = l1 > T(0) ? vec2<T>(d.x, d.y) / l1 : vec2<T>(T(0));
+    if (d.z < T(0)) {
+        const vec2<T> f(T(1) - std::abs(e.y), T(1) - std::abs(e.x));
+        e = vec2<T>(e.x >= T(0) ? f.x : -f.x, e.y >= T(0) ? f.y : -f.y);
+    }
+    return e;
+}
+
+template <typename T> vec3<T> octDecode(const vec2<T>& e) {
+    vec3<T> d(e.x, e.y, T(1) - std::abs(e.x) - std::abs(e.y));
+    if (d.z < T(0)) {
+        const vec2<T> f(T(1) - std::abs(d.y), T(1) - std::abs(d.x));
+        d.x = d.x >= T(0) ? f.x : -f.x;
+        d.y = d.y >= T(0) ? f.y : -f.y;
+    }
+    return glm::normalize(d);
 }
 
 } // namespace dfb::lightmath
