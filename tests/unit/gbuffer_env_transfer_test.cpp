@@ -140,6 +140,27 @@ struct BoxShot {
 
 const glm::vec3 BOX_LO{-2.f, 0.5f, -2.f}, BOX_HI{2.f, 3.f, 2.f};
 
+// Probes on the box shot's plane (x, z): under the box's middle, under its edge, just outside it,
+// and far away.
+constexpr glm::vec2 BOX_PROBES[] = {{0.1f, 0.1f}, {1.6f, -0.4f}, {2.4f, 0.9f}, {-3.1f, 3.3f}, {8.f, -8.f}, {-1.9f, -1.9f}};
+
+// The sample of `b` nearest (x, z) = `at`.
+size_t nearestSample(const DeepBuffer& b, const glm::vec2& at) {
+    size_t best = 0;
+    float bestD = 1e30f;
+    for (size_t s = 0; s < b.sampleCount(); ++s) {
+        const float d = glm::length(glm::vec2(b.position(s).x, b.position(s).z) - at);
+        if (d < bestD) bestD = d, best = s;
+    }
+    return best;
+}
+
+// Every part of `scene` in `rays`, committed.
+void addScene(test::RayCaster& rays, const Scene& scene) {
+    for (const MeshPart& p : scene.parts) rays.addMesh(p.positions, p.indices);
+    rays.commit();
+}
+
 BoxShot* boxShot() {
     static BoxShot* shot = [] {
         auto* s = new BoxShot;
@@ -205,23 +226,11 @@ TEST(EnvTransfer, BoxShadowMatchesABruteForceIntegral) {
     ASSERT_NE(box, nullptr);
     const DeepBuffer& b = box->shot;
     test::RayCaster rays;
-    for (const MeshPart& p : box->scene.parts) rays.addMesh(p.positions, p.indices);
-    rays.commit();
+    addScene(rays, box->scene);
     const float radius = box->scene.bounds.radius();
-    // Samples under the middle, under the edge, just outside it, and far away.
-    const glm::vec2 probes[] = {{0.1f, 0.1f}, {1.6f, -0.4f}, {2.4f, 0.9f}, {-3.1f, 3.3f}, {8.f, -8.f}, {-1.9f, -1.9f}};
     double worst = 0, worstVis = 0;
-    for (const glm::vec2& at : probes) {
-        size_t best = 0;
-        float bestD = 1e30f;
-        for (size_t s = 0; s < b.sampleCount(); ++s) {
-            const glm::vec3 P = b.position(s);
-            const float d = glm::length(glm::vec2(P.x, P.z) - at);
-            if (d < bestD) {
-                bestD = d;
-                best = s;
-            }
-        }
+    for (const glm::vec2& at : BOX_PROBES) {
+        const size_t best = nearestSample(b, at);
         const glm::vec3 P = b.position(best), N = b.normal(best);
         const glm::vec3 Ng(b.Ng[best * 3], b.Ng[best * 3 + 1], b.Ng[best * 3 + 2]);
         // 256 x 512 = 131072 directions (512 times the bake's), half of them above the plane.
@@ -286,18 +295,11 @@ TEST(EnvTransfer, SpecularLobeMatchesABruteForceIntegral) {
     const DeepBuffer& b = box->shot;
     ASSERT_TRUE(b.hasEnvLobe());
     test::RayCaster rays;
-    for (const MeshPart& p : box->scene.parts) rays.addMesh(p.positions, p.indices);
-    rays.commit();
+    addScene(rays, box->scene);
     const float radius = box->scene.bounds.radius();
-    const glm::vec2 probes[] = {{0.1f, 0.1f}, {1.6f, -0.4f}, {2.4f, 0.9f}, {-3.1f, 3.3f}, {8.f, -8.f}, {-1.9f, -1.9f}};
     double worstShare = 0, worstAngle = 0;
-    for (const glm::vec2& at : probes) {
-        size_t best = 0;
-        float bestD = 1e30f;
-        for (size_t s = 0; s < b.sampleCount(); ++s) {
-            const float d = glm::length(glm::vec2(b.position(s).x, b.position(s).z) - at);
-            if (d < bestD) bestD = d, best = s;
-        }
+    for (const glm::vec2& at : BOX_PROBES) {
+        const size_t best = nearestSample(b, at);
         const glm::vec3 P = b.position(best), N = b.normal(best);
         const glm::vec3 Ng(b.Ng[best * 3], b.Ng[best * 3 + 1], b.Ng[best * 3 + 2]);
         const Lobe ref = bruteForceLobe(rays, radius, P, N, Ng, b.camera.towardsEye(P), b.brdf[best * 4 + 1], 256, uint32_t(best));

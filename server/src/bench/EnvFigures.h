@@ -19,17 +19,23 @@ inline double luminance(const ImageF& img, size_t p) {
     return 0.2126 * img.rgba[p * 4] + 0.7152 * img.rgba[p * 4 + 1] + 0.0722 * img.rgba[p * 4 + 2];
 }
 
+// The reference luminance under which a pixel's relative error is left out: 1e-3 of the mean over
+// the covered pixels.
+inline double luminanceFloor(const ImageF& ref, const DeepBuffer& g) {
+    double sumRef = 0;
+    size_t covered = 0;
+    for (size_t p = 0; p < g.pixelCount(); ++p)
+        if (g.sampleOffset[p + 1] > g.sampleOffset[p]) sumRef += luminance(ref, p), ++covered;
+    return 1e-3 * sumRef / double(std::max<size_t>(covered, 1));
+}
+
 struct Figures {
     double mean = 0, p95 = 0, aggregate = 0;
     size_t pixels = 0;
 };
 
 inline Figures compare(const ImageF& fast, const ImageF& ref, const DeepBuffer& g) {
-    double sumRef = 0;
-    size_t covered = 0;
-    for (size_t p = 0; p < g.pixelCount(); ++p)
-        if (g.sampleOffset[p + 1] > g.sampleOffset[p]) sumRef += luminance(ref, p), ++covered;
-    const double floor = 1e-3 * sumRef / double(std::max<size_t>(covered, 1));
+    const double floor = luminanceFloor(ref, g);
     std::vector<double> rel;
     double sumAbs = 0, sumR = 0;
     for (size_t p = 0; p < g.pixelCount(); ++p) {
@@ -60,11 +66,7 @@ struct QuarterBins {
 };
 
 inline QuarterBins binByViewAndRoughness(const ImageF& fast, const ImageF& ref, const DeepBuffer& g) {
-    double sumRef = 0;
-    size_t covered = 0;
-    for (size_t p = 0; p < g.pixelCount(); ++p)
-        if (g.sampleOffset[p + 1] > g.sampleOffset[p]) sumRef += luminance(ref, p), ++covered;
-    const double floor = 1e-3 * sumRef / double(std::max<size_t>(covered, 1));
+    const double floor = luminanceFloor(ref, g);
     const glm::vec3 eye = g.camera.position();
     QuarterBins out;
     for (size_t p = 0; p < g.pixelCount(); ++p) {

@@ -40,6 +40,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 using namespace dfb;
 using dfb::bench::compare;
@@ -100,31 +101,46 @@ int main(int argc, char** argv) {
     env.type = LightType::Environment;
     env.intensityCd = 1.f;
     env.shadow = transfer && !unshadowed;
+    // The environment light `l` alone on `v` by the engine and by the reference (traced against the
+    // scene when `l` is shadowed); on failure nothing, with `failure` the exit code, after printing
+    // why.
+    int failure = 0;
+    struct Pair {
+        ImageF fast, ref;
+        double refMs = 0;
+    };
+    auto fastAndReference = [&](const DeepBuffer& v, const Light& l) -> std::optional<Pair> {
+        auto engine = Engine::create(v, opened.casters);
+        if (!engine) {
+            std::cerr << "dfb-env-bench: " << engine.error().toString() << "\n";
+            failure = 3;
+            return std::nullopt;
+        }
+        engine.value()->setAssetDirectory(mapDir);
+        Rig rig;
+        rig.lights = {l};
+        auto fast = engine.value()->renderLightLinear(rig, l.name);
+        const auto t0 = Clock::now();
+        auto ref = renderEnvironmentReference(v, l.shadow ? &bvh : nullptr, radius, l, mapDir, rays);
+        const double refMs = msSince(t0);
+        if (!fast || !ref) {
+            std::cerr << "dfb-env-bench: " << (fast ? ref.error() : fast.error()).toString() << "\n";
+            failure = 1;
+            return std::nullopt;
+        }
+        return Pair{std::move(fast.value()), std::move(ref.value()), refMs};
+    };
     if (!skipErrors) {
         std::printf(" fast path vs reference (%d rays per sample), luminance relative error per pixel: mean / p95 / aggregate\n", rays);
         for (const std::string& map : maps) {
             env.envMap = map;
             for (const char* kind : {"diffuse", "specular", "baked"}) {
                 const DeepBuffer v = variant(g, kind);
-                auto engine = Engine::create(v, opened.casters);
-                if (!engine) {
-                    std::cerr << "dfb-env-bench: " << engine.error().toString() << "\n";
-                    return 3;
-                }
-                engine.value()->setAssetDirectory(mapDir);
-                Rig rig;
-                rig.lights = {env};
-                auto fast = engine.value()->renderLightLinear(rig, env.name);
-                const auto t0 = Clock::now();
-                auto ref = renderEnvironmentReference(v, env.shadow ? &bvh : nullptr, radius, env, mapDir, rays);
-                const double refMs = msSince(t0);
-                if (!fast || !ref) {
-                    std::cerr << "dfb-env-bench: " << (fast ? ref.error() : fast.error()).toString() << "\n";
-                    return 1;
-                }
-                const Figures f = compare(fast.value(), ref.value(), v);
+                auto pair = fastAndReference(v, env);
+                if (!pair) return failure;
+                const Figures f = compare(pair->fast, pair->ref, v);
                 std::printf("  %-14s %-9s mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%  (%zu pixels; reference %.1f s)\n", map.c_str(),
-                            kind, 100 * f.mean, 100 * f.p95, 100 * f.aggregate, f.pixels, refMs / 1000);
+                            kind, 100 * f.mean, 100 * f.p95, 100 * f.aggregate, f.pixels, pair->refMs / 1000);
             }
         }
     }
@@ -140,21 +156,9 @@ int main(int argc, char** argv) {
                 Light l = env;
                 l.envMap = map;
                 l.shadow = shadowed;
-                auto engine = Engine::create(metal, opened.casters);
-                if (!engine) {
-                    std::cerr << "dfb-env-bench: " << engine.error().toString() << "\n";
-                    return 3;
-                }
-                engine.value()->setAssetDirectory(mapDir);
-                Rig rig;
-                rig.lights = {l};
-                auto fast = engine.value()->renderLightLinear(rig, l.name);
-                auto ref = renderEnvironmentReference(metal, shadowed ? &bvh : nullptr, radius, l, mapDir, rays);
-                if (!fast || !ref) {
-                    std::cerr << "dfb-env-bench: " << (fast ? ref.error() : fast.error()).toString() << "\n";
-                    return 1;
-                }
-                const bench::QuarterBins bins = bench::binByViewAndRoughness(fast.value(), ref.value(), metal);
+                auto pair = fastAndReference(metal, l);
+                if (!pair) return failure;
+                const bench::QuarterBins bins = bench::binByViewAndRoughness(pair->fast, pair->ref, metal);
                 std::printf("  %s, %s:\n", map.c_str(), shadowed ? "shadowed" : "unshadowed");
                 for (int a = 0; a < 4; ++a) {
                     std::printf("   N.v < %.2f", 0.25 * (a + 1));
