@@ -136,6 +136,7 @@ namespace {
 struct BoxShot {
     Scene scene;
     DeepBuffer shot;
+    test::RayCaster rays; // the scene, for brute-force references
 };
 
 const glm::vec3 BOX_LO{-2.f, 0.5f, -2.f}, BOX_HI{2.f, 3.f, 2.f};
@@ -179,6 +180,7 @@ BoxShot* boxShot() {
             return static_cast<BoxShot*>(nullptr);
         }
         s->shot = std::move(b.value());
+        addScene(s->rays, s->scene);
         return s;
     }();
     return shot;
@@ -225,8 +227,7 @@ TEST(EnvTransfer, BoxShadowMatchesABruteForceIntegral) {
     BoxShot* box = boxShot();
     ASSERT_NE(box, nullptr);
     const DeepBuffer& b = box->shot;
-    test::RayCaster rays;
-    addScene(rays, box->scene);
+    const test::RayCaster& rays = box->rays;
     const float radius = box->scene.bounds.radius();
     double worst = 0, worstVis = 0;
     for (const glm::vec2& at : BOX_PROBES) {
@@ -294,8 +295,7 @@ TEST(EnvTransfer, SpecularLobeMatchesABruteForceIntegral) {
     ASSERT_NE(box, nullptr);
     const DeepBuffer& b = box->shot;
     ASSERT_TRUE(b.hasEnvLobe());
-    test::RayCaster rays;
-    addScene(rays, box->scene);
+    const test::RayCaster& rays = box->rays;
     const float radius = box->scene.bounds.radius();
     double worstShare = 0, worstAngle = 0;
     for (const glm::vec2& at : BOX_PROBES) {
