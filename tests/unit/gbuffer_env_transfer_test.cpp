@@ -389,7 +389,7 @@ TEST(EnvTransfer, MultiSampleBakeMatchesTheFlatBake) {
     auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
     ASSERT_TRUE(scene.ok()) << scene.error().toString();
     struct Figures {
-        double mean = 0, darkShare = 0;
+        double mean = 0, darkShare = 0, lobeShare = 0;
     };
     auto bakeAt = [&](int samples) {
         BakeOptions o;
@@ -412,15 +412,18 @@ TEST(EnvTransfer, MultiSampleBakeMatchesTheFlatBake) {
             if (!(b->A[s] > 0.f)) continue;
             const double v = visibility(b->envTransfer[s * ENV_TRANSFER_COEFFICIENTS]);
             f.mean += b->A[s] * v;
+            f.lobeShare += b->A[s] * b->envLobe[s * ENV_LOBE_COMPONENTS + 2];
             a += b->A[s];
             dark += v < 0.03;
             ++covered;
         }
         EXPECT_EQ(stats.samples, covered);
         f.mean /= a;
+        f.lobeShare /= a;
         f.darkShare = double(dark) / double(covered);
-        std::printf("%2d spp: coverage-weighted mean visibility %.4f, %.3f %% of covered samples below 0.03\n", samples,
-                    f.mean, 100.0 * f.darkShare);
+        std::printf("%2d spp: coverage-weighted mean visibility %.4f, %.3f %% of covered samples below 0.03; mean specular"
+                    " lobe share %.4f\n",
+                    samples, f.mean, 100.0 * f.darkShare, f.lobeShare);
         return f;
     };
     const Figures flat = bakeAt(1), four = bakeAt(4);
@@ -428,6 +431,8 @@ TEST(EnvTransfer, MultiSampleBakeMatchesTheFlatBake) {
     // Partly covered edge samples have fewer rays, so a little more noise: measured 0.19 %.
     EXPECT_LT(four.darkShare, 0.004);
     EXPECT_NEAR(four.mean, flat.mean, 0.01);
+    // The lobe's sums add over a merged sample's points: the same mean share as the flat bake.
+    EXPECT_NEAR(four.lobeShare, flat.lobeShare, 0.01);
 }
 
 TEST(BakeCli, EnvRaysOption) {
