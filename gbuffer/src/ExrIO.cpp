@@ -50,18 +50,19 @@ struct ChannelSpec {
     OptionalLayer layer = OptionalLayer::None;
 };
 
-// The optional layers: the first channel of each (its absence means the file has none), what a
-// refusal of a partial layer names, and whether a buffer holds it.
+// The optional layers: what a refusal of a partial layer calls it and names, the first channel
+// (its absence means the file has none), and whether a buffer holds it.
 struct LayerInfo {
-    const char* firstChannel;
+    const char* name;
     const char* channels;
+    const char* firstChannel;
     bool (*held)(const DeepBuffer&);
 };
 LayerInfo layerInfo(OptionalLayer l) {
-    if (l == OptionalLayer::EnvLobe) return {"env.lobe.u", "env.lobe.u, env.lobe.v, env.lobe.vis", [](const DeepBuffer& b) { return b.hasEnvLobe(); }};
-    return {"env.sh0", "env.sh0 .. env.sh8", [](const DeepBuffer& b) { return b.hasEnvTransfer(); }};
+    if (l == OptionalLayer::EnvLobe)
+        return {"specular lobe", "env.lobe.u, env.lobe.v, env.lobe.vis", "env.lobe.u", [](const DeepBuffer& b) { return b.hasEnvLobe(); }};
+    return {"environment transfer", "env.sh0 .. env.sh8", "env.sh0", [](const DeepBuffer& b) { return b.hasEnvTransfer(); }};
 }
-constexpr OptionalLayer OPTIONAL_LAYERS[] = {OptionalLayer::EnvTransfer, OptionalLayer::EnvLobe};
 
 // The channel table of format v4 (docs/gbuffer-format.md). Positions and depth are float for
 // precision over large scenes; directions, colours, lobe parameters and the environment transfer
@@ -448,9 +449,8 @@ Status checkChannels(const Imf::Header& h, const std::string& path, std::set<std
             if (c.required) return fileError(ErrorCode::MissingData, path, std::string("required channel '") + c.name + "' is missing");
             if (anyOfLayer.count(c.layer)) {
                 return fileError(ErrorCode::MissingData, path,
-                                 std::string("channel '") + c.name + "' is missing (the " +
-                                     (c.layer == OptionalLayer::EnvLobe ? "specular lobe" : "environment transfer") + " needs all of " +
-                                     layerInfo(c.layer).channels + ", or none)");
+                                 std::string("channel '") + c.name + "' is missing (the " + layerInfo(c.layer).name +
+                                     " needs all of " + layerInfo(c.layer).channels + ", or none)");
             }
             missing.insert(c.name);
             continue;
@@ -493,7 +493,7 @@ Result<Imath::Box2i> readPrelude(File& file, const std::string& path, DeepBuffer
 
 // After allocateSamples, which leaves the optional layers empty: the environment transfer's layer
 // and ray count, and the specular lobe's layer, when the file has their channels.
-void allocateEnvTransfer(const Imf::Header& h, const std::set<std::string>& missing, DeepBuffer& b) {
+void allocateOptionalLayers(const Imf::Header& h, const std::set<std::string>& missing, DeepBuffer& b) {
     if (!missing.count(layerInfo(OptionalLayer::EnvLobe).firstChannel)) b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
     if (missing.count(layerInfo(OptionalLayer::EnvTransfer).firstChannel)) return;
     b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
@@ -506,7 +506,7 @@ Status readFlat(const std::string& path, DeepBuffer& b, std::set<std::string>& m
     if (!dw) return dw.error();
     const long w = long(dw->max.x) - dw->min.x + 1, hgt = long(dw->max.y) - dw->min.y + 1;
     b.allocate(int(w), int(hgt));
-    allocateEnvTransfer(file.header(), missing, b);
+    allocateOptionalLayers(file.header(), missing, b);
     Imf::FrameBuffer fb;
     for (const ChannelSpec& c : channelSpecs()) {
         if (missing.count(c.name)) continue;
@@ -567,7 +567,7 @@ Status readDeep(const std::string& path, DeepBuffer& b, std::set<std::string>& m
         total += counts[p];
     }
     b.allocateSamples(int(w), int(hgt), counts);
-    allocateEnvTransfer(file.header(), missing, b);
+    allocateOptionalLayers(file.header(), missing, b);
     for (Stage& st : stages) {
         const ChannelSpec& c = *st.spec;
         size_t stride;

@@ -5,8 +5,8 @@
 // docs/lighting.md "Environment light") is evaluated here on the CPU, per sample, at B bands:
 //   albedo x (E_open / pi x clamp(sum_i L_i T_i / sum_i L_i T°_i, 0, 1) + E_sun / pi x max(0, N.s) V(s))
 // - E_open: the exact unshadowed irradiance of the map without its sun (engine::extractSun), from
-//   its 128 x 64 box-filtered copy as the engine's (direct integration instead of the engine's
-//   expansion plus residual grid, which equals it);
+//   the engine's own 128 x 64 copy (engine::prefilterEnvironment; direct integration instead of
+//   the engine's expansion plus residual grid, which equals it);
 // - L_i: that map on B bands; T_i and T°_i: the sample's shadowed and unshadowed transfer on the
 //   same `rays` cosine-distributed directions (as the bake's, dfb-bake --env-rays);
 // - the sun: its irradiance and direction as the engine extracts them, visibility by one ray (the
@@ -21,6 +21,7 @@
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/lightmath/Environment.h>
 #include <dfb/lightmath/SphericalHarmonics.h>
+#include <dfb/protocol/Rig.h>
 #include <dfb/server/Engine.h>
 
 #include <algorithm>
@@ -31,19 +32,6 @@
 
 namespace dfb::bench {
 
-/// `map` (RGBA float) averaged over blocks of texels to `width` x width / 2 (the engine's
-/// spherical-harmonic source is such a 128 x 64 copy).
-inline ImageF boxFilteredMap(const ImageF& map, int width) {
-    const int f = std::max(1, map.width / width), w = std::max(1, map.width / f), h = std::max(1, map.height / f);
-    ImageF out{w, h, std::vector<float>(size_t(w) * size_t(h) * 4, 0.f)};
-    for (int j = 0; j < h * f; ++j)
-        for (int i = 0; i < w * f; ++i)
-            for (int c = 0; c < 4; ++c)
-                out.rgba[(size_t(j / f) * size_t(w) + size_t(i / f)) * 4 + size_t(c)] +=
-                    map.rgba[(size_t(j) * size_t(map.width) + size_t(i)) * 4 + size_t(c)] / float(f * f);
-    return out;
-}
-
 /// Per pixel (the coverage-weighted sum of its samples, RGBA) the diffuse radiance of the Lambert
 /// shot `g` (bench::variant "diffuse") under `map` (RGBA float lat-long, unrotated, with its sun)
 /// at each of `bandCounts` (each <= SH_MAX_BANDS).
@@ -52,7 +40,9 @@ inline std::vector<ImageF> transferBandImages(const DeepBuffer& g, const Triangl
     namespace lm = lightmath;
     constexpr int K = lm::SH_MAX_BANDS * lm::SH_MAX_BANDS;
     const engine::EnvSun sun = engine::extractSun(map);
-    const ImageF small = boxFilteredMap(map, 128);
+    // The engine's own small copy (prefilterEnvironment's, one level: no prefiltering needed).
+    const engine::EnvLevels levels = engine::prefilterEnvironment(map, 1, ENV_PREFILTER_WIDTH);
+    const ImageF small{levels.shWidth, levels.shHeight, levels.sh};
     // The small map's texels as directions with radiance x solid angle, and its L_i on every band.
     std::vector<glm::dvec3> dirs, weighted;
     std::vector<glm::dvec3> L(K, glm::dvec3(0.0));

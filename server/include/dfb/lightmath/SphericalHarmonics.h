@@ -51,11 +51,28 @@ constexpr int SH_MAX_BANDS = 10;
 /// Legendre functions by their standard recurrences (Green, "Spherical Harmonic Lighting: The
 /// Gritty Details", GDC 2003, section 2). Higher bands than the engine's three are what a finer
 /// visibility transfer would store: dfb-env-bench --transfer-bands measures what each would give.
+/// K_lm = sqrt((2l + 1) (l - m)! / (4 pi (l + m)!)), 0 <= m <= l < SH_MAX_BANDS, from a table made
+/// once ((l - m)! / (l + m)! as a running product: exact enough for these small l).
+inline double shNormalisation(int l, int m) {
+    static const auto table = [] {
+        std::array<double, SH_MAX_BANDS * SH_MAX_BANDS> k{};
+        for (int a = 0; a < SH_MAX_BANDS; ++a)
+            for (int b = 0; b <= a; ++b) {
+                double ratio = 1.0;
+                for (int i = a - b + 1; i <= a + b; ++i) ratio /= double(i);
+                k[size_t(a * SH_MAX_BANDS + b)] = std::sqrt(double(2 * a + 1) * ratio / (4.0 * 3.14159265358979323846));
+            }
+        return k;
+    }();
+    return table[size_t(l * SH_MAX_BANDS + m)];
+}
+
 template <typename T> void shEvaluateBands(const vec3<T>& d, int bands, T* out) {
     const double z = std::clamp(double(d.z), -1.0, 1.0), phi = std::atan2(double(d.y), double(d.x));
     const double sinTheta = std::sqrt(std::max(0.0, (1.0 - z) * (1.0 + z)));
     bands = std::clamp(bands, 0, SH_MAX_BANDS);
     for (int m = 0; m < bands; ++m) {
+        const double cosM = std::cos(m * phi), sinM = std::sin(m * phi);
         // P_m^m = (2m - 1)!! sin^m theta, then P_{m+1}^m = z (2m + 1) P_m^m, then the three-term
         // recurrence (l - m) P_l^m = z (2l - 1) P_{l-1}^m - (l + m - 1) P_{l-2}^m.
         double pmm = 1.0;
@@ -67,15 +84,12 @@ template <typename T> void shEvaluateBands(const vec3<T>& d, int bands, T* out) 
                 const double next = (z * double(2 * l - 1) * cur - double(l + m - 1) * prev) / double(l - m);
                 prev = cur, cur = next;
             }
-            // K_lm: (l - m)! / (l + m)! as a running product, exact for these small l.
-            double ratio = 1.0;
-            for (int k = l - m + 1; k <= l + m; ++k) ratio /= double(k);
-            const double k = std::sqrt(double(2 * l + 1) * ratio / (4.0 * 3.14159265358979323846));
+            const double k = shNormalisation(l, m);
             if (m == 0) {
                 out[l * (l + 1)] = T(k * cur);
             } else {
-                out[l * (l + 1) + m] = T(std::sqrt(2.0) * k * cur * std::cos(m * phi));
-                out[l * (l + 1) - m] = T(std::sqrt(2.0) * k * cur * std::sin(m * phi));
+                out[l * (l + 1) + m] = T(std::sqrt(2.0) * k * cur * cosM);
+                out[l * (l + 1) - m] = T(std::sqrt(2.0) * k * cur * sinM);
             }
         }
     }
