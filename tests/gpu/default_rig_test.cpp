@@ -2,7 +2,7 @@
 // lighting.md, "Default rig"): every asset scene of the test set, baked without a camera (auto
 // framing) at 160 x 90 with the environment transfer, gets sessionRig's three-point rig and dome,
 // and rendered by an engine of its own its covered pixels' median luminance is within a factor 2
-// of mid-grey (0.18) with at most 6 % of them black (luminance below 1/100 of mid-grey, 0.0018:
+// of mid-grey (0.18) with at most 5 % of them black (luminance below 1/100 of mid-grey, 0.0018:
 // 6 of 255 after sRGB encoding). The layout is checked against the camera: key and fill on the
 // camera's side, the rim behind the subject.
 
@@ -112,13 +112,11 @@ TEST(DefaultRig, EveryAssetSceneWithoutACameraShowsAtMidGrey) {
         EXPECT_GE(s.p50, 0.09);
         EXPECT_LE(s.p50, 0.36);
         // Black: in the key's shadow, facing away from the fill and hidden from most of the dome.
-        // CornellBox-Suzanne had 5.6-6.0 % since automatic framing fits the geometry (issue 20
-        // point 5: the box's inner walls fill the frame, their strips under the ceiling's shadow
-        // too), 4.8-5.1 % with the baked specular lobe; VulkanSamples-SubpassScene's vaults went
-        // from 5.4 % to 6.1 % with it: the dome's reflection no longer leaks into them (the
-        // order-3 occlusion let some through), and direct light alone leaves them dark. Over the
-        // issue's 5 % (issue 19 point 6: open).
-        EXPECT_LE(s.blackFraction, 0.065);
+        // The most is VulkanSamples-SubpassScene's: 4.7 % at 160 x 90 and 4.6 % at 320 x 180
+        // (measured 2026-12-06), three fifths of it a black-albedo material in the vaults, lit by
+        // the dome's reflection alone. With the dome at a fifth of the key it was 6.4 % (the
+        // issue's limit is 5 %; docs/lighting.md, "Default rig").
+        EXPECT_LE(s.blackFraction, 0.05);
     }
 }
 
