@@ -641,4 +641,76 @@ TEST(EnvironmentLight, TheBackdropShowsTheMapBehindTheScene) {
     fs::remove_all(dir);
 }
 
+// A map with a sun, a window (dimmer per texel than the sun and a lamp, but more light in all)
+// and two lamps: extractSuns takes out the brightest three in order of their peaks, each with its
+// direction and irradiance, and leaves the last lamp in the map (ENV_MAX_SUNS); the engine shades
+// the three as directional lights with a shadow map each, and against the ray-traced reference
+// the box's three shadows are where they belong.
+TEST(EnvironmentLight, SeveralLightsAreExtractedEachWithItsShadow) {
+    const fs::path dir = mapFolder();
+    struct Spot {
+        glm::dvec3 dir;
+        double radiusDeg, radiance;
+    };
+    const double sky = 0.5;
+    const Spot spots[4] = {{glm::normalize(glm::dvec3(0.5, 0.6, 0.4)), 1.0, 4e4},    // the sun
+                           {glm::normalize(glm::dvec3(0.2, 0.45, -0.9)), 0.8, 8e3},  // a lamp
+                           {glm::normalize(glm::dvec3(-0.6, 0.5, 0.3)), 3.0, 5e3},   // the window
+                           {glm::normalize(glm::dvec3(-0.3, 0.8, -0.5)), 1.0, 3e3}}; // a lamp left in the map
+    const auto radiance = [&](const glm::dvec3& d) {
+        for (const Spot& sp : spots)
+            if (glm::dot(d, sp.dir) > std::cos(glm::radians(sp.radiusDeg))) return glm::vec3(float(sp.radiance));
+        return glm::vec3(float(sky));
+    };
+    constexpr int W = 1024, H = 512;
+    ASSERT_NO_FATAL_FAILURE(writeMap(dir / "lamps.exr", W, H, radiance));
+    auto map = readHdrImage((dir / "lamps.exr").string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+    ASSERT_TRUE(map.ok());
+    ImageF rest = map.value();
+    const std::vector<engine::EnvSun> suns = engine::extractSuns(rest);
+    ASSERT_EQ(suns.size(), size_t(engine::ENV_MAX_SUNS));
+    ASSERT_EQ(engine::ENV_MAX_SUNS, 3);
+    const int order[3] = {0, 1, 2}; // by peak: the sun, the lamp, the window
+    for (int k = 0; k < 3; ++k) {
+        const Spot& sp = spots[order[k]];
+        double want = 0;
+        for (int j = 0; j < H; ++j)
+            for (int i = 0; i < W; ++i)
+                if (glm::dot(lightmath::envDirection((i + 0.5) / W, (j + 0.5) / H), sp.dir) > std::cos(glm::radians(sp.radiusDeg)))
+                    want += (sp.radiance - sky) * lightmath::envTexelSolidAngle(j, W, H);
+        const double angle = glm::degrees(std::acos(std::clamp(glm::dot(glm::dvec3(suns[size_t(k)].direction), sp.dir), -1.0, 1.0)));
+        std::printf("light %d: %.3f degrees off, irradiance %.4g of %.4g\n", k, angle, double(suns[size_t(k)].irradiance.y), want);
+        EXPECT_LT(angle, 0.3) << k;
+        EXPECT_NEAR(suns[size_t(k)].irradiance.y, want, 0.01 * want) << k;
+    }
+    // The fourth stays: the brightest texel left is the last lamp's.
+    float brightest = 0;
+    for (size_t p = 0; p < rest.rgba.size(); p += 4) brightest = std::max(brightest, rest.rgba[p + 1]);
+    EXPECT_FLOAT_EQ(brightest, float(spots[3].radiance));
+
+    Shot s;
+    ShotOptions opt;
+    opt.specularFactor = 0.f;
+    opt.roughness = 1.f;
+    opt.envRays = 256;
+    ASSERT_NO_FATAL_FAILURE(makeShot(s, opt));
+    s.engine->setAssetDirectory(dir.string());
+    Light l = environment("env", "lamps.exr");
+    l.shadow = true;
+    Rig rig;
+    rig.lights = {l};
+    FrameStats st;
+    ASSERT_TRUE(s.engine->render(rig, &st).ok());
+    EXPECT_EQ(st.shadowMapsRendered, 3);
+    auto fast = s.engine->renderLightLinear(rig, "env");
+    ASSERT_TRUE(fast.ok()) << fast.error().message;
+    const float radius = 0.5f * glm::length(s.scene.bounds.max - s.scene.bounds.min);
+    auto ref = renderEnvironmentReference(s.g, &s.rays, radius, l, dir.string(), 768);
+    ASSERT_TRUE(ref.ok()) << ref.error().message;
+    Errors err;
+    forEachSample(s.g, [&](size_t p, size_t) { err.add(fast->rgba[p * 4 + 1], ref->rgba[p * 4 + 1]); });
+    std::printf("three lights and a lamp, box on the ground, Lambert: fast vs reference mean %.2f%%\n", 100 * err.meanRel());
+    EXPECT_LT(err.meanRel(), 0.05);
+}
+
 } // namespace

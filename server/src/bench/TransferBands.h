@@ -3,14 +3,14 @@
 // measure if its transfer had more spherical-harmonic bands than the engine's three (issue 19
 // point 4: the shadowed diffuse error). The engine's diffuse formula (relight_env.frag,
 // docs/lighting.md "Environment light") is evaluated here on the CPU, per sample, at B bands:
-//   albedo x (E_open / pi x clamp(sum_i L_i T_i / sum_i L_i T°_i, 0, 1) + E_sun / pi x max(0, N.s) V(s))
-// - E_open: the exact unshadowed irradiance of the map without its sun (engine::extractSun), from
+//   albedo x (E_open / pi x clamp(sum_i L_i T_i / sum_i L_i T°_i, 0, 1) + sum_k E_k / pi x max(0, N.s_k) V(s_k))
+// - E_open: the exact unshadowed irradiance of the map without its suns (engine::extractSuns), from
 //   the engine's own 128 x 64 copy (engine::prefilterEnvironment; direct integration instead of
 //   the engine's expansion plus residual grid, which equals it);
 // - L_i: that map on B bands; T_i and T°_i: the sample's shadowed and unshadowed transfer on the
 //   same `rays` cosine-distributed directions (as the bake's, dfb-bake --env-rays);
-// - the sun: its irradiance and direction as the engine extracts them, visibility by one ray (the
-//   engine's shadow map);
+// - the suns: their irradiance and direction as the engine extracts them, visibility by one ray
+//   each (the engine's shadow maps);
 // against the brute-force reference (renderEnvironmentReference, multiple importance sampling),
 // with EnvFigures.h's figures. At three bands it stands in for the engine's own diffuse row.
 
@@ -39,7 +39,7 @@ inline std::vector<ImageF> transferBandImages(const DeepBuffer& g, const Triangl
                                               const std::vector<int>& bandCounts) {
     namespace lm = lightmath;
     constexpr int K = lm::SH_MAX_BANDS * lm::SH_MAX_BANDS;
-    const engine::EnvSun sun = engine::extractSun(map);
+    const std::vector<engine::EnvSun> suns = engine::extractSuns(map);
     // The engine's own small copy (prefilterEnvironment's, one level: no prefiltering needed).
     const engine::EnvLevels levels = engine::prefilterEnvironment(map, 1, ENV_PREFILTER_WIDTH);
     const ImageF small{levels.shWidth, levels.shHeight, levels.sh};
@@ -93,9 +93,9 @@ inline std::vector<ImageF> transferBandImages(const DeepBuffer& g, const Triangl
                 for (int i = 0; i < K; ++i) T[size_t(i)] += w[i];
             }
             glm::dvec3 sunPart(0.0);
-            if (sun.found) {
+            for (const engine::EnvSun& sun : suns) {
                 const glm::dvec3 s0 = glm::normalize(glm::dvec3(sun.direction));
-                if (glm::dot(N, s0) > 0 && visible(s0)) sunPart = glm::dvec3(sun.irradiance) * (glm::dot(N, s0) / lm::ENV_PI);
+                if (glm::dot(N, s0) > 0 && visible(s0)) sunPart += glm::dvec3(sun.irradiance) * (glm::dot(N, s0) / lm::ENV_PI);
             }
             const glm::dvec3 albedo(g.albedo[s * 3], g.albedo[s * 3 + 1], g.albedo[s * 3 + 2]);
             for (size_t c = 0; c < nb; ++c) {

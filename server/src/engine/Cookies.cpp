@@ -111,7 +111,7 @@ Result<Cookies::Environment> Cookies::environment(const Light& l) {
             if (!img) return makeError(img.error().code, "light '" + l.name + "': map '" + l.envMap + "': " + img.error().message);
             src = std::move(img.value());
         }
-        const EnvSun sun = extractSun(src);
+        std::vector<EnvSun> suns = extractSuns(src);
         const EnvLevels levels = prefilterEnvironment(src, int(ENV_LEVELS), ENV_PREFILTER_WIDTH);
         // A few maps are kept (swapping back and forth costs no reload); the others go.
         constexpr size_t KEPT = 4;
@@ -134,12 +134,12 @@ Result<Cookies::Environment> Cookies::environment(const Light& l) {
         e.sh = levels.sh;
         e.shWidth = levels.shWidth;
         e.shHeight = levels.shHeight;
-        e.sun = sun;
+        e.suns = std::move(suns);
         e.irradianceResidual = irradianceResidual(e.sh, e.shWidth, e.shHeight);
         it = mEnvironments.emplace(l.envMap, std::move(e)).first;
     }
     return Environment{it->second.texture.id(), it->second.irradianceResidual.id(), &it->second.sh, it->second.shWidth,
-                       it->second.shHeight, it->second.sun};
+                       it->second.shHeight, it->second.suns};
 }
 
 } // namespace dfb::engine

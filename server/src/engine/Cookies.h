@@ -48,7 +48,7 @@ public:
         GLuint irradianceResidual = 0;
         const std::vector<float>* sh = nullptr;
         int shWidth = 0, shHeight = 0;
-        EnvSun sun; // taken out of the map (texture and sh hold the rest)
+        std::vector<EnvSun> suns; // taken out of the map (texture and sh hold the rest): extractSuns
     };
     Result<Environment> environment(const Light& l);
 
@@ -58,7 +58,7 @@ private:
         gl::Texture irradianceResidual;
         std::vector<float> sh;
         int shWidth = 0, shHeight = 0;
-        EnvSun sun;
+        std::vector<EnvSun> suns;
     };
     std::map<std::string, EnvEntry> mEnvironments; // by file name ("" = constant)
     std::string mDirectory = ".";

@@ -175,6 +175,16 @@ EnvSun extractSun(ImageF& map) {
     return sun;
 }
 
+std::vector<EnvSun> extractSuns(ImageF& map) {
+    std::vector<EnvSun> suns;
+    while (suns.size() < size_t(ENV_MAX_SUNS)) {
+        const EnvSun sun = extractSun(map);
+        if (!sun.found) break;
+        suns.push_back(sun);
+    }
+    return suns;
+}
+
 EnvLevels prefilterEnvironment(const ImageF& src, int levels, int baseWidth) {
     EnvLevels out;
     bool constant = true;

@@ -58,8 +58,9 @@ Status GlEngine::updateShadows(const Rig& rig, FrameStats& st) {
         if (!l.enabled) continue;
         LightCache& c = mLights[l.name];
         // An environment light has no shadow map of its own: its visibility is the shot's
-        // (relight_env.frag). Its map's sun, if it has one, is a directional light with a sharp
-        // shadow map (c.interior[0], EnvironmentMap.h extractSun), added to its contribution.
+        // (relight_env.frag). Its map's suns and lamps, if it has any, are directional lights
+        // with sharp shadow maps (c.interior[k], EnvironmentMap.h extractSuns), added to its
+        // contribution.
         if (l.type == LightType::Environment) {
             if (c.hasShadow || !sameShadowInputs(c.params, l)) {
                 c.shadowMap = {};
@@ -69,28 +70,26 @@ Status GlEngine::updateShadows(const Rig& rig, FrameStats& st) {
             }
             auto env = mCookies.environment(l);
             if (!env) return env.error();
-            if (!env->sun.found) {
-                if (!c.interior.empty()) c.interior.clear(), c.hasContribution = false;
-                continue;
-            }
-            const Light sun = environmentSun(l, env->sun.direction);
-            if (c.interior.size() != 1) {
+            if (c.interior.size() != env->suns.size()) {
                 c.interior.clear();
-                c.interior.emplace_back();
+                c.interior.resize(env->suns.size());
                 c.hasContribution = false;
             }
-            LightCache& s = c.interior[0];
-            const bool first = s.params.name != sun.name;
-            if (sun.shadow && (first || !s.hasShadow || !sameShadowInputs(s.params, sun) || (!mPreview && s.previewShadow))) {
-                s.params = sun;
-                if (auto r = mShadows.render(s, mPreview, mSubdivisionLimit); !r) return r;
-                ++st.shadowMapsRendered;
-                c.hasContribution = false;
-            } else if (first || !sameShadowInputs(s.params, sun) || !sameShadingInputs(s.params, sun)) {
-                s.params = sun;
-                s.worldToLightClip = lightViewProj(sun, mCasters.scene(), mCasters.receivers());
-                if (!sun.shadow) s.hasShadow = false;
-                c.hasContribution = false;
+            for (size_t k = 0; k < env->suns.size(); ++k) {
+                const Light sun = environmentSun(l, env->suns[k].direction, int(k));
+                LightCache& s = c.interior[k];
+                const bool first = s.params.name != sun.name;
+                if (sun.shadow && (first || !s.hasShadow || !sameShadowInputs(s.params, sun) || (!mPreview && s.previewShadow))) {
+                    s.params = sun;
+                    if (auto r = mShadows.render(s, mPreview, mSubdivisionLimit); !r) return r;
+                    ++st.shadowMapsRendered;
+                    c.hasContribution = false;
+                } else if (first || !sameShadowInputs(s.params, sun) || !sameShadingInputs(s.params, sun)) {
+                    s.params = sun;
+                    s.worldToLightClip = lightViewProj(sun, mCasters.scene(), mCasters.receivers());
+                    if (!sun.shadow) s.hasShadow = false;
+                    c.hasContribution = false;
+                }
             }
             continue;
         }

@@ -24,9 +24,9 @@ void syncInterior(LightCache& c, glm::ivec2 grid) {
     c.interiorGrid = grid;
 }
 
-Light environmentSun(const Light& l, const glm::vec3& toSunMap) {
+Light environmentSun(const Light& l, const glm::vec3& toSunMap, int index) {
     Light sun;
-    sun.name = l.name + ".sun";
+    sun.name = l.name + ".sun" + (index > 0 ? std::to_string(index) : std::string());
     sun.type = LightType::Directional;
     const glm::vec3 toSun = glm::normalize(glm::vec3(lightmath::envRotation(l.envRotationDeg) * glm::dvec3(toSunMap)));
     sun.direction = {-toSun.x, -toSun.y, -toSun.z};

@@ -56,10 +56,11 @@ struct LightCache {
     bool softCasters = false;   // an interior light: its map from the simplified casters (BendyShadow)
 };
 
-/// The directional light standing for environment light l's sun (towards the sun `toSunMap`, in
-/// the map's space): turned by the light's rotation, unit intensity (the sun's irradiance is its
-/// pass's weight, LightShading::shade), shadowed when l is, linked as l.
-Light environmentSun(const Light& l, const glm::vec3& toSunMap);
+/// The directional light standing for environment light l's sun number `index` (extractSuns;
+/// towards the sun `toSunMap`, in the map's space; named l.name + ".sun", then ".sun1", ".sun2"):
+/// turned by the light's rotation, unit intensity (the sun's irradiance is its pass's weight,
+/// LightShading::shade), shadowed when l is, linked as l.
+Light environmentSun(const Light& l, const glm::vec3& toSunMap, int index = 0);
 
 /// Colour x intensity: what a contribution (shaded at unit radiance) is multiplied by.
 inline glm::vec3 radiance(const Light& l) { return toGlm(l.color) * l.intensityCd; }

@@ -238,12 +238,12 @@ Status LightShading::shade(LightCache& c, int output, bool preview, int referenc
     if (c.params.type == LightType::BentArea) return shadeBentArea(c, output, preview);
     if (auto s = shadeInto(c, c, output, preview, referenceCells, {}); !s) return s;
     if (c.params.type == LightType::Environment && output == 0 && !c.interior.empty()) {
-        // The map's sun (GlEngine::updateShadows): a directional light of unit intensity added
-        // with its irradiance as the weight, so the sum is at the environment's unit radiance.
+        // The map's suns (GlEngine::updateShadows): directional lights of unit intensity added
+        // with their irradiance as the weight, so the sum is at the environment's unit radiance.
         auto env = mCookies.environment(c.params);
         if (!env) return env.error();
-        if (env->sun.found) {
-            if (auto s = shadeInto(c.interior[0], c, output, preview, 0, {true, false, env->sun.irradiance}); !s) return s;
+        for (size_t k = 0; k < env->suns.size() && k < c.interior.size(); ++k) {
+            if (auto s = shadeInto(c.interior[k], c, output, preview, 0, {true, false, env->suns[k].irradiance}); !s) return s;
         }
     }
     return okStatus();
