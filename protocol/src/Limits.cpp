@@ -8,10 +8,12 @@ uint64_t lightMemoryBytes(const Light& l, const RigLimits& limits) {
     if (!l.enabled) return 0;
     uint64_t bytes = limits.imagePixels * 16; // its contribution image, RGBA32F
     if (l.type == LightType::Environment) {
-        // No shadow map (its visibility is baked in the shot): the prefiltered map and its mips.
-        // and, shadowed, its sun's map (engine environmentSun) if the map has one.
+        // No shadow map (its visibility is baked in the shot): the prefiltered map and its mips,
+        // and, shadowed, its suns' maps (engine environmentSun) as many as a map may give.
         const uint64_t w = ENV_PREFILTER_WIDTH;
-        return bytes + w * (w / 2) * 16 * 4 / 3 + (l.shadow ? uint64_t(ENV_SUN_MAP_SIZE) * ENV_SUN_MAP_SIZE * 4 : 0);
+        const uint64_t suns = uint64_t(ENV_SUN_MAP_SIZE) * ENV_SUN_MAP_SIZE * 4 +
+                              uint64_t(ENV_MAX_SUNS - 1) * ENV_LAMP_MAP_SIZE * ENV_LAMP_MAP_SIZE * 4;
+        return bytes + w * (w / 2) * 16 * 4 / 3 + (l.shadow ? suns : 0);
     }
     if (l.shadow) {
         const uint64_t side = uint64_t(l.shadowMapSize);

@@ -668,8 +668,8 @@ TEST(EnvironmentLight, SeveralLightsAreExtractedEachWithItsShadow) {
     ASSERT_TRUE(map.ok());
     ImageF rest = map.value();
     const std::vector<engine::EnvSun> suns = engine::extractSuns(rest);
-    ASSERT_EQ(suns.size(), size_t(engine::ENV_MAX_SUNS));
-    ASSERT_EQ(engine::ENV_MAX_SUNS, 3);
+    ASSERT_EQ(suns.size(), size_t(ENV_MAX_SUNS));
+    ASSERT_EQ(ENV_MAX_SUNS, 3);
     const int order[3] = {0, 1, 2}; // by peak: the sun, the lamp, the window
     for (int k = 0; k < 3; ++k) {
         const Spot& sp = spots[order[k]];

@@ -122,7 +122,7 @@ LatLong prefilterLevel(const std::vector<LatLong>& pyramid, int w, double roughn
 
 } // namespace
 
-EnvSun extractSun(ImageF& map) {
+EnvSun extractSun(ImageF& map, float minLuminance) {
     EnvSun sun;
     const int w = map.width, h = map.height;
     if (w <= 0 || h <= 0) return sun;
@@ -166,9 +166,11 @@ EnvSun extractSun(ImageF& map) {
         const glm::dvec3 excess = glm::max(c - fill, glm::dvec3(0.0)) * dOmega;
         power += excess;
         direction += lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h) * (0.2126 * excess.x + 0.7152 * excess.y + 0.0722 * excess.z);
-        for (int k = 0; k < 3; ++k) map.rgba[p * 4 + size_t(k)] = float(std::min(c[k], fill[k]));
     }
     if (glm::length(direction) <= 0) return sun;
+    if (0.2126 * power.x + 0.7152 * power.y + 0.0722 * power.z < double(minLuminance)) return sun; // the map as it was
+    for (size_t p : region)
+        for (int k = 0; k < 3; ++k) map.rgba[p * 4 + size_t(k)] = std::min(map.rgba[p * 4 + size_t(k)], float(fill[k]));
     sun.found = true;
     sun.direction = glm::vec3(glm::normalize(direction));
     sun.irradiance = glm::vec3(power);
@@ -177,8 +179,9 @@ EnvSun extractSun(ImageF& map) {
 
 std::vector<EnvSun> extractSuns(ImageF& map) {
     std::vector<EnvSun> suns;
+    auto luminance = [](const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; };
     while (suns.size() < size_t(ENV_MAX_SUNS)) {
-        const EnvSun sun = extractSun(map);
+        const EnvSun sun = extractSun(map, suns.empty() ? 0.f : LAMP_SHARE_OF_SUN * luminance(suns[0].irradiance));
         if (!sun.found) break;
         suns.push_back(sun);
     }

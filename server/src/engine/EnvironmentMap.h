@@ -34,8 +34,9 @@ struct EnvSun {
 /// the brightest texel, when its luminance is over SUN_PEAK_OVER_MEAN times the map's mean; its
 /// region the texels within SUN_RADIUS_DEG of it brighter than SUN_REGION_SHARE of the peak (and
 /// than 20 times the mean); the fill the mean of the ring out to twice that radius below that.
+/// Not found, and the map left as it was, when its irradiance's luminance is under minLuminance.
 constexpr float SUN_PEAK_OVER_MEAN = 500.f, SUN_RADIUS_DEG = 6.f, SUN_REGION_SHARE = 0.01f;
-EnvSun extractSun(ImageF& map);
+EnvSun extractSun(ImageF& map, float minLuminance = 0.f);
 
 /// The lights of `map` taken out one after another, each by extractSun on what the ones before
 /// left (the brightest first), at most ENV_MAX_SUNS; `map` is left without them. One is not
@@ -44,8 +45,12 @@ EnvSun extractSun(ImageF& map);
 /// to the order-3 visibility, the diffuse error against the ray-traced reference was 14.0 % on
 /// FlightHelmet and 6.1 % on the tabletop, with them taken out 5.0 % and 2.3 % (dfb-env-bench
 /// --transfer-bands, 2026-12-06). Each costs a directional shadow map (re-rendered when the map
-/// turns); the fourth interior.exr would give is 0.6 % of the map's light.
-constexpr int ENV_MAX_SUNS = 3;
+/// turns; dfb/protocol/Rig.h ENV_MAX_SUNS, ENV_LAMP_MAP_SIZE), so a light after the first is
+/// taken only when it brings LAMP_SHARE_OF_SUN of the first's irradiance (luminance): the
+/// window and the second lamp bring 196 % and 41 % of interior.exr's lamp; sunrise.exr's second,
+/// 3.8 % of its sun, would cost a rotation at 960x540 about 25 ms (its map and its pass) for 0.7
+/// points of diffuse error (7.0 -> 6.3 % on the tabletop, CPU model at 1,024 rays).
+constexpr float LAMP_SHARE_OF_SUN = 0.1f;
 std::vector<EnvSun> extractSuns(ImageF& map);
 
 /// The levels of `src`, a latitude-longitude RGBA float image of any size: `levels` levels from

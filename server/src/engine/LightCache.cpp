@@ -32,7 +32,7 @@ Light environmentSun(const Light& l, const glm::vec3& toSunMap, int index) {
     sun.direction = {-toSun.x, -toSun.y, -toSun.z};
     sun.intensityCd = 1.f;
     sun.shadow = l.shadow;
-    sun.shadowMapSize = ENV_SUN_MAP_SIZE;
+    sun.shadowMapSize = index == 0 ? ENV_SUN_MAP_SIZE : ENV_LAMP_MAP_SIZE;
     sun.shadowFilter = 1;
     sun.include = l.include;
     sun.exclude = l.exclude;

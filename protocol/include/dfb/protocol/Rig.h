@@ -49,6 +49,12 @@ constexpr int MAX_ENV_MAP_WIDTH = 8192, MAX_ENV_MAP_HEIGHT = 4096;
 constexpr int ENV_PREFILTER_WIDTH = 512;
 /// The shadow map's side of an environment map's sun (shaded as a directional light).
 constexpr int ENV_SUN_MAP_SIZE = 2048;
+/// Most lights taken out of one environment map (engine extractSuns: the sun, then lamps and
+/// windows), and the shadow map's side of each after the first: they are dimmer than the first
+/// (on the bundled maps 4-200 % of it) and extended, their shadows soft, and a quarter of the
+/// texels keeps a rotation's cost down (each is re-rendered when the map turns).
+constexpr int ENV_MAX_SUNS = 3;
+constexpr int ENV_LAMP_MAP_SIZE = 1024;
 
 /// Most Bezier segments a BendyLight chain may have (lightmath::MAX_SEGMENTS).
 constexpr int MAX_BENDY_SEGMENTS = 8;
