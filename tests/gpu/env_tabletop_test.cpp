@@ -18,17 +18,30 @@ namespace {
 
 using namespace dfb;
 
-TEST(EnvironmentTabletop, SpecularOcclusionFollowsTheBakedLobe) {
+// The bundled tabletop's 320 x 180 test shot (with the environment transfer), its scene's rays
+// and bounding radius, and the bundled maps' folder.
+struct Tabletop {
     bench::BenchShot opened;
-    ASSERT_EQ(bench::openBenchShot("env_tabletop_test", DFB_TEST_DATA "/tabletop_320.exr", DFB_SOURCE_DIR "/scenes/tabletop.glb", opened), 0);
-    ASSERT_TRUE(opened.shot.hasEnvTransfer());
-    ASSERT_TRUE(opened.shot.hasEnvLobe()) << "dfb-bake bakes the specular lobe with the transfer";
     TriangleBvh bvh;
-    for (const MeshPart& p : opened.scene.parts) bvh.addMesh(p.positions, p.indices);
-    bvh.commit();
-    const Bounds& b = opened.scene.bounds;
-    const float radius = 0.5f * glm::length(b.max - b.min);
-    const std::string maps = DFB_SOURCE_DIR "/scenes/env";
+    float radius = 1.f;
+    std::string maps = DFB_SOURCE_DIR "/scenes/env";
+};
+
+void openTabletop(Tabletop& t) {
+    ASSERT_EQ(bench::openBenchShot("env_tabletop_test", DFB_TEST_DATA "/tabletop_320.exr", DFB_SOURCE_DIR "/scenes/tabletop.glb", t.opened), 0);
+    ASSERT_TRUE(t.opened.shot.hasEnvTransfer());
+    for (const MeshPart& p : t.opened.scene.parts) t.bvh.addMesh(p.positions, p.indices);
+    t.bvh.commit();
+    const Bounds& b = t.opened.scene.bounds;
+    t.radius = 0.5f * glm::length(b.max - b.min);
+}
+
+TEST(EnvironmentTabletop, SpecularOcclusionFollowsTheBakedLobe) {
+    Tabletop t;
+    ASSERT_NO_FATAL_FAILURE(openTabletop(t));
+    bench::BenchShot& opened = t.opened;
+    ASSERT_TRUE(opened.shot.hasEnvLobe()) << "dfb-bake bakes the specular lobe with the transfer";
+    const std::string& maps = t.maps;
     Light env;
     env.name = "dome";
     env.type = LightType::Environment;
@@ -42,7 +55,7 @@ TEST(EnvironmentTabletop, SpecularOcclusionFollowsTheBakedLobe) {
     rig.lights = {env};
     auto fast = engine.value()->renderLightLinear(rig, env.name);
     ASSERT_TRUE(fast.ok()) << fast.error().toString();
-    auto ref = renderEnvironmentReference(metal, &bvh, radius, env, maps, 256);
+    auto ref = renderEnvironmentReference(metal, &t.bvh, t.radius, env, maps, 256);
     ASSERT_TRUE(ref.ok()) << ref.error().toString();
     const bench::Figures f = bench::compare(fast.value(), ref.value(), metal);
     std::printf("tabletop, metal, sunrise: specular mean %.2f%% p95 %.2f%% aggregate %.2f%% over %zu pixels\n", 100 * f.mean, 100 * f.p95,
@@ -58,15 +71,10 @@ TEST(EnvironmentTabletop, SpecularOcclusionFollowsTheBakedLobe) {
 // (EnvironmentMap.h extractSuns). With the lamp alone taken out, the window's shadows were left
 // to the order-3 visibility: 7.1 % mean per-pixel error; with all three 3.8 % (2026-12-06).
 TEST(EnvironmentTabletop, InteriorLampsAndWindowShadowTheDiffuse) {
-    bench::BenchShot opened;
-    ASSERT_EQ(bench::openBenchShot("env_tabletop_test", DFB_TEST_DATA "/tabletop_320.exr", DFB_SOURCE_DIR "/scenes/tabletop.glb", opened), 0);
-    ASSERT_TRUE(opened.shot.hasEnvTransfer());
-    TriangleBvh bvh;
-    for (const MeshPart& p : opened.scene.parts) bvh.addMesh(p.positions, p.indices);
-    bvh.commit();
-    const Bounds& b = opened.scene.bounds;
-    const float radius = 0.5f * glm::length(b.max - b.min);
-    const std::string maps = DFB_SOURCE_DIR "/scenes/env";
+    Tabletop t;
+    ASSERT_NO_FATAL_FAILURE(openTabletop(t));
+    bench::BenchShot& opened = t.opened;
+    const std::string& maps = t.maps;
     Light env;
     env.name = "dome";
     env.type = LightType::Environment;
@@ -83,7 +91,7 @@ TEST(EnvironmentTabletop, InteriorLampsAndWindowShadowTheDiffuse) {
     EXPECT_EQ(st.shadowMapsRendered, 3) << "the lamp, the window and the second lamp";
     auto fast = engine.value()->renderLightLinear(rig, env.name);
     ASSERT_TRUE(fast.ok()) << fast.error().toString();
-    auto ref = renderEnvironmentReference(lambert, &bvh, radius, env, maps, 256);
+    auto ref = renderEnvironmentReference(lambert, &t.bvh, t.radius, env, maps, 256);
     ASSERT_TRUE(ref.ok()) << ref.error().toString();
     const bench::Figures f = bench::compare(fast.value(), ref.value(), lambert);
     std::printf("tabletop, Lambert, interior: diffuse mean %.2f%% p95 %.2f%% aggregate %.2f%% over %zu pixels\n", 100 * f.mean,

@@ -483,6 +483,36 @@ TEST(EnvironmentLight, ReferenceIsAnOutput) {
 
 namespace {
 
+// A Lambert box on the ground (makeShot, 256 bake rays) under the shadowed environment light
+// "env" of map `map` in `dir`: the engine's frame (st), then the light's image and the
+// reference's (768 rays).
+struct BoxUnderMap {
+    Shot s;
+    Rig rig;
+    FrameStats st;
+    ImageF fast, ref;
+};
+
+void boxUnderMap(BoxUnderMap& b, const fs::path& dir, const char* map) {
+    ShotOptions opt;
+    opt.specularFactor = 0.f;
+    opt.roughness = 1.f;
+    opt.envRays = 256;
+    ASSERT_NO_FATAL_FAILURE(makeShot(b.s, opt));
+    b.s.engine->setAssetDirectory(dir.string());
+    Light l = environment("env", map);
+    l.shadow = true;
+    b.rig.lights = {l};
+    ASSERT_TRUE(b.s.engine->render(b.rig, &b.st).ok());
+    auto fast = b.s.engine->renderLightLinear(b.rig, "env");
+    ASSERT_TRUE(fast.ok()) << fast.error().message;
+    const float radius = 0.5f * glm::length(b.s.scene.bounds.max - b.s.scene.bounds.min);
+    auto ref = renderEnvironmentReference(b.s.g, &b.s.rays, radius, l, dir.string(), 768);
+    ASSERT_TRUE(ref.ok()) << ref.error().message;
+    b.fast = std::move(fast.value());
+    b.ref = std::move(ref.value());
+}
+
 // A map with a small, very bright sun: extractSun finds it (direction, irradiance), the engine
 // shades it as a directional light with a sharp shadow map, and against the ray-traced
 // reference the box's shadow is where the sun puts it; a rotation re-renders the sun's map.
@@ -512,25 +542,12 @@ TEST(EnvironmentLight, ASunIsExtractedAndShadowsSharply) {
     for (size_t p = 0; p < rest.rgba.size(); p += 4) brightest = std::max(brightest, rest.rgba[p + 1]);
     EXPECT_LT(brightest, 1.f);
 
-    Shot s;
-    ShotOptions opt;
-    opt.specularFactor = 0.f;
-    opt.roughness = 1.f;
-    opt.envRays = 256;
-    ASSERT_NO_FATAL_FAILURE(makeShot(s, opt));
-    s.engine->setAssetDirectory(dir.string());
-    Light l = environment("env", "sunny.exr");
-    l.shadow = true;
-    Rig rig;
-    rig.lights = {l};
-    FrameStats st;
-    ASSERT_TRUE(s.engine->render(rig, &st).ok());
-    EXPECT_EQ(st.shadowMapsRendered, 1); // the sun's
-    auto fast = s.engine->renderLightLinear(rig, "env");
-    ASSERT_TRUE(fast.ok()) << fast.error().message;
-    const float radius = 0.5f * glm::length(s.scene.bounds.max - s.scene.bounds.min);
-    auto ref = renderEnvironmentReference(s.g, &s.rays, radius, l, dir.string(), 768);
-    ASSERT_TRUE(ref.ok()) << ref.error().message;
+    BoxUnderMap b;
+    ASSERT_NO_FATAL_FAILURE(boxUnderMap(b, dir, "sunny.exr"));
+    EXPECT_EQ(b.st.shadowMapsRendered, 1); // the sun's
+    Shot& s = b.s;
+    const ImageF* fast = &b.fast;
+    const ImageF* ref = &b.ref;
     // Lit by the sun or in the box's shadow, in both: the sun's share dominates.
     size_t agree = 0, ground = 0;
     Errors err;
@@ -549,9 +566,9 @@ TEST(EnvironmentLight, ASunIsExtractedAndShadowsSharply) {
                 100 * err.meanRel(), 100.0 * double(agree) / double(ground));
     EXPECT_LT(err.meanRel(), 0.05);
     EXPECT_GT(double(agree) / double(ground), 0.99);
-    rig.lights[0].envRotationDeg = {20.f, 0.f, 0.f};
-    st = {};
-    ASSERT_TRUE(s.engine->render(rig, &st).ok());
+    b.rig.lights[0].envRotationDeg = {20.f, 0.f, 0.f};
+    FrameStats st;
+    ASSERT_TRUE(s.engine->render(b.rig, &st).ok());
     EXPECT_EQ(st.shadowMapsRendered, 1);
     EXPECT_EQ(st.lightsShaded, 1);
 }
@@ -688,27 +705,11 @@ TEST(EnvironmentLight, SeveralLightsAreExtractedEachWithItsShadow) {
     for (size_t p = 0; p < rest.rgba.size(); p += 4) brightest = std::max(brightest, rest.rgba[p + 1]);
     EXPECT_FLOAT_EQ(brightest, float(spots[3].radiance));
 
-    Shot s;
-    ShotOptions opt;
-    opt.specularFactor = 0.f;
-    opt.roughness = 1.f;
-    opt.envRays = 256;
-    ASSERT_NO_FATAL_FAILURE(makeShot(s, opt));
-    s.engine->setAssetDirectory(dir.string());
-    Light l = environment("env", "lamps.exr");
-    l.shadow = true;
-    Rig rig;
-    rig.lights = {l};
-    FrameStats st;
-    ASSERT_TRUE(s.engine->render(rig, &st).ok());
-    EXPECT_EQ(st.shadowMapsRendered, 3);
-    auto fast = s.engine->renderLightLinear(rig, "env");
-    ASSERT_TRUE(fast.ok()) << fast.error().message;
-    const float radius = 0.5f * glm::length(s.scene.bounds.max - s.scene.bounds.min);
-    auto ref = renderEnvironmentReference(s.g, &s.rays, radius, l, dir.string(), 768);
-    ASSERT_TRUE(ref.ok()) << ref.error().message;
+    BoxUnderMap b;
+    ASSERT_NO_FATAL_FAILURE(boxUnderMap(b, dir, "lamps.exr"));
+    EXPECT_EQ(b.st.shadowMapsRendered, 3);
     Errors err;
-    forEachSample(s.g, [&](size_t p, size_t) { err.add(fast->rgba[p * 4 + 1], ref->rgba[p * 4 + 1]); });
+    forEachSample(b.s.g, [&](size_t p, size_t) { err.add(b.fast.rgba[p * 4 + 1], b.ref.rgba[p * 4 + 1]); });
     std::printf("three lights and a lamp, box on the ground, Lambert: fast vs reference mean %.2f%%\n", 100 * err.meanRel());
     EXPECT_LT(err.meanRel(), 0.05);
 }
