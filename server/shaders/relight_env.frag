@@ -75,6 +75,13 @@ float directionalVisibility(float T[9], float open[9], vec3 d) {
     return clamp(shadowed / max(unshadowed, 1e-3), 0.0, 1.0);
 }
 
+// Specular occlusion from the ambient visibility (Lagarde and de Rousiers, "Moving Frostbite to
+// Physically Based Rendering", 2014, eq. 34 / listing 26).
+float ambientSpecularOcclusion(float NdotV, float visibility, float roughness) {
+    float alpha = max(roughness * roughness, 1e-3);
+    return clamp(pow(NdotV + visibility, exp2(-16.0 * alpha - 1.0)) - 1.0 + visibility, 0.0, 1.0);
+}
+
 // The split sum of a GGX lobe (Karis 2013): prefiltered radiance x (F0 A + F90 B), read towards
 // `d`: the lobe's dominant direction (dominantDirection), or for shadowed lights the baked
 // direction of its visible part (ENV_LOBE).
@@ -135,14 +142,13 @@ vec3 shadeSample(ivec2 t) {
     vec3 diffuse = ((1.0 - metallic) * (1.0 - maxFd)) * albedo * irradiance;
     vec3 f0 = mix(vec3(0.08 * specular), albedo, metallic);
     float f90 = mix(min(2.0 * specular, 1.0), 1.0, metallic);
-    // Specular occlusion: towards the lobe from the baked transfer when the shot has it
-    // (directionalVisibility), else from the ambient visibility (Lagarde and de Rousiers 2014,
-    // eq. 34 / listing 26; 1 where nothing is baked).
-    float alpha = max(roughness * roughness, 1e-3);
-    float occlusion = clamp(pow(NdotV + visibility, exp2(-16.0 * alpha - 1.0)) - 1.0 + visibility, 0.0, 1.0);
+    // Specular occlusion: the baked lobe's visible share, or towards the lobe from the baked
+    // transfer (directionalVisibility), or from the ambient visibility (1 where nothing is baked).
+    float occlusion;
     vec3 lobeDirection = dominantDirection(N, V, roughness);
 #ifdef ENV_TRANSFER
-    if (SHADE_SHADOWED) {
+    if (!SHADE_SHADOWED) occlusion = ambientSpecularOcclusion(NdotV, visibility, roughness);
+    else {
 #ifdef ENV_LOBE
         // The lobe as the shot's camera sees it, baked against the scene (DeepBuffer::envLobe):
         // the map read towards its visible part's mean direction, scaled by the visible share.
@@ -155,6 +161,8 @@ vec3 shadeSample(ivec2 t) {
         occlusion = directionalVisibility(T, open, lobeDirection);
 #endif
     }
+#else
+    occlusion = ambientSpecularOcclusion(NdotV, visibility, roughness);
 #endif
     vec3 base = diffuse + specularLobe(lobeDirection, NdotV, roughness, f0, f90) * occlusion;
     vec4 sheen = texelFetch(gSheen, t, 0);
@@ -162,8 +170,7 @@ vec3 shadeSample(ivec2 t) {
     vec2 coat = texelFetch(gCoat, t, 0).xy;
     if (SHADE_COAT && coat.x > 0.0) {
         float Fc = 0.04 + 0.96 * pow(1.0 - NdotV, 5.0);
-        float coatAlpha = max(coat.y * coat.y, 1e-3);
-        float coatOcclusion = clamp(pow(NdotV + visibility, exp2(-16.0 * coatAlpha - 1.0)) - 1.0 + visibility, 0.0, 1.0);
+        float coatOcclusion = ambientSpecularOcclusion(NdotV, visibility, coat.y);
         base = base * (1.0 - coat.x * Fc) + coat.x * specularLobe(dominantDirection(N, V, coat.y), NdotV, coat.y, vec3(0.04), 1.0) * coatOcclusion;
     }
     return base * pA.w;

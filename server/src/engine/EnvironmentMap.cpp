@@ -147,7 +147,12 @@ EnvSun extractSun(ImageF& map, float minLuminance) {
     std::vector<size_t> region;
     glm::dvec3 ring(0.0);
     double ringArea = 0;
-    for (int j = 0; j < h; ++j) {
+    // Only rows whose polar angle is within the ring's radius of the peak's can hold a texel of
+    // the ring (angular distance >= difference of polar angles): a few per cent of a large map's
+    // rows, since extractSuns scans once per light.
+    const int jc = int(peakAt / size_t(w));
+    const int band = int(std::ceil(2.0 * double(SUN_RADIUS_DEG) / 180.0 * h)) + 1;
+    for (int j = std::max(0, jc - band); j <= std::min(h - 1, jc + band); ++j) {
         const double dOmega = lightmath::envTexelSolidAngle(j, w, h);
         for (int i = 0; i < w; ++i) {
             const size_t p = size_t(j) * size_t(w) + size_t(i);
