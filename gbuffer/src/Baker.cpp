@@ -234,6 +234,10 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         return makeError(ErrorCode::InvalidValue, "environment rays per sample " + std::to_string(o.envRays) +
                                                       " is out of range (0.." + std::to_string(MAX_ENV_RAYS) + ")");
     }
+    if (!validEnvBands(o.envBands)) {
+        return makeError(ErrorCode::InvalidValue, "environment transfer bands " + std::to_string(o.envBands) + " is not 3 or " +
+                                                      std::to_string(ENV_TRANSFER_BANDS));
+    }
     if (scene.objectNames.size() >= MAX_ID || scene.materials.size() >= MAX_ID) {
         return makeError(ErrorCode::InvalidValue, scene.path + ": more than 2^24 objects or materials");
     }
@@ -499,6 +503,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
         b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
         b.envRays = o.envRays;
+        b.envBands = o.envBands;
     }
     b.samplesPerPixel = o.samples;
     b.camera = cam;
@@ -538,7 +543,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         if (env) {
             // The mean of the points' transfers: each estimates the transfer at its own surface
             // point, and the sample stands for their average, as for every attribute above.
-            for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i)
+            for (int i = 0; i < o.envBands * o.envBands; ++i)
                 b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)] = g.env[i] * inv;
             // The lobe's sums add over the points (a ratio and a direction: no mean needed).
             EnvTracer::encodeLobe(g.lobe, N, cam.towardsEye(P), &b.envLobe[s * ENV_LOBE_COMPONENTS]);

@@ -26,7 +26,7 @@
 namespace dfb {
 namespace {
 
-static_assert(ENV_TRANSFER_COEFFICIENTS == lightmath::SH_COEFFICIENTS,
+static_assert(ENV_TRANSFER_COEFFICIENTS == lightmath::SH_TRANSFER_COEFFICIENTS,
               "the file's env.sh* channels are the light math's SH coefficients");
 
 using Clock = std::chrono::steady_clock;
@@ -121,7 +121,7 @@ size_t EnvTracer::estimate(const glm::vec3& P, const glm::vec3& normal, const gl
         if (glm::dot(Ng, w) <= 0.f) continue; // below its own surface: occluded
         ++traced;
         if (mBvh.occluded(from, from + w * mLength, 1e-6f)) continue;
-        const auto y = lightmath::shEvaluate(w);
+        const auto y = lightmath::shEvaluate25(w);
         for (size_t i = 0; i < K; ++i) sum[i] += y[i];
     }
     const float inv = used ? 1.f / float(used) : 0.f;
@@ -242,6 +242,7 @@ Result<EnvTransferStats> bakeEnvTransfer(const Scene& scene, DeepBuffer& b, int 
     b.envTransfer = std::move(transfer);
     b.envLobe = std::move(lobe);
     b.envRays = rays;
+    b.envBands = ENV_TRANSFER_BANDS;
     stats.samples = covered.size();
     stats.rays = traced.load();
     stats.bvhMs = tracer.bvhMs();

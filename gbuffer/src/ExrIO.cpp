@@ -36,7 +36,7 @@ namespace dfb {
 namespace {
 
 // A file channel and where its samples live in a DeepBuffer layer.
-enum class OptionalLayer { None, EnvTransfer, EnvLobe };
+enum class OptionalLayer { None, EnvTransfer, EnvTransferHigh, EnvLobe };
 
 struct ChannelSpec {
     const char* name;
@@ -61,10 +61,32 @@ struct LayerInfo {
 LayerInfo layerInfo(OptionalLayer l) {
     if (l == OptionalLayer::EnvLobe)
         return {"specular lobe", "env.lobe.u, env.lobe.v, env.lobe.vis", "env.lobe.u", [](const DeepBuffer& b) { return b.hasEnvLobe(); }};
+    // A five-band transfer is the three-band one's channels and bands 3-4's (format version 5).
+    if (l == OptionalLayer::EnvTransferHigh)
+        return {"five-band environment transfer", "env.sh9 .. env.sh24", "env.sh9",
+                [](const DeepBuffer& b) { return b.hasEnvTransfer() && b.envBands == ENV_TRANSFER_BANDS; }};
     return {"environment transfer", "env.sh0 .. env.sh8", "env.sh0", [](const DeepBuffer& b) { return b.hasEnvTransfer(); }};
 }
 
-// The channel table of format v4 (docs/gbuffer-format.md). Positions and depth are float for
+// The table's rows with env.sh0 .. env.sh24 added: bands 0-2 (EnvTransfer), then 3-4
+// (EnvTransferHigh). Half: |T_i| <= max |Y_i| (the cosine lobe's (1/pi) integral is 1), 0.631 on
+// bands 0-2 and 0.85 on 3-4, where half's steps (4.9e-4 at most) are far below the Monte Carlo
+// error of a bake at MAX_ENV_RAYS.
+std::vector<ChannelSpec> withEnvTransfer(std::vector<ChannelSpec> rows) {
+    static_assert(ENV_TRANSFER_COEFFICIENTS == 25, "env.sh0 .. env.sh8 are three bands, env.sh9 .. env.sh24 bands 3 and 4");
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> n;
+        for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i) n.push_back("env.sh" + std::to_string(i));
+        return n;
+    }(); // outlives the table, which holds pointers to its names
+    for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i)
+        rows.push_back({names[size_t(i)].c_str(), Imf::HALF, i, ENV_TRANSFER_COEFFICIENTS, false,
+                        [](DeepBuffer& b) { return reinterpret_cast<char*>(b.envTransfer.data()); },
+                        i < 9 ? OptionalLayer::EnvTransfer : OptionalLayer::EnvTransferHigh});
+    return rows;
+}
+
+// The channel table of format v5 (docs/gbuffer-format.md). Positions and depth are float for
 // precision over large scenes; directions, colours, lobe parameters and the environment transfer
 // are half; ids are uint.
 const std::vector<ChannelSpec>& channelSpecs() {
@@ -75,7 +97,7 @@ const std::vector<ChannelSpec>& channelSpecs() {
     auto u = [](std::vector<uint32_t> DeepBuffer::*m) {
         return [m](DeepBuffer& b) { return reinterpret_cast<char*>((b.*m).data()); };
     };
-    static const std::vector<ChannelSpec> specs = {
+    static const std::vector<ChannelSpec> specs = withEnvTransfer({
         {"P.X", PT::FLOAT, 0, 3, true, f(&DeepBuffer::P)},
         {"P.Y", PT::FLOAT, 1, 3, true, f(&DeepBuffer::P)},
         {"P.Z", PT::FLOAT, 2, 3, true, f(&DeepBuffer::P)},
@@ -109,24 +131,12 @@ const std::vector<ChannelSpec>& channelSpecs() {
         {"A", PT::HALF, 0, 1, true, f(&DeepBuffer::A)},
         {"id.object", PT::UINT, 0, 1, true, u(&DeepBuffer::objectId)},
         {"id.material", PT::UINT, 0, 1, true, u(&DeepBuffer::materialId)},
-        // Half: |T_i| <= max |Y_i| <= 0.631 (the cosine lobe's (1/pi) integral is 1), where half's
-        // steps (2.4e-4 at most) are far below the Monte Carlo error of a bake at MAX_ENV_RAYS.
-        {"env.sh0", PT::HALF, 0, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
-        {"env.sh1", PT::HALF, 1, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
-        {"env.sh2", PT::HALF, 2, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
-        {"env.sh3", PT::HALF, 3, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
-        {"env.sh4", PT::HALF, 4, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
-        {"env.sh5", PT::HALF, 5, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
-        {"env.sh6", PT::HALF, 6, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
-        {"env.sh7", PT::HALF, 7, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
-        {"env.sh8", PT::HALF, 8, ENV_TRANSFER_COEFFICIENTS, false, f(&DeepBuffer::envTransfer), OptionalLayer::EnvTransfer},
         // Half: the octahedral coordinates in [-1, 1] (steps of 4.9e-4 at most: a direction to
         // within 0.05 degrees) and the visible share in [0, 1].
         {"env.lobe.u", PT::HALF, 0, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
         {"env.lobe.v", PT::HALF, 1, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
         {"env.lobe.vis", PT::HALF, 2, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
-    };
-    static_assert(ENV_TRANSFER_COEFFICIENTS == 9, "the table lists env.sh0 .. env.sh8");
+    });
     static_assert(ENV_LOBE_COMPONENTS == 3, "the table lists env.lobe.u, .v, .vis");
     return specs;
 }
@@ -464,6 +474,12 @@ Status checkChannels(const Imf::Header& h, const std::string& path, std::set<std
             return fileError(ErrorCode::InvalidFile, path, std::string("channel '") + c.name + "' is subsampled");
         }
     }
+    // Bands 3 and 4 extend bands 0-2: alone they are no transfer.
+    if (anyOfLayer.count(OptionalLayer::EnvTransferHigh) && !anyOfLayer.count(OptionalLayer::EnvTransfer)) {
+        return fileError(ErrorCode::MissingData, path,
+                         std::string("channel 'env.sh0' is missing (the ") + layerInfo(OptionalLayer::EnvTransferHigh).name +
+                             " needs env.sh0 .. env.sh8 too)");
+    }
     return okStatus();
 }
 
@@ -497,6 +513,7 @@ void allocateOptionalLayers(const Imf::Header& h, const std::set<std::string>& m
     if (!missing.count(layerInfo(OptionalLayer::EnvLobe).firstChannel)) b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
     if (missing.count(layerInfo(OptionalLayer::EnvTransfer).firstChannel)) return;
     b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
+    b.envBands = missing.count(layerInfo(OptionalLayer::EnvTransferHigh).firstChannel) ? 3 : ENV_TRANSFER_BANDS;
     if (const auto* a = h.findTypedAttribute<Imf::IntAttribute>("dfb.envRays")) b.envRays = a->value();
 }
 
@@ -597,7 +614,7 @@ Status readDeep(const std::string& path, DeepBuffer& b, std::set<std::string>& m
 Status writeDeepBuffer(const DeepBuffer& b, const std::string& path) {
     if (b.width <= 0 || b.height <= 0 || b.sampleOffset.size() != b.pixelCount() + 1 ||
         b.P.size() != b.sampleCount() * 3 ||
-        (b.hasEnvTransfer() && b.envTransfer.size() != b.sampleCount() * ENV_TRANSFER_COEFFICIENTS) ||
+        (b.hasEnvTransfer() && (b.envTransfer.size() != b.sampleCount() * ENV_TRANSFER_COEFFICIENTS || !validEnvBands(b.envBands))) ||
         (b.hasEnvLobe() && b.envLobe.size() != b.sampleCount() * ENV_LOBE_COMPONENTS)) {
         return makeError(ErrorCode::InvalidValue, "refusing to write " + path + ": deep buffer is empty or inconsistent");
     }

@@ -1,7 +1,7 @@
 // dfb-bake: bakes a glTF scene into a deep framebuffer EXR from a fixed camera, and inspects
 // baked files.
 //
-//   dfb-bake SCENE -o SHOT.exr --width W --height H [--samples N] [--camera NAME] [--env-rays N]
+//   dfb-bake SCENE -o SHOT.exr --width W --height H [--samples N] [--camera NAME] [--env-rays N] [--env-bands 3|5]
 //   dfb-bake --info SHOT.exr
 //   dfb-bake --list-cameras SCENE
 //   dfb-bake --layer NAME SHOT.exr -o out.png
@@ -104,8 +104,10 @@ int printInfo(const std::string& path) {
     std::printf("sha256:      %s\n", b->sourceSha256.empty() ? "(unknown)" : b->sourceSha256.c_str());
     if (b->hasEnvTransfer()) {
         const char* lobe = b->hasEnvLobe() ? " and specular lobe (env.lobe.*)" : "";
-        if (b->envRays > 0) std::printf("env:         SH transfer (env.sh0..8)%s, %d rays per sample\n", lobe, b->envRays);
-        else std::printf("env:         SH transfer (env.sh0..8)%s, rays per sample not recorded\n", lobe);
+        const int n = b->envBands * b->envBands;
+        if (b->envRays > 0)
+            std::printf("env:         %d-band SH transfer (env.sh0..%d)%s, %d rays per sample\n", b->envBands, n - 1, lobe, b->envRays);
+        else std::printf("env:         %d-band SH transfer (env.sh0..%d)%s, rays per sample not recorded\n", b->envBands, n - 1, lobe);
     } else {
         std::printf("env:         no environment transfer\n");
     }
@@ -172,8 +174,13 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1.0, 170.0));
     int envRays = 256;
     app.add_option("--env-rays", envRays,
-                   "rays per sample for the environment light's SH visibility transfer and specular lobe (env.sh0..8, env.lobe.*; 0 = none, at most " +
+                   "rays per sample for the environment light's SH visibility transfer and specular lobe (env.sh*, env.lobe.*; 0 = none, at most " +
                        std::to_string(dfb::MAX_ENV_RAYS) + ")")
+        ->capture_default_str();
+    app.add_option("--env-bands", opts.envBands,
+                   "spherical-harmonic bands of the environment transfer: 5 (env.sh0..24) or 3 (env.sh0..8, a smaller file; "
+                   "coarser shadows from the environment)")
+        ->check(CLI::IsMember({3, 5}))
         ->capture_default_str();
     app.add_option("--info", infoPath, "print what a baked EXR holds and exit");
     bool listCamerasOnly = false;

@@ -22,6 +22,17 @@ Texture makeTexture2D(GLenum internalFormat, int width, int height) {
     return Texture(id);
 }
 
+Texture makeTexture2DArray(GLenum internalFormat, int width, int height, int layers) {
+    GLuint id = 0;
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &id);
+    glTextureStorage3D(id, 1, internalFormat, width, height, layers);
+    glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return Texture(id);
+}
+
 Texture makeBufferTexture(GLenum internalFormat, const Buffer& buffer) {
     GLuint id = 0;
     glCreateTextures(GL_TEXTURE_BUFFER, 1, &id);

@@ -3,7 +3,7 @@
 // "Environment light"), at unit radiance (the composite scales by colour x intensity):
 // - diffuse = (1 - metallic)(1 - F_d(N.v)) albedo sum_i L_i T_i: the map's spherical harmonics
 //   L (SSBO_ENV_SH, projected and rotated on the CPU: Environment.h envProjectSh) against the
-//   sample's diffuse transfer T, its baked visibility when the light is shadowed and the shot has
+//   sample's diffuse transfer T (ENV_BANDS bands), its baked visibility when the light is shadowed and the shot has
 //   one (precomputed radiance transfer: Sloan, Kautz and Snyder 2002), else the unshadowed
 //   clamped cosine (Ramamoorthi and Hanrahan 2001);
 // - specular = the prefiltered map at the mirror direction and the lobe's roughness times
@@ -30,11 +30,20 @@ layout(binding = TEX_ENV_PREFILTERED) uniform sampler2D envPrefiltered; // lat-l
 layout(binding = TEX_ENV_DFG) uniform sampler2D envDfg;                 // (A, B) by (N.v, roughness)
 layout(binding = TEX_ENV_IRRADIANCE) uniform sampler2D envIrradiance;   // E(N) / pi less the expansion, by map-frame normal
 #ifdef ENV_TRANSFER
-layout(binding = TEX_GBUFFER_ENV0) uniform sampler2D gEnv0; // the baked transfer T_0..T_3
-layout(binding = TEX_GBUFFER_ENV1) uniform sampler2D gEnv1; // T_4..T_7
-layout(binding = TEX_GBUFFER_ENV2) uniform sampler2D gEnv2; // T_8; with ENV_LOBE the specular lobe's u, v, share
+// ENV_BANDS: the shot's transfer's bands, 3 or 5 (DeepBuffer::envBands). Its ENV_COEFFS values,
+// then the lobe's u, v, share (ENV_LOBE), four per layer (GBufferTextures::envTransferLayers).
+#define ENV_COEFFS (ENV_BANDS * ENV_BANDS)
+#define ENV_LAYERS ((ENV_COEFFS + 6) / 4)
+layout(binding = TEX_GBUFFER_ENV) uniform sampler2DArray gEnv;
+#else
+#define ENV_COEFFS 9
 #endif
-layout(std430, binding = SSBO_ENV_SH) readonly buffer EnvSh { vec4 envSh[9]; }; // rgb L_i of the turned map
+#if ENV_COEFFS == 25
+#define shOpenTransfer shUnshadowedTransfer25
+#else
+#define shOpenTransfer shUnshadowedTransfer
+#endif
+layout(std430, binding = SSBO_ENV_SH) readonly buffer EnvSh { vec4 envSh[25]; }; // rgb L_i of the turned map, five bands
 
 layout(location = OUT_COLOR) out vec4 oColor;
 layout(early_fragment_tests) in;
@@ -56,7 +65,7 @@ vec3 dominantDirection(vec3 N, vec3 V, float roughness) {
     return normalize(mix(N, reflect(-V, N), (1.0 - a) * (sqrt(1.0 - a) + a)));
 }
 
-// Specular occlusion from the baked transfer (G-buffer env.sh0..8): how much of the open
+// Specular occlusion from the baked transfer's first three bands (G-buffer env.sh0..8): how much of the open
 // hemisphere's clamped cosine the sample's visibility lets through towards `d`, the ratio of the
 // shadowed to the unshadowed order-3 transfer functions evaluated there (both band-limited the
 // same way; Sloan, Kautz and Snyder, "Precomputed Radiance Transfer", 2002, for the transfer
@@ -64,7 +73,7 @@ vec3 dominantDirection(vec3 N, vec3 V, float roughness) {
 // where the opening is: the inside of a bowl sees the sky above it and not the bowl's wall. On the
 // tabletop at 320x180 against the ray-traced reference it took the specular mean error from
 // 67 / 87 / 131 % to 27 / 31 / 59 % (sunrise / interior / courtyard; dfb-env-bench).
-float directionalVisibility(float T[9], float open[9], vec3 d) {
+float directionalVisibility(float T[ENV_COEFFS], float open[ENV_COEFFS], vec3 d) {
     float y[9];
     shEvaluate(d, y);
     float shadowed = 0.0, unshadowed = 0.0;
@@ -96,39 +105,45 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
     vec3 V = viewVector(pA.xyz);
-    float T[9];
+    float T[ENV_COEFFS];
     float visibility = 1.0;
 #ifdef ENV_TRANSFER
-    vec4 env2 = vec4(0.0); // T_8, the specular lobe's u, v, share (ENV_LOBE)
+    vec4 last = vec4(0.0); // the last layer: T_{n-1}, the specular lobe's u, v, share (ENV_LOBE)
     if (SHADE_SHADOWED) {
-        vec4 a = texelFetch(gEnv0, t, 0), b = texelFetch(gEnv1, t, 0);
-        env2 = texelFetch(gEnv2, t, 0);
-        T = float[9](a.x, a.y, a.z, a.w, b.x, b.y, b.z, b.w, env2.x);
+        for (int k = 0; k < ENV_LAYERS; ++k) {
+            vec4 v = texelFetch(gEnv, ivec3(t, k), 0);
+            for (int c = 0; c < 4; ++c)
+                if (4 * k + c < ENV_COEFFS) T[4 * k + c] = v[c];
+            last = v;
+        }
         // The ambient visibility: T_0 / Y_0 (1 where the whole hemisphere sees the map).
         visibility = clamp(T[0] / 0.282094791773878, 0.0, 1.0);
     } else {
-        shUnshadowedTransfer(N, T);
+        shOpenTransfer(N, T);
     }
 #else
-    shUnshadowedTransfer(N, T);
+    shOpenTransfer(N, T);
 #endif
     if (SHADE_OUTPUT == 1) return vec3(visibility * pA.w, pA.w, 0.0);
     // The map's exact unshadowed irradiance at N, times the spherical harmonics' share of it that
     // the sample's visibility lets through (1 unshadowed): open surfaces are exact, and only the
-    // visibility is order-3 (docs/lighting.md, "Environment light").
-    float open[9];
-    shUnshadowedTransfer(N, open);
-    vec3 shadowed = vec3(0.0), unshadowed = vec3(0.0);
-    for (int i = 0; i < 9; ++i) {
+    // visibility is band-limited, to the shot's ENV_BANDS (docs/lighting.md, "Environment light").
+    // The exact irradiance is the order-3 expansion plus the residual grid, which holds what
+    // those nine miss.
+    float open[ENV_COEFFS];
+    shOpenTransfer(N, open);
+    vec3 shadowed = vec3(0.0), unshadowed = vec3(0.0), unshadowed9 = vec3(0.0);
+    for (int i = 0; i < ENV_COEFFS; ++i) {
         shadowed += envSh[i].rgb * T[i];
         unshadowed += envSh[i].rgb * open[i];
+        if (i == 8) unshadowed9 = unshadowed;
     }
     // The grid is in the map's frame (read at R^T N: a rotation turns where it is read) and its
     // rows run from pole to pole inclusive (envIrradianceNormal).
     vec2 uv = envLatLong(normalize(mat3(uLight.worldToLightClip) * N));
     float rows = float(ENV_IRRADIANCE_WIDTH / 2);
     vec3 residual = texture(envIrradiance, vec2(uv.x, (uv.y * (rows - 1.0) + 0.5) / rows)).rgb;
-    vec3 irradiance = max(unshadowed + residual, vec3(0.0));
+    vec3 irradiance = max(unshadowed9 + residual, vec3(0.0));
 #ifdef ENV_TRANSFER
     if (SHADE_SHADOWED) irradiance *= clamp(shadowed / max(unshadowed, vec3(1e-6)), 0.0, 1.0);
 #endif
@@ -155,8 +170,8 @@ vec3 shadeSample(ivec2 t) {
         // On the tabletop against the ray-traced reference (320x180, 256 rays) the specular mean
         // error went from 27 / 31 / 59 % (directionalVisibility) to the figures in
         // docs/lighting.md, "Environment light".
-        lobeDirection = octDecode(env2.yz);
-        occlusion = env2.w;
+        lobeDirection = octDecode(last.yz);
+        occlusion = last.w;
 #else
         occlusion = directionalVisibility(T, open, lobeDirection);
 #endif

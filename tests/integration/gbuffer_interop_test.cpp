@@ -10,13 +10,18 @@
 using namespace std::chrono_literals;
 
 namespace {
-const std::vector<std::string> CHANNELS = {
-    "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "Ng.X", "Ng.Y", "Ng.Z", "T.X", "T.Y", "T.Z", "T.W", "Z",
-    "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "brdf.specular", "brdf.occlusion",
-    "sheen.R", "sheen.G", "sheen.B", "sheen.roughness", "coat.weight", "coat.roughness",
-    "emission.R", "emission.G", "emission.B", "A", "id.object", "id.material",
-    // The environment transfer, which dfb-bake bakes by default (--env-rays 64).
-    "env.sh0", "env.sh1", "env.sh2", "env.sh3", "env.sh4", "env.sh5", "env.sh6", "env.sh7", "env.sh8"};
+const std::vector<std::string> CHANNELS = [] {
+    std::vector<std::string> c = {
+        "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "Ng.X", "Ng.Y", "Ng.Z", "T.X", "T.Y", "T.Z", "T.W", "Z",
+        "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "brdf.specular", "brdf.occlusion",
+        "sheen.R", "sheen.G", "sheen.B", "sheen.roughness", "coat.weight", "coat.roughness",
+        "emission.R", "emission.G", "emission.B", "A", "id.object", "id.material",
+        // The specular lobe, baked with the transfer by default.
+        "env.lobe.u", "env.lobe.v", "env.lobe.vis"};
+    // The environment transfer, which dfb-bake bakes by default, on five bands (--env-bands 5).
+    for (int i = 0; i < 25; ++i) c.push_back("env.sh" + std::to_string(i));
+    return c;
+}();
 } // namespace
 
 TEST(Interop, IinfoListsEveryChannelOfFlatAndDeepShots) {

@@ -26,7 +26,7 @@ namespace lm = dfb::lightmath;
 
 namespace {
 
-using Sh = std::array<double, lm::SH_COEFFICIENTS>;
+using Sh = std::array<double, lm::SH_TRANSFER_COEFFICIENTS>;
 
 // T_0 x 2 sqrt(pi): the cosine-weighted fraction of the hemisphere that sees the sky.
 double visibility(double t0) { return t0 * 2.0 * std::sqrt(3.14159265358979323846); }
@@ -37,7 +37,7 @@ std::string tempPath(const std::string& name) {
 
 Sh transferOf(const DeepBuffer& b, size_t s) {
     Sh t{};
-    for (int i = 0; i < lm::SH_COEFFICIENTS; ++i) t[size_t(i)] = b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)];
+    for (int i = 0; i < lm::SH_TRANSFER_COEFFICIENTS; ++i) t[size_t(i)] = b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)];
     return t;
 }
 
@@ -78,8 +78,8 @@ Sh bruteForceTransfer(const test::RayCaster& rays, float radius, const glm::vec3
             const double cosN = glm::dot(glm::dvec3(N), w);
             if (cosN <= 0.0 || glm::dot(glm::dvec3(Ng), w) <= 0.0) continue;
             if (rays.occluded(from, from + glm::vec3(w) * (4.f * radius), 1e-6f)) continue;
-            const auto y = lm::shEvaluate(w);
-            for (int i = 0; i < lm::SH_COEFFICIENTS; ++i) t[size_t(i)] += y[size_t(i)] * cosN * dw / pi;
+            const auto y = lm::shEvaluate25(w);
+            for (int i = 0; i < lm::SH_TRANSFER_COEFFICIENTS; ++i) t[size_t(i)] += y[size_t(i)] * cosN * dw / pi;
         }
     return t;
 }
@@ -98,9 +98,9 @@ TEST(EnvTransfer, OpenSkyPlaneIsTheUnshadowedTransfer) {
     EXPECT_EQ(b->envRays, 256);
     ASSERT_EQ(b->envTransfer.size(), b->sampleCount() * ENV_TRANSFER_COEFFICIENTS);
     const Sh expected = [] {
-        const auto e = lm::shUnshadowedTransfer(lm::vec3<double>(0, 1, 0));
+        const auto e = lm::shUnshadowedTransfer25(lm::vec3<double>(0, 1, 0));
         Sh r{};
-        for (int i = 0; i < lm::SH_COEFFICIENTS; ++i) r[size_t(i)] = e[size_t(i)];
+        for (int i = 0; i < lm::SH_TRANSFER_COEFFICIENTS; ++i) r[size_t(i)] = e[size_t(i)];
         return r;
     }();
     size_t covered = 0;
@@ -117,7 +117,7 @@ TEST(EnvTransfer, OpenSkyPlaneIsTheUnshadowedTransfer) {
         // float rounding, and the other coefficients carry only the pattern's integration error
         // (256 stratified directions over a smooth integrand).
         worst0 = std::max(worst0, std::abs(t[0] - expected[0]));
-        for (int i = 0; i < lm::SH_COEFFICIENTS; ++i) worst = std::max(worst, std::abs(t[size_t(i)] - expected[size_t(i)]));
+        for (int i = 0; i < lm::SH_TRANSFER_COEFFICIENTS; ++i) worst = std::max(worst, std::abs(t[size_t(i)] - expected[size_t(i)]));
     }
     std::printf("open sky, %zu samples at 256 rays: |T_0 - Y_0| <= %.2e, every |T_i - unshadowed_i| <= %.2e\n", covered,
                 worst0, worst);
@@ -239,7 +239,7 @@ TEST(EnvTransfer, BoxShadowMatchesABruteForceIntegral) {
         const Sh t = transferOf(b, best);
         std::printf("sample at (%.2f, %.2f): visibility %.4f baked, %.4f brute force; T:", double(P.x), double(P.z),
                     visibility(t[0]), visibility(ref[0]));
-        for (int i = 0; i < lm::SH_COEFFICIENTS; ++i) {
+        for (int i = 0; i < lm::SH_TRANSFER_COEFFICIENTS; ++i) {
             std::printf(" %+.4f/%+.4f", t[size_t(i)], ref[size_t(i)]);
             worst = std::max(worst, std::abs(t[size_t(i)] - ref[size_t(i)]));
         }
@@ -457,6 +457,29 @@ TEST(BakeCli, EnvRaysOption) {
         EXPECT_TRUE(r->hasEnvTransfer());
         EXPECT_TRUE(r->hasEnvLobe());
         EXPECT_EQ(r->envRays, 256);
+        EXPECT_EQ(r->envBands, 5);
+    }
+    // --env-bands: 3 keeps bands 0-2 alone (bands 3-4 read back as 0); anything else but 5 is
+    // refused by name, nothing written.
+    {
+        auto [rc, out] = test::run({DFB_BAKE_EXE, DFB_SOURCE_DIR "/scenes/tabletop.glb", "-o", shot, "--width", "32",
+                                    "--height", "18", "--env-bands", "3"});
+        ASSERT_EQ(rc, 0) << out;
+        auto r = readDeepBuffer(shot);
+        ASSERT_TRUE(r.ok()) << r.error().toString();
+        EXPECT_EQ(r->envBands, 3);
+        size_t high = 0, low = 0;
+        for (size_t s = 0; s < r->sampleCount(); ++s)
+            for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i)
+                (i < 9 ? low : high) += r->envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)] != 0.f;
+        EXPECT_GT(low, 0u);
+        EXPECT_EQ(high, 0u);
+        std::filesystem::remove(shot);
+        auto [brc, bout] = test::run({DFB_BAKE_EXE, DFB_SOURCE_DIR "/scenes/tabletop.glb", "-o", shot, "--width", "32",
+                                      "--height", "18", "--env-bands", "4"});
+        EXPECT_NE(brc, 0) << bout;
+        EXPECT_NE(bout.find("--env-bands"), std::string::npos) << bout;
+        EXPECT_FALSE(std::filesystem::exists(shot));
     }
     {
         auto [rc, out] = test::run({DFB_BAKE_EXE, DFB_SOURCE_DIR "/scenes/tabletop.glb", "-o", shot, "--width", "32",

@@ -76,8 +76,8 @@ DeepBuffer randomBuffer(int w, int h, uint32_t seed) {
     return b;
 }
 
-// A random environment transfer (each coefficient in the layer's range, |T_i| <= 0.631) on the
-// covered samples, zeros elsewhere, as the bake stores it.
+// A random five-band environment transfer (each coefficient in bands 0-2's range, |T_i| <= 0.631)
+// on the covered samples, zeros elsewhere, as the bake stores it.
 void addRandomEnvTransfer(DeepBuffer& b, uint32_t seed) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> u(-0.63f, 0.63f);
@@ -86,6 +86,7 @@ void addRandomEnvTransfer(DeepBuffer& b, uint32_t seed) {
         if (b.A[s] > 0.f)
             for (int i = 0; i < ENV_TRANSFER_COEFFICIENTS; ++i) b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)] = u(rng);
     b.envRays = 64;
+    b.envBands = ENV_TRANSFER_BANDS;
 }
 
 // A random specular lobe (octahedral coordinates in [-1, 1], shares in [0, 1]) on the covered
@@ -393,6 +394,78 @@ TEST(ExrIO, SomeButNotAllEnvChannelsAreRefusedNamingTheFirstMissing) {
     EXPECT_EQ(r.error().code, ErrorCode::MissingData);
     EXPECT_NE(r.error().message.find("'env.sh5' is missing"), std::string::npos) << r.error().message;
     EXPECT_NE(r.error().message.find(path), std::string::npos) << r.error().message;
+    std::filesystem::remove(path);
+}
+
+// Format v5's five-band transfer: env.sh9 .. env.sh24 beside v3's env.sh0 .. env.sh8, a band count
+// read from the channels present (docs/gbuffer-format.md, "Environment transfer").
+
+TEST(ExrIO, ThreeBandTransferWritesNineChannelsAndAVersion4FileReadsAsThreeBands) {
+    DeepBuffer b = randomBuffer(16, 9, 31);
+    addRandomEnvTransfer(b, 32);
+    b.envBands = 3;
+    for (size_t s = 0; s < b.sampleCount(); ++s)
+        for (int i = 9; i < ENV_TRANSFER_COEFFICIENTS; ++i) b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)] = 0.f;
+    const std::string path = tempPath("env_three_bands.exr");
+    ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+    {
+        Imf::InputFile f(path.c_str());
+        EXPECT_NE(f.header().channels().findChannel("env.sh8"), nullptr);
+        EXPECT_EQ(f.header().channels().findChannel("env.sh9"), nullptr);
+    }
+    // A version 4 shot is this file with its version set to 4.
+    patchFormatVersion(path, 4);
+    auto r = readDeepBuffer(path);
+    ASSERT_TRUE(r.ok()) << r.error().toString();
+    ASSERT_TRUE(r->hasEnvTransfer());
+    EXPECT_EQ(r->envBands, 3);
+    ASSERT_EQ(r->envTransfer.size(), b.envTransfer.size());
+    for (size_t k = 0; k < b.envTransfer.size(); ++k)
+        ASSERT_NEAR(r->envTransfer[k], b.envTransfer[k], std::max(std::abs(b.envTransfer[k]) * 4.9e-4f, 3e-8f)) << "element " << k;
+    // Five bands: all 25 channels, read back as five bands with bands 3-4 kept.
+    addRandomEnvTransfer(b, 33);
+    b.envBands = 5;
+    ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+    r = readDeepBuffer(path);
+    ASSERT_TRUE(r.ok()) << r.error().toString();
+    EXPECT_EQ(r->envBands, 5);
+    size_t nonZeroHigh = 0;
+    for (size_t s = 0; s < b.sampleCount(); ++s) nonZeroHigh += r->envTransfer[s * ENV_TRANSFER_COEFFICIENTS + 24] != 0.f;
+    EXPECT_GT(nonZeroHigh, 0u);
+    // A band count the format does not have is refused, and the file is left as it was.
+    b.envBands = 4;
+    const auto before = std::filesystem::file_size(path);
+    auto w = writeDeepBuffer(b, path);
+    EXPECT_FALSE(w.ok());
+    EXPECT_EQ(std::filesystem::file_size(path), before);
+    EXPECT_TRUE(readDeepBuffer(path).ok());
+    std::filesystem::remove(path);
+}
+
+TEST(ExrIO, PartialFiveBandTransferIsRefusedNamingTheMissingChannel) {
+    // A flat file with every required channel and the given env.sh channels (zero-filled pixels).
+    auto fileWith = [](const std::string& path, int from, int to) {
+        Imf::Header h(4, 4);
+        Imf::addWorldToCamera(h, Imath::M44f());
+        Imf::addWorldToNDC(h, Imath::M44f());
+        for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
+        for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A"})
+            h.channels().insert(c, Imf::Channel(Imf::HALF));
+        for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
+        for (int i = from; i <= to; ++i) h.channels().insert("env.sh" + std::to_string(i), Imf::Channel(Imf::HALF));
+        Imf::OutputFile f(path.c_str(), h); // unwritten lines are zero-filled on close
+    };
+    const std::string path = tempPath("env_partial_high.exr");
+    fileWith(path, 0, 12);
+    auto r = readDeepBuffer(path);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::MissingData);
+    EXPECT_NE(r.error().message.find("'env.sh13' is missing"), std::string::npos) << r.error().message;
+    fileWith(path, 9, 24);
+    r = readDeepBuffer(path);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::MissingData);
+    EXPECT_NE(r.error().message.find("'env.sh0' is missing"), std::string::npos) << r.error().message;
     std::filesystem::remove(path);
 }
 

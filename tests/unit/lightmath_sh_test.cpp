@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -35,6 +36,43 @@ TEST(SphericalHarmonics, FirstThreeBandsAreTheEnginesNine) {
         lm::shEvaluateBands(d, 3, y);
         const auto nine = lm::shEvaluate(d);
         for (int i = 0; i < lm::SH_COEFFICIENTS; ++i) EXPECT_NEAR(y[i], nine[size_t(i)], 1e-12) << "coefficient " << i;
+    }
+}
+
+TEST(SphericalHarmonics, FirstFiveBandsAreTheTransfersTwentyFive) {
+    // shEvaluate25's polynomials (and common_env.glsl's copy) against the recurrences.
+    for (const glm::dvec3& d : randomDirections(200)) {
+        double y[lm::SH_MAX_BANDS * lm::SH_MAX_BANDS];
+        lm::shEvaluateBands(d, lm::SH_TRANSFER_BANDS, y);
+        const auto all = lm::shEvaluate25(d);
+        for (int i = 0; i < lm::SH_TRANSFER_COEFFICIENTS; ++i) EXPECT_NEAR(y[i], all[size_t(i)], 1e-12) << "coefficient " << i;
+    }
+}
+
+TEST(SphericalHarmonics, UnshadowedTransferIsTheClampedCosinesProjection) {
+    // T_i = (1/pi) integral of max(0, N.w) Y_i(w) dw by quadrature, against the band factors
+    // 1, 2/3, 1/4, 0, -1/24 (Ramamoorthi and Hanrahan 2001, eq. 8) times Y_i(N), for tilted normals.
+    constexpr int ROWS = 600, COLS = 1200;
+    const double dOmega = 4 * PI / (ROWS * COLS);
+    for (const glm::dvec3& N : {glm::dvec3(0, 0, 1), glm::normalize(glm::dvec3(0.3, -0.5, 0.8)), glm::normalize(glm::dvec3(-0.7, 0.2, -0.1))}) {
+        std::array<double, lm::SH_TRANSFER_COEFFICIENTS> t{};
+        for (int j = 0; j < ROWS; ++j) {
+            const double z = 1.0 - 2.0 * (j + 0.5) / ROWS, s = std::sqrt(1 - z * z);
+            for (int i = 0; i < COLS; ++i) {
+                const double phi = 2 * PI * (i + 0.5) / COLS;
+                const glm::dvec3 w(s * std::cos(phi), s * std::sin(phi), z);
+                const double c = glm::dot(N, w);
+                if (c <= 0) continue;
+                const auto y = lm::shEvaluate25(w);
+                for (int k = 0; k < lm::SH_TRANSFER_COEFFICIENTS; ++k) t[size_t(k)] += c * y[size_t(k)] * dOmega / PI;
+            }
+        }
+        const auto expected = lm::shUnshadowedTransfer25(N);
+        const auto nine = lm::shUnshadowedTransfer(N);
+        for (int k = 0; k < lm::SH_TRANSFER_COEFFICIENTS; ++k) {
+            EXPECT_NEAR(t[size_t(k)], expected[size_t(k)], 2e-4) << "coefficient " << k;
+            if (k < lm::SH_COEFFICIENTS) EXPECT_DOUBLE_EQ(nine[size_t(k)], expected[size_t(k)]) << "coefficient " << k;
+        }
     }
 }
 

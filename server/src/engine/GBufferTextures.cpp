@@ -68,19 +68,23 @@ Status GBufferTextures::upload(const DeepBuffer& g) {
     hasEnvTransfer = g.hasEnvTransfer();
     hasEnvLobe = hasEnvTransfer && g.hasEnvLobe();
     if (hasEnvTransfer) {
-        // The environment transfer T_0..T_8 (relight_env.frag's ENV_TRANSFER) in three sample
-        // textures of four, four and one coefficients; the third's other three hold the specular
-        // lobe (ENV_LOBE: its direction's octahedral coordinates and its visible share).
-        const size_t n = g.sampleCount();
-        std::vector<float> part[3];
-        for (int k = 0; k < 3; ++k) part[k].resize(n * 4, 0.f);
+        // The environment transfer T_0..T_{n-1} (n = envBands^2) and after it the specular lobe's
+        // octahedral direction and visible share (ENV_LOBE), value j at layer j / 4, component
+        // j % 4 of one array sample texture: 3 layers for three bands, 7 for five
+        // (relight_env.frag's ENV_LAYERS).
+        const size_t n = g.sampleCount(), texels = size_t(sampleRow) * size_t(rows);
+        envBands = g.envBands;
+        const int coefficients = envBands * envBands;
+        envLayers = envTransferLayers(envBands);
+        std::vector<float> data(texels * 4 * size_t(envLayers), 0.f);
+        auto put = [&](size_t s, int j, float v) { data[(size_t(j / 4) * texels + s) * 4 + size_t(j % 4)] = v; };
         for (size_t i = 0; i < n; ++i) {
-            for (int c = 0; c < ENV_TRANSFER_COEFFICIENTS; ++c)
-                part[c / 4][i * 4 + size_t(c % 4)] = g.envTransfer[i * ENV_TRANSFER_COEFFICIENTS + size_t(c)];
+            for (int c = 0; c < coefficients; ++c) put(i, c, g.envTransfer[i * ENV_TRANSFER_COEFFICIENTS + size_t(c)]);
             for (int c = 0; c < ENV_LOBE_COMPONENTS && hasEnvLobe; ++c)
-                part[2][i * 4 + 1 + size_t(c)] = g.envLobe[i * ENV_LOBE_COMPONENTS + size_t(c)];
+                put(i, coefficients + c, g.envLobe[i * ENV_LOBE_COMPONENTS + size_t(c)]);
         }
-        for (int k = 0; k < 3; ++k) envTransfer[k] = uploadLayer(GL_RGBA16F, sampleRow, rows, part[k], 4, nullptr);
+        envTransfer = gl::makeTexture2DArray(GL_RGBA16F, sampleRow, rows, envLayers);
+        glTextureSubImage3D(envTransfer.id(), 0, 0, 0, 0, sampleRow, rows, envLayers, GL_RGBA, GL_FLOAT, data.data());
     }
     {
         std::vector<uint32_t> objectIds(size_t(sampleRow) * size_t(rows), 0);
@@ -113,11 +117,7 @@ void GBufferTextures::bindForShading() const {
     glBindTextureUnit(TEX_GBUFFER_SHEEN, sheen.id());
     glBindTextureUnit(TEX_GBUFFER_COAT, coat.id());
     glBindTextureUnit(TEX_PIXEL_SAMPLES, pixelSamples.id());
-    if (hasEnvTransfer) {
-        glBindTextureUnit(TEX_GBUFFER_ENV0, envTransfer[0].id());
-        glBindTextureUnit(TEX_GBUFFER_ENV1, envTransfer[1].id());
-        glBindTextureUnit(TEX_GBUFFER_ENV2, envTransfer[2].id());
-    }
+    if (hasEnvTransfer) glBindTextureUnit(TEX_GBUFFER_ENV, envTransfer.id());
 }
 
 } // namespace dfb::engine

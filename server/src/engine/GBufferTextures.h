@@ -29,13 +29,19 @@ struct GBufferTextures {
     bool hasSheen = false, hasCoat = false; // any sample with a sheen / clear-coat lobe
     bool hasEnvTransfer = false;            // the shot holds the environment transfer (DeepBuffer::envTransfer)
     bool hasEnvLobe = false;                // and the specular lobe (DeepBuffer::envLobe)
+    int envBands = 0;                       // the transfer's bands (DeepBuffer::envBands) when held
+    int envLayers = 0;                      // envTransfer's layers (envTransferLayers)
     uint32_t maxObjectId = 0;
     // Edge taps per sample over its pixel footprint (common_pixel_footprint.glsl): the shot's
     // samples per pixel, at most FOOTPRINT_MAX_TAPS; 1 = one lookup at the sample (flat shots).
     int footprintTaps = 1;
     std::vector<glm::vec2> footprintOffsets; // their offsets from the pixel centre, pixels (y down)
     gl::Texture P, N, Ng, albedo, brdf, emission, sheen, coat, pixelSamples, ids;
-    gl::Texture envTransfer[3]; // T_0..3, T_4..7, (T_8, lobe u, v, share) when hasEnvTransfer
+    gl::Texture envTransfer; // 2D array: T_0..T_{n-1}, then the lobe's u, v, share, four per layer
 };
+
+/// Layers of the transfer's array texture: envBands^2 coefficients and the lobe's three values,
+/// four per layer (3 for three bands, 7 for five).
+constexpr int envTransferLayers(int bands) { return (bands * bands + ENV_LOBE_COMPONENTS + 3) / 4; }
 
 } // namespace dfb::engine

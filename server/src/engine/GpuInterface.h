@@ -48,9 +48,7 @@
     X(TEX_LTC_AMPLITUDE, 20, "RG32F LTC_SIZE^2: the fitted lobe's norm and Schlick share (Ltc.h)")   \
     X(TEX_ENV_PREFILTERED, 21, "RGBA32F lat-long, ENV_LEVELS mips: an environment light's map prefiltered by GGX roughness level / (ENV_LEVELS - 1)") \
     X(TEX_ENV_DFG, 22, "RG32F ENV_DFG_SIZE^2: the split sum's (A, B) by (N.v, roughness) (Environment.h dfgTable)") \
-    X(TEX_GBUFFER_ENV0, 23, "RGBA16F: the baked environment transfer T_0..T_3 (DeepBuffer::envTransfer)") \
-    X(TEX_GBUFFER_ENV1, 24, "RGBA16F: T_4..T_7")                                                         \
-    X(TEX_GBUFFER_ENV2, 25, "RGBA16F: T_8, the specular lobe (DeepBuffer::envLobe) u, v, share")          \
+    X(TEX_GBUFFER_ENV, 23, "RGBA16F 2D array: the baked environment transfer T_0..T_{n-1} (DeepBuffer::envTransfer, n = envBands^2) then the specular lobe (DeepBuffer::envLobe) u, v, share, four per layer") \
     X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of normals in the map's frame: its exact E(N) / pi less the order-3 expansion (envIrradianceMap)")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).
@@ -62,7 +60,7 @@
     X(SSBO_DRAW_COMMANDS, 5, "BendyDrawCommands: the deformed map's four indirect draws")             \
     X(SSBO_LINK_MASK, 6, "per light: bit (id % 32) of word (id / 32) set = the object is lit")    \
     X(SSBO_AREA_LAYERS, 7, "an area light's shadow layers: vec4(clip-space x, y offset of the layer's eye, its emitter coordinates along right, up)") \
-    X(SSBO_ENV_SH, 8, "an environment light's radiance as 9 vec4 (rgb L_i of the turned map; SphericalHarmonics.h)")
+    X(SSBO_ENV_SH, 8, "an environment light's radiance as 25 vec4 (rgb L_i of the turned map, five bands; SphericalHarmonics.h)")
 
 // Uniform blocks (glBindBufferBase(GL_UNIFORM_BUFFER); layout(std140, binding)).
 #define DFB_GPU_UNIFORM_BLOCKS(X)                                                  \

@@ -309,8 +309,8 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         if (!env) return env.error();
         const auto L = lightmath::envProjectSh(env->sh->data(), env->shWidth, env->shHeight, 4,
                                                lightmath::envRotation(l.envRotationDeg));
-        glm::vec4 sh[lightmath::SH_COEFFICIENTS];
-        for (int i = 0; i < lightmath::SH_COEFFICIENTS; ++i) sh[i] = glm::vec4(glm::vec3(L[size_t(i)]), 0.f);
+        glm::vec4 sh[lightmath::SH_TRANSFER_COEFFICIENTS];
+        for (int i = 0; i < lightmath::SH_TRANSFER_COEFFICIENTS; ++i) sh[i] = glm::vec4(glm::vec3(L[size_t(i)]), 0.f);
         c.envSh = gl::makeBuffer(sh, sizeof sh);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_ENV_SH, c.envSh.id());
         // What the expansion misses, in the map's frame (Cookies::irradianceResidual).
@@ -342,7 +342,9 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         (perSample ? "#define DFB_FLAT_SAMPLES 1\n" : "") +
         (area && referenceCells > 0 ? "#define AREA_REFERENCE " + std::to_string(referenceCells) + "\n" : "") +
         // Whether the shot holds the environment transfer is not a specialisation either.
-        (environment && mGBuffer.hasEnvTransfer ? "#define ENV_TRANSFER 1\n" : "") +
+        (environment && mGBuffer.hasEnvTransfer
+             ? "#define ENV_TRANSFER 1\n#define ENV_BANDS " + std::to_string(mGBuffer.envBands) + "\n"
+             : "") +
         (environment && mGBuffer.hasEnvLobe ? "#define ENV_LOBE 1\n" : "") +
         // Which shading the light asks for is not a specialisation: generic shaders need it too.
         // 1: a rectangle, 2: a disk (common_ltc.glsl runs only that one's integral).

@@ -24,6 +24,9 @@ struct BakeOptions {
     /// Rays per pixel for the environment transfer (DeepBuffer::envTransfer), 0..MAX_ENV_RAYS;
     /// 0 = not baked (envTransfer left empty). dfb-bake asks for 64 by default.
     int envRays = 0;
+    /// Spherical-harmonic bands of the environment transfer: 3 (9 coefficients) or 5 (25; the
+    /// default, ENV_TRANSFER_BANDS). The rays are the same; bands 3-4 are left 0 with 3.
+    int envBands = ENV_TRANSFER_BANDS;
     /// When set and envRays > 0: filled with what the transfer cost (its share of the bake).
     EnvTransferStats* envStats = nullptr;
     /// Called with (done, total) work units while baking; may be empty.
@@ -40,7 +43,7 @@ std::vector<glm::vec2> sampleOffsets(int samples);
 Result<CameraInfo> chooseCamera(const Scene& scene, const BakeOptions& options);
 
 /// Bakes the scene. Creates its own EGL context on the calling thread. Fails with GpuError when no
-/// context can be made, InvalidValue for bad sizes, sample counts or environment ray counts.
+/// context can be made, InvalidValue for bad sizes, sample counts, environment ray or band counts.
 /// With envRays > 0, each pass's surface points also get the environment transfer, on the CPU over
 /// every core (the estimator of bakeEnvTransfer): a pixel's envRays directions, shifted once per
 /// pixel (seeded by the pixel index: reproducible), are dealt out to its passes, every

@@ -12,13 +12,22 @@
 namespace dfb {
 
 /// Version of the file format written by this build (header attribute `dfb.formatVersion`).
-/// Readers accept versions 1 to 4; see docs/gbuffer-format.md (version 3 added the environment
-/// transfer, `env.sh0` .. `env.sh8`; version 4 the specular lobe, `env.lobe.u/v/vis`).
-constexpr int GBUFFER_FORMAT_VERSION = 4;
+/// Readers accept versions 1 to 5; see docs/gbuffer-format.md (version 3 added the environment
+/// transfer, `env.sh0` .. `env.sh8`; version 4 the specular lobe, `env.lobe.u/v/vis`; version 5
+/// the five-band transfer, `env.sh0` .. `env.sh24`).
+constexpr int GBUFFER_FORMAT_VERSION = 5;
 
-/// Coefficients of a sample's environment transfer (order-3 spherical harmonics, bands 0..2; the
-/// relight engine's dfb::lightmath::SH_COEFFICIENTS, dfb/lightmath/SphericalHarmonics.h).
-constexpr int ENV_TRANSFER_COEFFICIENTS = 9;
+/// Spherical-harmonic bands of the environment transfer a bake stores unless told otherwise
+/// (dfb-bake --env-bands): five (25 coefficients). The shadowed diffuse's error against the
+/// ray-traced reference at three bands is 7-9 % under an outdoor map and at five 3-4 %
+/// (docs/lighting.md, "Environment light").
+constexpr int ENV_TRANSFER_BANDS = 5;
+/// Floats per sample of DeepBuffer::envTransfer whatever its band count: room for five bands
+/// (the relight engine's dfb::lightmath::SH_TRANSFER_COEFFICIENTS, dfb/lightmath/SphericalHarmonics.h).
+constexpr int ENV_TRANSFER_COEFFICIENTS = ENV_TRANSFER_BANDS * ENV_TRANSFER_BANDS;
+/// The band counts a transfer may have: 3 (9 coefficients, format versions 3 and 4, or
+/// dfb-bake --env-bands 3) or 5.
+constexpr bool validEnvBands(int bands) { return bands == 3 || bands == ENV_TRANSFER_BANDS; }
 /// Floats per sample of the environment light's specular lobe (DeepBuffer::envLobe).
 constexpr int ENV_LOBE_COMPONENTS = 3;
 
@@ -84,15 +93,16 @@ struct DeepBuffer {
     std::vector<float> sheen;    ///< 4: sheen colour RGB (linear), sheen roughness
     std::vector<float> coat;     ///< 2: clear-coat weight, clear-coat roughness
     std::vector<float> emission; ///< 3: emitted radiance, linear, >= 0
-    /// 9 per sample (ENV_TRANSFER_COEFFICIENTS), empty when not baked: the diffuse shadowed
+    /// 25 per sample (ENV_TRANSFER_COEFFICIENTS), empty when not baked: the diffuse shadowed
     /// transfer of the environment light (Sloan, Kautz and Snyder 2002, section 4),
     ///   T_i = (1/pi) * integral over the sphere of V(w) max(0, N.w) Y_i(w) dw,
     /// N the shading normal, V(w) = 1 where a ray from the sample in world direction w escapes the
     /// scene, Y_i the basis of dfb/lightmath/SphericalHarmonics.h (world space, +Y up). The
     /// sample's diffuse radiance under an environment with coefficients L_i is
     /// albedo x sum_i L_i T_i; T_0 x 2 sqrt(pi) is its ambient visibility (1 = unoccluded).
+    /// Only the first envBands^2 coefficients of a sample are the transfer; the rest are 0.
     /// Zero on uncovered samples (A = 0). Layers that resize or copy samples keep it empty or
-    /// sized sampleCount() * 9, never anything else.
+    /// sized sampleCount() * ENV_TRANSFER_COEFFICIENTS, never anything else.
     std::vector<float> envTransfer;
     /// 3 per sample (ENV_LOBE_COMPONENTS), empty when not baked (format version 4; baked with
     /// the transfer): the sample's GGX specular lobe as the shot's camera sees it (the view is
@@ -115,6 +125,9 @@ struct DeepBuffer {
     /// Rays per sample the environment transfer was estimated with (header dfb.envRays), 1..
     /// MAX_ENV_RAYS; 0 when envTransfer is empty (not baked) or the file does not say.
     int envRays = 0;
+    /// Bands of envTransfer (3 or 5: validEnvBands) when it is baked: files write the channels
+    /// env.sh0 .. env.sh{envBands^2 - 1}, and the relight shader reads that many.
+    int envBands = ENV_TRANSFER_BANDS;
 
     size_t pixelCount() const { return static_cast<size_t>(width) * static_cast<size_t>(height); }
     size_t sampleCount() const { return sampleOffset.empty() ? 0 : sampleOffset.back(); }
@@ -126,7 +139,7 @@ struct DeepBuffer {
         return sampleOffset[p + 1] - sampleOffset[p];
     }
 
-    /// True when the environment transfer is baked: envTransfer holds 9 floats per sample.
+    /// True when the environment transfer is baked: envTransfer holds 25 floats per sample.
     bool hasEnvTransfer() const { return !envTransfer.empty(); }
     /// True when the specular lobe is baked: envLobe holds 3 floats per sample.
     bool hasEnvLobe() const { return !envLobe.empty(); }

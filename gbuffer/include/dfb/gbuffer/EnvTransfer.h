@@ -25,7 +25,7 @@ struct EnvTransferStats {
     double totalMs = 0.0;   ///< the whole call (hierarchy included), milliseconds
 };
 
-/// Fills `buffer.envTransfer` (9 floats per sample), `buffer.envLobe` (3; the specular lobe as
+/// Fills `buffer.envTransfer` (25 floats per sample: five bands, `buffer.envBands` = 5), `buffer.envLobe` (3; the specular lobe as
 /// the buffer's camera sees each sample, DeepBuffer::envLobe, with `rays` GGX directions of its
 /// roughness) and `buffer.envRays` = `rays`: for every
 /// sample with A > 0, T_i = (1/rays) sum_k V(w_k) Y_i(w_k) over `rays` directions w_k

@@ -55,6 +55,9 @@ using Query = Handle<deleteQuery>;
 
 /// An immutable 2D texture (glTextureStorage2D) with nearest filtering and clamp-to-edge.
 Texture makeTexture2D(GLenum internalFormat, int width, int height);
+/// An immutable 2D array texture (glTextureStorage3D) of `layers` layers, filtered and wrapped
+/// as makeTexture2D's.
+Texture makeTexture2DArray(GLenum internalFormat, int width, int height, int layers);
 Buffer makeBuffer(const void* data, size_t bytes, GLbitfield flags = 0);
 /// A buffer texture over `buffer` (texelFetch from a samplerBuffer). On llvmpipe a shader's
 /// texelFetch is one vector gather where a storage-buffer read at a per-lane index is a loop over

@@ -49,13 +49,14 @@ inline double envTexelSolidAngle(int j, int w, int h) {
     return (2 * ENV_PI / w) * (std::cos(t0) - std::cos(t1));
 }
 
-/// L_i (SphericalHarmonics.h) of an RGB(A) float map (`channels` floats per texel, row 0 at the
+/// L_0..L_24 (SphericalHarmonics.h: five bands, as many as a baked transfer holds; the
+/// irradiance reads the first nine) of an RGB(A) float map (`channels` floats per texel, row 0 at the
 /// top) turned by `rotation` (envRotation): the integral of the texel-constant function, each
 /// texel's Y_i taken at 2 x 2 sub-texel directions weighted by their solid angles (texel centres
 /// alone leave a 1e-4 error in a constant map's bands 1-2 at 64 rows; this, 3e-5).
-inline std::array<glm::dvec3, SH_COEFFICIENTS> envProjectSh(const float* texels, int w, int h, int channels,
-                                                             const glm::dmat3& rotation) {
-    std::array<glm::dvec3, SH_COEFFICIENTS> L{};
+inline std::array<glm::dvec3, SH_TRANSFER_COEFFICIENTS> envProjectSh(const float* texels, int w, int h, int channels,
+                                                                      const glm::dmat3& rotation) {
+    std::array<glm::dvec3, SH_TRANSFER_COEFFICIENTS> L{};
     for (int j = 0; j < h; ++j) {
         for (int sj = 0; sj < 2; ++sj) {
             const double dOmega = envTexelSolidAngle(2 * j + sj, 2 * w, 2 * h);
@@ -64,8 +65,8 @@ inline std::array<glm::dvec3, SH_COEFFICIENTS> envProjectSh(const float* texels,
                 const glm::dvec3 c(t[0], t[1], t[2]);
                 for (int si = 0; si < 2; ++si) {
                     const glm::dvec3 d = rotation * envDirection((2 * i + si + 0.5) / (2 * w), (2 * j + sj + 0.5) / (2 * h));
-                    const auto y = shEvaluate(d);
-                    for (int k = 0; k < SH_COEFFICIENTS; ++k) L[size_t(k)] += c * (y[size_t(k)] * dOmega);
+                    const auto y = shEvaluate25(d);
+                    for (int k = 0; k < SH_TRANSFER_COEFFICIENTS; ++k) L[size_t(k)] += c * (y[size_t(k)] * dOmega);
                 }
             }
         }

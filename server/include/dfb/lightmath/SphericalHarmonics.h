@@ -1,11 +1,11 @@
 #pragma once
-// Real spherical harmonics of order 3 (bands l = 0, 1, 2: nine coefficients) for the environment
-// light's diffuse term with visibility: precomputed radiance transfer (Sloan, Kautz and Snyder,
+// Real spherical harmonics of order 3 (bands l = 0, 1, 2: nine coefficients) and 5 (25, the baked
+// transfer's) for the environment light's diffuse term with visibility: precomputed radiance transfer (Sloan, Kautz and Snyder,
 // "Precomputed Radiance Transfer for Real-Time Rendering in Dynamic, Low-Frequency Lighting
 // Environments", SIGGRAPH 2002, section 4: diffuse shadowed transfer), and the unshadowed
 // irradiance of Ramamoorthi and Hanrahan, "An Efficient Representation for Irradiance
 // Environment Maps", SIGGRAPH 2001 (eqs. 7-9). World space, glTF's +Y up. The GLSL mirror is
-// server/shaders/common_env.glsl (shEvaluate, line for line).
+// server/shaders/common_env.glsl (shEvaluate, shEvaluate25, line for line).
 //
 // Conventions, the one place they are written (docs/lighting.md, "Environment light"):
 // - basis Y_0..Y_8 below, without the Condon-Shortley phase (signs only need to agree between
@@ -95,20 +95,65 @@ template <typename T> void shEvaluateBands(const vec3<T>& d, int bands, T* out) 
     }
 }
 
-/// The band of coefficient i.
-constexpr int shBand(int i) { return i == 0 ? 0 : (i < 4 ? 1 : 2); }
+/// Bands and coefficients of the finest baked transfer (bands 0..4; DeepBuffer's
+/// ENV_TRANSFER_COEFFICIENTS): the most the environment light's shadowed diffuse reads.
+constexpr int SH_TRANSFER_BANDS = 5;
+constexpr int SH_TRANSFER_COEFFICIENTS = SH_TRANSFER_BANDS * SH_TRANSFER_BANDS;
+
+/// Y_0..Y_24 at the unit direction d: shEvaluate's nine, then bands 3 and 4 as polynomials in
+/// (x, y, z), in shEvaluateBands' order and convention (the unit test holds them to it). The GLSL
+/// mirror is common_env.glsl's shEvaluate25.
+template <typename T> std::array<T, SH_TRANSFER_COEFFICIENTS> shEvaluate25(const vec3<T>& d) {
+    std::array<T, SH_TRANSFER_COEFFICIENTS> y{};
+    const auto nine = shEvaluate(d);
+    std::copy(nine.begin(), nine.end(), y.begin());
+    const T x = d.x, v = d.y, z = d.z, x2 = x * x, v2 = v * v, z2 = z * z;
+    y[9] = T(0.590043589926644) * v * (T(3) * x2 - v2); // sqrt(35 / (32 pi))
+    y[10] = T(2.890611442640554) * x * v * z;          // sqrt(105 / (4 pi))
+    y[11] = T(0.457045799464466) * v * (T(5) * z2 - T(1)); // sqrt(21 / (32 pi))
+    y[12] = T(0.373176332590115) * z * (T(5) * z2 - T(3)); // sqrt(7 / (16 pi))
+    y[13] = T(0.457045799464466) * x * (T(5) * z2 - T(1));
+    y[14] = T(1.445305721320277) * z * (x2 - v2); // sqrt(105 / (16 pi))
+    y[15] = T(0.590043589926644) * x * (x2 - T(3) * v2);
+    y[16] = T(2.503342941796705) * x * v * (x2 - v2);            // 3/4 sqrt(35 / pi)
+    y[17] = T(1.770130769779930) * v * z * (T(3) * x2 - v2);     // 3/4 sqrt(35 / (2 pi))
+    y[18] = T(0.946174695757560) * x * v * (T(7) * z2 - T(1));   // 3/4 sqrt(5 / pi)
+    y[19] = T(0.669046543557289) * v * z * (T(7) * z2 - T(3));   // 3/4 sqrt(5 / (2 pi))
+    y[20] = T(0.105785546915204) * (T(35) * z2 * z2 - T(30) * z2 + T(3)); // 3/16 sqrt(1 / pi)
+    y[21] = T(0.669046543557289) * x * z * (T(7) * z2 - T(3));
+    y[22] = T(0.473087347878780) * (x2 - v2) * (T(7) * z2 - T(1)); // 3/8 sqrt(5 / pi)
+    y[23] = T(1.770130769779930) * x * z * (x2 - T(3) * v2);
+    y[24] = T(0.625835735449176) * (x2 * (x2 - T(3) * v2) - v2 * (T(3) * x2 - v2)); // 3/16 sqrt(35 / pi)
+    return y;
+}
+
+/// The band of coefficient i (i < SH_TRANSFER_COEFFICIENTS): l with l^2 <= i < (l + 1)^2.
+constexpr int shBand(int i) { return i < 1 ? 0 : (i < 4 ? 1 : (i < 9 ? 2 : (i < 16 ? 3 : 4))); }
 
 /// The clamped cosine's convolution per band divided by pi (Ramamoorthi and Hanrahan 2001,
-/// eq. 8: A_0 = pi, A_1 = 2 pi / 3, A_2 = pi / 4): the unshadowed transfer of normal N is
-/// T_i = shCosineBand(band(i)) Y_i(N).
+/// eq. 8: A_0 = pi, A_1 = 2 pi / 3, A_2 = pi / 4, A_3 = 0, A_4 = -pi / 24): the unshadowed
+/// transfer of normal N is T_i = shCosineBand(band(i)) Y_i(N).
 template <typename T> T shCosineBand(int band) {
-    return band == 0 ? T(1) : (band == 1 ? T(2) / T(3) : T(0.25));
+    switch (band) {
+    case 0: return T(1);
+    case 1: return T(2) / T(3);
+    case 2: return T(0.25);
+    case 3: return T(0);
+    default: return T(-1) / T(24);
+    }
 }
 
 /// The unshadowed diffuse transfer of a sample with shading normal N (V = 1 everywhere).
 template <typename T> std::array<T, SH_COEFFICIENTS> shUnshadowedTransfer(const vec3<T>& N) {
     std::array<T, SH_COEFFICIENTS> y = shEvaluate(N);
     for (int i = 0; i < SH_COEFFICIENTS; ++i) y[size_t(i)] *= shCosineBand<T>(shBand(i));
+    return y;
+}
+
+/// shUnshadowedTransfer on five bands (bands 3 and 4 of a clamped cosine: 0 and -1/24 Y_i(N)).
+template <typename T> std::array<T, SH_TRANSFER_COEFFICIENTS> shUnshadowedTransfer25(const vec3<T>& N) {
+    std::array<T, SH_TRANSFER_COEFFICIENTS> y = shEvaluate25(N);
+    for (int i = 0; i < SH_TRANSFER_COEFFICIENTS; ++i) y[size_t(i)] *= shCosineBand<T>(shBand(i));
     return y;
 }
 
