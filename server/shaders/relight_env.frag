@@ -31,9 +31,9 @@ layout(binding = TEX_ENV_DFG) uniform sampler2D envDfg;                 // (A, B
 layout(binding = TEX_ENV_IRRADIANCE) uniform sampler2D envIrradiance;   // E(N) / pi less the expansion, by map-frame normal
 #ifdef ENV_TRANSFER
 // ENV_BANDS: the shot's transfer's bands, 3 or 5 (DeepBuffer::envBands). Its ENV_COEFFS values,
-// then the lobe's u, v, share (ENV_LOBE), four per layer (GBufferTextures::envTransferLayers).
+// then the lobe's u, v, share (ENV_LOBE), four per layer over ENV_LAYERS layers (both defined by
+// LightShading from GBufferTextures: envBands, envTransferLayers).
 #define ENV_COEFFS (ENV_BANDS * ENV_BANDS)
-#define ENV_LAYERS ((ENV_COEFFS + 6) / 4)
 layout(binding = TEX_GBUFFER_ENV) uniform sampler2DArray gEnv;
 #else
 #define ENV_COEFFS 9

@@ -343,7 +343,8 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         (area && referenceCells > 0 ? "#define AREA_REFERENCE " + std::to_string(referenceCells) + "\n" : "") +
         // Whether the shot holds the environment transfer is not a specialisation either.
         (environment && mGBuffer.hasEnvTransfer
-             ? "#define ENV_TRANSFER 1\n#define ENV_BANDS " + std::to_string(mGBuffer.envBands) + "\n"
+             ? "#define ENV_TRANSFER 1\n#define ENV_BANDS " + std::to_string(mGBuffer.envBands) + "\n#define ENV_LAYERS " +
+                   std::to_string(mGBuffer.envLayers) + "\n"
              : "") +
         (environment && mGBuffer.hasEnvLobe ? "#define ENV_LOBE 1\n" : "") +
         // Which shading the light asks for is not a specialisation: generic shaders need it too.
