@@ -108,6 +108,19 @@ std::string readBytes(const std::string& path) {
     return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
+// A flat 4x4 file with every required channel and env.sh{from} .. env.sh{to} (zero-filled pixels).
+void writeFileWithEnvChannels(const std::string& path, int from, int to) {
+    Imf::Header h(4, 4);
+    Imf::addWorldToCamera(h, Imath::M44f());
+    Imf::addWorldToNDC(h, Imath::M44f());
+    for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A"})
+        h.channels().insert(c, Imf::Channel(Imf::HALF));
+    for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
+    for (int i = from; i <= to; ++i) h.channels().insert("env.sh" + std::to_string(i), Imf::Channel(Imf::HALF));
+    Imf::OutputFile f(path.c_str(), h); // unwritten lines are zero-filled on close
+}
+
 // Rewrites an EXR's int attribute `dfb.formatVersion` in place (its 4 value bytes follow the name,
 // the type and the size), as tests/fixtures/make_fixtures.cpp makes future_version.exr.
 void patchFormatVersion(const std::string& path, int32_t version) {
@@ -376,19 +389,8 @@ TEST(ExrIO, Version2FileWithoutEnvChannelsLoads) {
 }
 
 TEST(ExrIO, SomeButNotAllEnvChannelsAreRefusedNamingTheFirstMissing) {
-    // A flat file with every required channel and env.sh0 .. env.sh4 only (zero-filled pixels).
     const std::string path = tempPath("env_partial.exr");
-    {
-        Imf::Header h(4, 4);
-        Imf::addWorldToCamera(h, Imath::M44f());
-        Imf::addWorldToNDC(h, Imath::M44f());
-        for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
-        for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A"})
-            h.channels().insert(c, Imf::Channel(Imf::HALF));
-        for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
-        for (int i = 0; i <= 4; ++i) h.channels().insert("env.sh" + std::to_string(i), Imf::Channel(Imf::HALF));
-        Imf::OutputFile f(path.c_str(), h); // unwritten lines are zero-filled on close
-    }
+    writeFileWithEnvChannels(path, 0, 4);
     auto r = readDeepBuffer(path);
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::MissingData);
@@ -443,25 +445,13 @@ TEST(ExrIO, ThreeBandTransferWritesNineChannelsAndAVersion4FileReadsAsThreeBands
 }
 
 TEST(ExrIO, PartialFiveBandTransferIsRefusedNamingTheMissingChannel) {
-    // A flat file with every required channel and the given env.sh channels (zero-filled pixels).
-    auto fileWith = [](const std::string& path, int from, int to) {
-        Imf::Header h(4, 4);
-        Imf::addWorldToCamera(h, Imath::M44f());
-        Imf::addWorldToNDC(h, Imath::M44f());
-        for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
-        for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A"})
-            h.channels().insert(c, Imf::Channel(Imf::HALF));
-        for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
-        for (int i = from; i <= to; ++i) h.channels().insert("env.sh" + std::to_string(i), Imf::Channel(Imf::HALF));
-        Imf::OutputFile f(path.c_str(), h); // unwritten lines are zero-filled on close
-    };
     const std::string path = tempPath("env_partial_high.exr");
-    fileWith(path, 0, 12);
+    writeFileWithEnvChannels(path, 0, 12);
     auto r = readDeepBuffer(path);
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::MissingData);
     EXPECT_NE(r.error().message.find("'env.sh13' is missing"), std::string::npos) << r.error().message;
-    fileWith(path, 9, 24);
+    writeFileWithEnvChannels(path, 9, 24);
     r = readDeepBuffer(path);
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::MissingData);

@@ -12,7 +12,11 @@
 // - the suns: their irradiance and direction as the engine extracts them, visibility by one ray
 //   each (the engine's shadow maps);
 // against the brute-force reference (renderEnvironmentReference, multiple importance sampling),
-// with EnvFigures.h's figures. At three bands it stands in for the engine's own diffuse row.
+// with EnvFigures.h's figures. It led to the five-band transfer of format version 5; against the
+// engine's own diffuse row at five bands it reads lower (FlightHelmet, 1,024 rays: 4.3 / 2.8 %
+// against the engine's 4.7 / 4.2 % under sunrise / interior): it estimates the unshadowed
+// transfer with the same rays as the shadowed one, whose errors then cancel in the ratio, where
+// the engine takes the exact clamped cosine.
 
 #include "EnvFigures.h"
 #include "engine/EnvironmentMap.h"
