@@ -14,9 +14,12 @@
 // against the brute-force reference (renderEnvironmentReference, multiple importance sampling),
 // with EnvFigures.h's figures. It led to the five-band transfer of format version 5; against the
 // engine's own diffuse row at five bands it reads lower (FlightHelmet, 1,024 rays: 4.3 / 2.8 %
-// against the engine's 4.7 / 4.2 % under sunrise / interior): it estimates the unshadowed
-// transfer with the same rays as the shadowed one, whose errors then cancel in the ratio, where
-// the engine takes the exact clamped cosine.
+// against the engine's 4.7 / 4.2 % under sunrise / interior). It differs from the engine in the
+// unshadowed transfer (estimated with the same rays as the shadowed one, where the engine takes the
+// exact clamped cosine; storing the bake's transfer as the exact one less the occluded part's
+// estimate measured no better), the suns' visibility (one ray each, where the engine has shadow
+// maps) and precision (doubles, where the file holds halves); which of these makes the gap was
+// not measured.
 
 #include "EnvFigures.h"
 #include "engine/EnvironmentMap.h"
