@@ -71,7 +71,9 @@ TEST(SphericalHarmonics, UnshadowedTransferIsTheClampedCosinesProjection) {
         const auto nine = lm::shUnshadowedTransfer(N);
         for (int k = 0; k < lm::SH_TRANSFER_COEFFICIENTS; ++k) {
             EXPECT_NEAR(t[size_t(k)], expected[size_t(k)], 2e-4) << "coefficient " << k;
-            if (k < lm::SH_COEFFICIENTS) EXPECT_DOUBLE_EQ(nine[size_t(k)], expected[size_t(k)]) << "coefficient " << k;
+            if (k < lm::SH_COEFFICIENTS) {
+                EXPECT_DOUBLE_EQ(nine[size_t(k)], expected[size_t(k)]) << "coefficient " << k;
+            }
         }
     }
 }
