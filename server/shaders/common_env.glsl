@@ -1,7 +1,7 @@
 // The environment light's parameterisation and spherical harmonics: the GLSL mirror of
 // dfb/lightmath/Environment.h (envLatLong, octDecode) and SphericalHarmonics.h (shEvaluate,
-// shEvaluate25, shUnshadowedTransfer, shUnshadowedTransfer25), line for line (STYLE.md, "Shaders and CPU/GPU parity"). Include after
-// common_brdf.glsl (PI).
+// shEvaluate25, shUnshadowedTransfer, shUnshadowedTransfer25), line for line (STYLE.md, "Shaders
+// and CPU/GPU parity"). Include after common_brdf.glsl (PI).
 
 // (u, v) of a unit direction in the map: u = 0.5 looks along -Z and grows towards +X, v = 0 is
 // the top row (+Y). The map is uploaded with its top row at t = 0.

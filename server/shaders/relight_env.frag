@@ -3,9 +3,9 @@
 // "Environment light"), at unit radiance (the composite scales by colour x intensity):
 // - diffuse = (1 - metallic)(1 - F_d(N.v)) albedo sum_i L_i T_i: the map's spherical harmonics
 //   L (SSBO_ENV_SH, projected and rotated on the CPU: Environment.h envProjectSh) against the
-//   sample's diffuse transfer T (ENV_BANDS bands), its baked visibility when the light is shadowed and the shot has
-//   one (precomputed radiance transfer: Sloan, Kautz and Snyder 2002), else the unshadowed
-//   clamped cosine (Ramamoorthi and Hanrahan 2001);
+//   sample's diffuse transfer T (ENV_BANDS bands), its baked visibility when the light is
+//   shadowed and the shot has one (precomputed radiance transfer: Sloan, Kautz and Snyder 2002),
+//   else the unshadowed clamped cosine (Ramamoorthi and Hanrahan 2001);
 // - specular = the prefiltered map at the mirror direction and the lobe's roughness times
 //   F0 A + F90 B from the DFG table (the split sum: Karis 2013), with KHR_materials_specular's
 //   F0 and F90 as common_brdf.glsl, and for shadowed lights the shot's baked specular lobe
@@ -65,10 +65,10 @@ vec3 dominantDirection(vec3 N, vec3 V, float roughness) {
     return normalize(mix(N, reflect(-V, N), (1.0 - a) * (sqrt(1.0 - a) + a)));
 }
 
-// Specular occlusion from the baked transfer's first three bands (G-buffer env.sh0..8): how much of the open
-// hemisphere's clamped cosine the sample's visibility lets through towards `d`, the ratio of the
-// shadowed to the unshadowed order-3 transfer functions evaluated there (both band-limited the
-// same way; Sloan, Kautz and Snyder, "Precomputed Radiance Transfer", 2002, for the transfer
+// Specular occlusion from the baked transfer's first three bands (G-buffer env.sh0..8): how much
+// of the open hemisphere's clamped cosine the sample's visibility lets through towards `d`, the
+// ratio of the shadowed to the unshadowed order-3 transfer functions evaluated there (both
+// band-limited the same way; Sloan, Kautz and Snyder, "Precomputed Radiance Transfer", 2002, for the transfer
 // vectors). Unlike the ambient-visibility formula (Lagarde and de Rousiers 2014, eq. 34) it knows
 // where the opening is: the inside of a bowl sees the sky above it and not the bowl's wall. On the
 // tabletop at 320x180 against the ray-traced reference it took the specular mean error from
@@ -105,9 +105,9 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 N = normalize(texelFetch(gN, t, 0).xyz);
     vec3 V = viewVector(pA.xyz);
-    float T[ENV_COEFFS];
     float visibility = 1.0;
 #ifdef ENV_TRANSFER
+    float T[ENV_COEFFS]; // the baked transfer, read only for shadowed lights
     vec4 last = vec4(0.0); // the last layer: T_{n-1}, the specular lobe's u, v, share (ENV_LOBE)
     if (SHADE_SHADOWED) {
         for (int k = 0; k < ENV_LAYERS; ++k) {
@@ -118,11 +118,7 @@ vec3 shadeSample(ivec2 t) {
         }
         // The ambient visibility: T_0 / Y_0 (1 where the whole hemisphere sees the map).
         visibility = clamp(T[0] / 0.282094791773878, 0.0, 1.0);
-    } else {
-        shOpenTransfer(N, T);
     }
-#else
-    shOpenTransfer(N, T);
 #endif
     if (SHADE_OUTPUT == 1) return vec3(visibility * pA.w, pA.w, 0.0);
     // The map's exact unshadowed irradiance at N, times the spherical harmonics' share of it that
@@ -132,9 +128,8 @@ vec3 shadeSample(ivec2 t) {
     // those nine miss.
     float open[ENV_COEFFS];
     shOpenTransfer(N, open);
-    vec3 shadowed = vec3(0.0), unshadowed = vec3(0.0), unshadowed9 = vec3(0.0);
+    vec3 unshadowed = vec3(0.0), unshadowed9 = vec3(0.0);
     for (int i = 0; i < ENV_COEFFS; ++i) {
-        shadowed += envSh[i].rgb * T[i];
         unshadowed += envSh[i].rgb * open[i];
         if (i == 8) unshadowed9 = unshadowed;
     }
@@ -145,7 +140,11 @@ vec3 shadeSample(ivec2 t) {
     vec3 residual = texture(envIrradiance, vec2(uv.x, (uv.y * (rows - 1.0) + 0.5) / rows)).rgb;
     vec3 irradiance = max(unshadowed9 + residual, vec3(0.0));
 #ifdef ENV_TRANSFER
-    if (SHADE_SHADOWED) irradiance *= clamp(shadowed / max(unshadowed, vec3(1e-6)), 0.0, 1.0);
+    if (SHADE_SHADOWED) {
+        vec3 shadowed = vec3(0.0);
+        for (int i = 0; i < ENV_COEFFS; ++i) shadowed += envSh[i].rgb * T[i];
+        irradiance *= clamp(shadowed / max(unshadowed, vec3(1e-6)), 0.0, 1.0);
+    }
 #endif
 
     vec3 albedo = texelFetch(gAlbedo, t, 0).rgb;

@@ -36,17 +36,23 @@ void openTabletop(Tabletop& t) {
     t.radius = 0.5f * glm::length(b.max - b.min);
 }
 
+// A shadowed environment light "dome" of the bundled map `map`.
+Light shadowedDome(const char* map) {
+    Light env;
+    env.name = "dome";
+    env.type = LightType::Environment;
+    env.envMap = map;
+    env.shadow = true;
+    return env;
+}
+
 TEST(EnvironmentTabletop, SpecularOcclusionFollowsTheBakedLobe) {
     Tabletop t;
     ASSERT_NO_FATAL_FAILURE(openTabletop(t));
     bench::BenchShot& opened = t.opened;
     ASSERT_TRUE(opened.shot.hasEnvLobe()) << "dfb-bake bakes the specular lobe with the transfer";
     const std::string& maps = t.maps;
-    Light env;
-    env.name = "dome";
-    env.type = LightType::Environment;
-    env.envMap = "sunrise.exr";
-    env.shadow = true;
+    const Light env = shadowedDome("sunrise.exr");
     const DeepBuffer metal = bench::variant(opened.shot, "specular");
     auto engine = Engine::create(metal, opened.casters);
     ASSERT_TRUE(engine.ok()) << engine.error().toString();
@@ -76,11 +82,7 @@ TEST(EnvironmentTabletop, InteriorLampsAndWindowShadowTheDiffuse) {
     ASSERT_NO_FATAL_FAILURE(openTabletop(t));
     bench::BenchShot& opened = t.opened;
     const std::string& maps = t.maps;
-    Light env;
-    env.name = "dome";
-    env.type = LightType::Environment;
-    env.envMap = "interior.exr";
-    env.shadow = true;
+    const Light env = shadowedDome("interior.exr");
     const DeepBuffer lambert = bench::variant(opened.shot, "diffuse");
     auto engine = Engine::create(lambert, opened.casters);
     ASSERT_TRUE(engine.ok()) << engine.error().toString();
@@ -110,11 +112,7 @@ TEST(EnvironmentTabletop, FiveBandTransferShadowsTheSkyWithinTheTarget) {
     Tabletop t;
     ASSERT_NO_FATAL_FAILURE(openTabletop(t));
     ASSERT_EQ(t.opened.shot.envBands, 5) << "dfb-bake bakes five bands by default";
-    Light env;
-    env.name = "dome";
-    env.type = LightType::Environment;
-    env.envMap = "sunrise.exr";
-    env.shadow = true;
+    const Light env = shadowedDome("sunrise.exr");
     const DeepBuffer five = bench::variant(t.opened.shot, "diffuse");
     // The same shot on three bands: bands 3 and 4 dropped, as a version 4 file or a bake with
     // --env-bands 3 holds it.

@@ -18,12 +18,12 @@ namespace dfb {
 constexpr int GBUFFER_FORMAT_VERSION = 5;
 
 /// Spherical-harmonic bands of the environment transfer a bake stores unless told otherwise
-/// (dfb-bake --env-bands): five (25 coefficients). The shadowed diffuse's error against the
-/// ray-traced reference at three bands is 7-9 % under an outdoor map and at five 3-4 %
+/// (dfb-bake --env-bands): five (25 coefficients). The shadowed diffuse's mean error against the
+/// ray-traced reference under an outdoor map is 7-9 % at three bands and 3-5 % at five
 /// (docs/lighting.md, "Environment light").
 constexpr int ENV_TRANSFER_BANDS = 5;
 /// Floats per sample of DeepBuffer::envTransfer whatever its band count: room for five bands
-/// (the relight engine's dfb::lightmath::SH_TRANSFER_COEFFICIENTS, dfb/lightmath/SphericalHarmonics.h).
+/// (the relight engine's lightmath::SH_TRANSFER_COEFFICIENTS, dfb/lightmath/SphericalHarmonics.h).
 constexpr int ENV_TRANSFER_COEFFICIENTS = ENV_TRANSFER_BANDS * ENV_TRANSFER_BANDS;
 /// The band counts a transfer may have: 3 (9 coefficients, format versions 3 and 4, or
 /// dfb-bake --env-bands 3) or 5.

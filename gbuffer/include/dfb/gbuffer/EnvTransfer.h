@@ -25,8 +25,8 @@ struct EnvTransferStats {
     double totalMs = 0.0;   ///< the whole call (hierarchy included), milliseconds
 };
 
-/// Fills `buffer.envTransfer` (25 floats per sample: five bands, `buffer.envBands` = 5), `buffer.envLobe` (3; the specular lobe as
-/// the buffer's camera sees each sample, DeepBuffer::envLobe, with `rays` GGX directions of its
+/// Fills `buffer.envTransfer` (25 floats per sample: five bands, `buffer.envBands` = 5),
+/// `buffer.envLobe` (3; the specular lobe as the buffer's camera sees each sample, DeepBuffer::envLobe, with `rays` GGX directions of its
 /// roughness) and `buffer.envRays` = `rays`: for every
 /// sample with A > 0, T_i = (1/rays) sum_k V(w_k) Y_i(w_k) over `rays` directions w_k
 /// distributed with density max(0, N.w) / pi about the sample's shading normal N (so that the

@@ -50,8 +50,8 @@ inline double envTexelSolidAngle(int j, int w, int h) {
 }
 
 /// L_0..L_24 (SphericalHarmonics.h: five bands, as many as a baked transfer holds; the
-/// irradiance reads the first nine) of an RGB(A) float map (`channels` floats per texel, row 0 at the
-/// top) turned by `rotation` (envRotation): the integral of the texel-constant function, each
+/// irradiance reads the first nine) of an RGB(A) float map (`channels` floats per texel, row 0 at
+/// the top) turned by `rotation` (envRotation): the integral of the texel-constant function, each
 /// texel's Y_i taken at 2 x 2 sub-texel directions weighted by their solid angles (texel centres
 /// alone leave a 1e-4 error in a constant map's bands 1-2 at 64 rows; this, 3e-5).
 inline std::array<glm::dvec3, SH_TRANSFER_COEFFICIENTS> envProjectSh(const float* texels, int w, int h, int channels,

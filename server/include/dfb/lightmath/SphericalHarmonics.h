@@ -1,7 +1,7 @@
 #pragma once
 // Real spherical harmonics of order 3 (bands l = 0, 1, 2: nine coefficients) and 5 (25, the baked
-// transfer's) for the environment light's diffuse term with visibility: precomputed radiance transfer (Sloan, Kautz and Snyder,
-// "Precomputed Radiance Transfer for Real-Time Rendering in Dynamic, Low-Frequency Lighting
+// transfer's) for the environment light's diffuse term with visibility: precomputed radiance
+// transfer (Sloan, Kautz and Snyder, "Precomputed Radiance Transfer for Real-Time Rendering in Dynamic, Low-Frequency Lighting
 // Environments", SIGGRAPH 2002, section 4: diffuse shadowed transfer), and the unshadowed
 // irradiance of Ramamoorthi and Hanrahan, "An Efficient Representation for Irradiance
 // Environment Maps", SIGGRAPH 2001 (eqs. 7-9). World space, glTF's +Y up. The GLSL mirror is
