@@ -1,7 +1,7 @@
 // dfb-fidelity-bench: how close the relight engine is to references, per scene (issue 16). A
 // benchmark prints numbers; nothing here passes or fails (the tests assert the thresholds).
 //
-//   dfb-fidelity-bench [SCENE.glb ...] [--width W --height H] [--spp N]
+//   dfb-fidelity-bench [SCENE.glb ...] [--width W --height H] [--spp N] [--dump-shadows DIR]
 //
 // Per scene (default: the bundled tabletop and the Stanford dragon) it bakes a shot and prints:
 // - shading: each light type alone, unshadowed, against a CPU relight of the same G-buffer samples
@@ -13,7 +13,9 @@
 // - shadows: the engine's shadow mask (lit where visibility >= 0.5) against Embree rays from each
 //   fully reached pixel's sample to the light, per light type: agreement and shadowed-area ratio
 //   (as tests/gpu/engine_shadow_bias_test.cpp measures them), over all of them and over the
-//   receivers facing the light (test::FACING_COSINE);
+//   receivers facing the light (test::FACING_COSINE); --dump-shadows writes each case's map of
+//   disagreements as DIR/SCENE-LIGHT-rR.png (red: lit here, shadowed in the reference; blue: the
+//   other way; grey: agreed, light where lit);
 // - edges: shadow, cone, barn-door, cookie and BendyLight shadow edges at 1, 4 and 16 spp against
 //   the engine's relight of a 4x4-times-resolution bake, box-filtered, beside the silhouettes'
 //   error (tests/support/EdgeAliasing.h, whose 160x90 figures tests/gpu/engine_edge_aa_test.cpp
@@ -35,10 +37,12 @@
 
 #include <glm/glm.hpp>
 #include <glm/gtc/packing.hpp>
+#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -125,7 +129,26 @@ double worstRelative(const ImageF& a, const ImageF& b) {
     return worst;
 }
 
-int benchScene(const std::string& path, int width, int height, int spp) {
+// The disagreement map of one shadow case (see the header comment), as an 8-bit PNG.
+void dumpShadowMap(const std::filesystem::path& file, const DeepBuffer& g, const ImageF& mask, const test::RayCaster& rays,
+                   const Light& l, float radius) {
+    std::vector<uint8_t> px(g.pixelCount() * 3, 0);
+    test::forEachReachedPixel(mask, g, [&](size_t p, size_t s, float vis) {
+        const glm::vec3 Ng(g.Ng[s * 3], g.Ng[s * 3 + 1], g.Ng[s * 3 + 2]);
+        const bool lit = vis >= 0.5f, refLit = test::rayTracedLit(rays, l, g.position(s), Ng, radius);
+        const uint8_t grey = lit ? 170 : 60;
+        const uint8_t rgb[3] = {lit && !refLit ? uint8_t(255) : (lit == refLit ? grey : uint8_t(0)),
+                                lit == refLit ? grey : uint8_t(0),
+                                !lit && refLit ? uint8_t(255) : (lit == refLit ? grey : uint8_t(0))};
+        std::copy(rgb, rgb + 3, px.begin() + std::ptrdiff_t(p * 3));
+    });
+    auto out = OIIO::ImageOutput::create(file.string());
+    if (!out || !out->open(file.string(), OIIO::ImageSpec(g.width, g.height, 3, OIIO::TypeDesc::UINT8)) ||
+        !out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close())
+        std::fprintf(stderr, "%s: cannot write\n", file.string().c_str());
+}
+
+int benchScene(const std::string& path, int width, int height, int spp, const std::string& dumpDir) {
     auto scene = loadScene(path);
     if (!scene) {
         std::fprintf(stderr, "%s\n", scene.error().toString().c_str());
@@ -234,10 +257,20 @@ int benchScene(const std::string& path, int width, int height, int spp) {
                     return 1;
                 }
                 const char* names[] = {"spot", "", "directional", "point"};
+                if (!dumpDir.empty()) {
+                    Rig rig;
+                    rig.lights = {l};
+                    if (auto mask = engine.value()->renderShadowMask(rig, l.name))
+                        dumpShadowMap(std::filesystem::path(dumpDir) / (std::filesystem::path(path).stem().string() + "-" +
+                                                                         names[int(t)] + "-r" + std::to_string(filter) + ".png"),
+                                      shot.value(), mask.value(), rays, l, radius);
+                }
                 std::printf("  %-12s r=%d agreement %7.3f%% of %zu reached pixels, shadowed area %.3f of the reference's;"
-                            " facing (N_g.L >= %.1f): %7.3f%%, %.3f\n",
+                            " facing (N_g.L >= %.1f): %7.3f%%, %.3f; lit here and shadowed there %zu, the other way %zu, of"
+                            " %zu shadowed\n",
                             names[int(t)], filter, 100.0 * n->agreement(), n->reached, n->areaRatio(), test::FACING_COSINE,
-                            100.0 * n->facing.agreement(), n->facing.areaRatio());
+                            100.0 * n->facing.agreement(), n->facing.areaRatio(), n->litHereShadowedRef, n->shadowedHereLitRef,
+                            n->shadowedRef);
             }
     }
 
@@ -272,9 +305,12 @@ int main(int argc, char** argv) {
     app.add_option("--width", width, "bake width")->check(CLI::Range(16, 4096));
     app.add_option("--height", height, "bake height")->check(CLI::Range(16, 4096));
     app.add_option("--spp", spp, "bake samples per pixel")->check(CLI::Range(1, 64));
+    std::string dumpDir;
+    app.add_option("--dump-shadows", dumpDir, "write each shadow case's disagreement map as a PNG into this folder")
+        ->check(CLI::ExistingDirectory);
     if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-fidelity-bench"); rc >= 0) return rc;
     if (scenes.empty()) scenes = {DFB_SOURCE_DIR "/scenes/tabletop.glb", DFB_SOURCE_DIR "/tests/assets/stanford-dragon-48k.glb"};
     int rc = 0;
-    for (const std::string& s : scenes) rc |= benchScene(s, width, height, spp);
+    for (const std::string& s : scenes) rc |= benchScene(s, width, height, spp, dumpDir);
     return rc;
 }
