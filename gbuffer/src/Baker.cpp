@@ -238,6 +238,11 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         return makeError(ErrorCode::InvalidValue, "environment transfer bands " + std::to_string(o.envBands) + " is not 3 or " +
                                                       std::to_string(ENV_TRANSFER_BANDS));
     }
+    if (o.horizonRadius != 0.f && !(o.horizonRadius > 0.f && o.horizonRadius <= MAX_HORIZON_RADIUS_FRACTION)) {
+        return makeError(ErrorCode::InvalidValue, "near-field horizon radius " + std::to_string(o.horizonRadius) +
+                                                      " of the scene's radius is out of range (0 = none, or up to " +
+                                                      std::to_string(MAX_HORIZON_RADIUS_FRACTION) + ")");
+    }
     if (scene.objectNames.size() >= MAX_ID || scene.materials.size() >= MAX_ID) {
         return makeError(ErrorCode::InvalidValue, scene.path + ": more than 2^24 objects or materials");
     }
@@ -266,7 +271,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
 
     // Work units for the progress report: upload, each sample pass (raster, environment rays),
     // merging.
-    const size_t totalWork = 2 + size_t(o.samples) * (env ? 3 : 2);
+    const size_t totalWork = 2 + size_t(o.samples) * (env ? 3 : 2) + (o.horizonRadius > 0.f ? 1 : 0);
     size_t done = 0;
     auto progress = [&]() {
         if (o.progress) o.progress(++done, totalWork);
@@ -568,6 +573,12 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         for (const Group* g : groups) store(s++, *g);
     }
     progress();
+    if (o.horizonRadius > 0.f) {
+        auto h = bakeHorizon(scene, b, o.horizonRadius);
+        if (!h) return h.error();
+        if (o.horizonStats) *o.horizonStats = h.value();
+        progress();
+    }
     if (env && o.envStats) {
         envStats.rays = envTraced.load();
         *o.envStats = envStats;

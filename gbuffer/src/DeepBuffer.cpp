@@ -34,6 +34,8 @@ void DeepBuffer::allocateSamples(int w, int h, const std::vector<uint32_t>& coun
     envTransfer.clear();
     envLobe.clear();
     envRays = 0;
+    horizon.clear();
+    horizonRadius = 0.f;
     A.assign(n, 0.f);
     objectId.assign(n, 0);
     materialId.assign(n, 0);

@@ -12,6 +12,7 @@
 #include "EnvTracer.h"
 
 #include <dfb/lightmath/Environment.h>
+#include <dfb/lightmath/Horizon.h>
 #include <dfb/lightmath/SphericalHarmonics.h>
 
 #include <algorithm>
@@ -54,14 +55,8 @@ float radicalInverse2(uint32_t i) {
 }
 
 // An orthonormal frame (t, b, n) about the unit vector n without a branch on its direction
-// (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017).
-void frameAbout(const glm::vec3& n, glm::vec3& t, glm::vec3& b) {
-    const float sign = std::copysign(1.f, n.z);
-    const float a = -1.f / (sign + n.z);
-    const float c = n.x * n.y * a;
-    t = glm::vec3(1.f + sign * n.x * n.x * a, sign * c, -sign * n.x);
-    b = glm::vec3(c, sign + n.y * n.y * a, -n.y);
-}
+// (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017; the horizon's frame).
+void frameAbout(const glm::vec3& n, glm::vec3& t, glm::vec3& b) { lightmath::horizonFrame(n, t, b); }
 
 // How far rays start off the surface, as a fraction of the scene's bounding radius: the tests'
 // rayHair (tests/support/ShadowAgreement.h), against self-intersection from the stored positions'

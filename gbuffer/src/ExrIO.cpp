@@ -36,7 +36,7 @@ namespace dfb {
 namespace {
 
 // A file channel and where its samples live in a DeepBuffer layer.
-enum class OptionalLayer { None, EnvTransfer, EnvTransferHigh, EnvLobe };
+enum class OptionalLayer { None, EnvTransfer, EnvTransferHigh, EnvLobe, Horizon };
 
 struct ChannelSpec {
     const char* name;
@@ -59,6 +59,8 @@ struct LayerInfo {
     bool (*held)(const DeepBuffer&);
 };
 LayerInfo layerInfo(OptionalLayer l) {
+    if (l == OptionalLayer::Horizon)
+        return {"near-field horizon", "horizon.h0 .. horizon.h15", "horizon.h0", [](const DeepBuffer& b) { return b.hasHorizon(); }};
     if (l == OptionalLayer::EnvLobe)
         return {"specular lobe", "env.lobe.u, env.lobe.v, env.lobe.vis", "env.lobe.u", [](const DeepBuffer& b) { return b.hasEnvLobe(); }};
     // A five-band transfer is the three-band one's channels and bands 3-4's (format version 5).
@@ -86,7 +88,22 @@ std::vector<ChannelSpec> withEnvTransfer(std::vector<ChannelSpec> rows) {
     return rows;
 }
 
-// The channel table of format v5 (docs/gbuffer-format.md). Positions and depth are float for
+// The table's rows with horizon.h0 .. horizon.h15 added (format version 6). Half: sines in [0, 1],
+// steps of 4.9e-4 at most, below the bake's own 1/256.
+std::vector<ChannelSpec> withHorizon(std::vector<ChannelSpec> rows) {
+    static_assert(HORIZON_AZIMUTHS == 16, "the layer is horizon.h0 .. horizon.h15");
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> n;
+        for (int i = 0; i < HORIZON_AZIMUTHS; ++i) n.push_back("horizon.h" + std::to_string(i));
+        return n;
+    }(); // outlives the table, which holds pointers to its names
+    for (int i = 0; i < HORIZON_AZIMUTHS; ++i)
+        rows.push_back({names[size_t(i)].c_str(), Imf::HALF, i, HORIZON_AZIMUTHS, false,
+                        [](DeepBuffer& b) { return reinterpret_cast<char*>(b.horizon.data()); }, OptionalLayer::Horizon});
+    return rows;
+}
+
+// The channel table of format v6 (docs/gbuffer-format.md). Positions and depth are float for
 // precision over large scenes; directions, colours, lobe parameters and the environment transfer
 // are half; ids are uint.
 const std::vector<ChannelSpec>& channelSpecs() {
@@ -97,7 +114,7 @@ const std::vector<ChannelSpec>& channelSpecs() {
     auto u = [](std::vector<uint32_t> DeepBuffer::*m) {
         return [m](DeepBuffer& b) { return reinterpret_cast<char*>((b.*m).data()); };
     };
-    static const std::vector<ChannelSpec> specs = withEnvTransfer({
+    static const std::vector<ChannelSpec> specs = withHorizon(withEnvTransfer({
         {"P.X", PT::FLOAT, 0, 3, true, f(&DeepBuffer::P)},
         {"P.Y", PT::FLOAT, 1, 3, true, f(&DeepBuffer::P)},
         {"P.Z", PT::FLOAT, 2, 3, true, f(&DeepBuffer::P)},
@@ -136,7 +153,7 @@ const std::vector<ChannelSpec>& channelSpecs() {
         {"env.lobe.u", PT::HALF, 0, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
         {"env.lobe.v", PT::HALF, 1, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
         {"env.lobe.vis", PT::HALF, 2, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
-    });
+    }));
     static_assert(ENV_LOBE_COMPONENTS == 3, "the table lists env.lobe.u, .v, .vis");
     return specs;
 }
@@ -181,6 +198,7 @@ void writeHeaderAttributes(Imf::Header& header, const DeepBuffer& b) {
     nlohmann::json manifest = {{"objects", b.objectNames}, {"materials", b.materialNames}};
     header.insert("dfb.manifest", Imf::StringAttribute(manifest.dump()));
     if (b.hasEnvTransfer() && b.envRays > 0) header.insert("dfb.envRays", Imf::IntAttribute(b.envRays));
+    if (b.hasHorizon()) header.insert("dfb.horizonRadius", Imf::FloatAttribute(b.horizonRadius));
     for (const ChannelSpec& c : channelSpecs())
         if (writes(c, b)) header.channels().insert(c.name, Imf::Channel(c.fileType));
 }
@@ -414,6 +432,9 @@ Status readHeaderAttributes(const Imf::Header& h, const std::string& path, DeepB
     if (const auto* a = h.findTypedAttribute<Imf::IntAttribute>("dfb.envRays"); a && a->value() < 1) {
         return fileError(ErrorCode::InvalidValue, path, "dfb.envRays " + std::to_string(a->value()) + " is not positive");
     }
+    if (const auto* a = h.findTypedAttribute<Imf::FloatAttribute>("dfb.horizonRadius"); a && !(a->value() > 0.f && std::isfinite(a->value()))) {
+        return fileError(ErrorCode::InvalidValue, path, "dfb.horizonRadius " + std::to_string(a->value()) + " is not a positive distance");
+    }
     auto getFloat = [&](const char* name, float& out) {
         if (const auto* a = h.findTypedAttribute<Imf::FloatAttribute>(name)) out = a->value();
     };
@@ -511,6 +532,10 @@ Result<Imath::Box2i> readPrelude(File& file, const std::string& path, DeepBuffer
 // and ray count, and the specular lobe's layer, when the file has their channels.
 void allocateOptionalLayers(const Imf::Header& h, const std::set<std::string>& missing, DeepBuffer& b) {
     if (!missing.count(layerInfo(OptionalLayer::EnvLobe).firstChannel)) b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
+    if (!missing.count(layerInfo(OptionalLayer::Horizon).firstChannel)) {
+        b.horizon.assign(b.sampleCount() * HORIZON_AZIMUTHS, 0.f);
+        if (const auto* a = h.findTypedAttribute<Imf::FloatAttribute>("dfb.horizonRadius")) b.horizonRadius = a->value();
+    }
     if (missing.count(layerInfo(OptionalLayer::EnvTransfer).firstChannel)) return;
     b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
     b.envBands = missing.count(layerInfo(OptionalLayer::EnvTransferHigh).firstChannel) ? 3 : ENV_TRANSFER_BANDS;
@@ -615,7 +640,8 @@ Status writeDeepBuffer(const DeepBuffer& b, const std::string& path) {
     if (b.width <= 0 || b.height <= 0 || b.sampleOffset.size() != b.pixelCount() + 1 ||
         b.P.size() != b.sampleCount() * 3 ||
         (b.hasEnvTransfer() && (b.envTransfer.size() != b.sampleCount() * ENV_TRANSFER_COEFFICIENTS || !validEnvBands(b.envBands))) ||
-        (b.hasEnvLobe() && b.envLobe.size() != b.sampleCount() * ENV_LOBE_COMPONENTS)) {
+        (b.hasEnvLobe() && b.envLobe.size() != b.sampleCount() * ENV_LOBE_COMPONENTS) ||
+        (b.hasHorizon() && b.horizon.size() != b.sampleCount() * HORIZON_AZIMUTHS)) {
         return makeError(ErrorCode::InvalidValue, "refusing to write " + path + ": deep buffer is empty or inconsistent");
     }
     // The temporary name is this writer's alone: the process id is not enough where every writer
@@ -757,6 +783,17 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
                         return makeError(ErrorCode::InvalidValue, path + ": channel '" + names[i] + "' at pixel (" + std::to_string(x) + ", " +
                                                                       std::to_string(y) + ") is " + std::to_string(v) + ", outside [" +
                                                                       (i == 2 ? "0" : "-1") + ", 1]");
+                    }
+                }
+            }
+            // The horizon: sines within [0, 1].
+            for (uint32_t s = b.firstSample(x, y); s < b.firstSample(x, y) + b.pixelSamples(x, y) && b.hasHorizon(); ++s) {
+                for (int i = 0; i < HORIZON_AZIMUTHS; ++i) {
+                    const float v = b.horizon[size_t(s) * HORIZON_AZIMUTHS + size_t(i)];
+                    if (!std::isfinite(v) || v < 0.f || v > 1.f) {
+                        return makeError(ErrorCode::InvalidValue, path + ": channel 'horizon.h" + std::to_string(i) + "' at pixel (" +
+                                                                      std::to_string(x) + ", " + std::to_string(y) + ") is " +
+                                                                      std::to_string(v) + ", outside [0, 1]");
                     }
                 }
             }

@@ -111,6 +111,10 @@ int printInfo(const std::string& path) {
     } else {
         std::printf("env:         no environment transfer\n");
     }
+    if (b->hasHorizon())
+        std::printf("horizon:     near-field horizon (horizon.h0..%d), reach %g scene units\n", dfb::HORIZON_AZIMUTHS - 1,
+                    double(b->horizonRadius));
+    else std::printf("horizon:     no near-field horizon\n");
     std::printf("objects:     %zu\n", b->objectNames.size());
     for (size_t i = 0; i < b->objectNames.size(); ++i) std::printf("  %3zu %s\n", i + 1, b->objectNames[i].c_str());
     std::printf("materials:   %zu\n", b->materialNames.size());
@@ -182,6 +186,11 @@ int main(int argc, char** argv) {
                    "coarser shadows from the environment)")
         ->check(CLI::IsMember({3, 5}))
         ->capture_default_str();
+    app.add_option("--horizon-radius", opts.horizonRadius,
+                   "reach of each sample's near-field horizon (horizon.h*: contact shadows finer than a shadow map), as a fraction "
+                   "of the scene's bounding radius; 0 = none, at most " + std::to_string(dfb::MAX_HORIZON_RADIUS_FRACTION))
+        ->check(CLI::Range(0.0, double(dfb::MAX_HORIZON_RADIUS_FRACTION)))
+        ->capture_default_str();
     app.add_option("--info", infoPath, "print what a baked EXR holds and exit");
     bool listCamerasOnly = false;
     app.add_flag("--list-cameras", listCamerasOnly, "print the cameras of the scene given as input (name, lens, place) and exit");
@@ -218,6 +227,8 @@ int main(int argc, char** argv) {
     opts.envRays = envRays;
     dfb::EnvTransferStats envStats;
     opts.envStats = &envStats;
+    dfb::HorizonStats horizonStats;
+    opts.horizonStats = &horizonStats;
 
     const auto t0 = std::chrono::steady_clock::now();
     auto scene = dfb::loadScene(scenePath);
@@ -235,6 +246,11 @@ int main(int argc, char** argv) {
                     "%u threads, %.0f ms of the bake (hierarchy %.0f ms)\n",
                     envRays, opts.samples, opts.samples > 1 ? "es" : "", envStats.samples, envStats.rays,
                     envStats.threads, envStats.totalMs, envStats.bvhMs);
+    }
+    if (opts.horizonRadius > 0.f) {
+        std::printf("near-field horizon: reach %g scene units, %zu covered samples, %zu rays traced, %u threads, %.0f ms\n",
+                    double(buffer->horizonRadius), horizonStats.samples, horizonStats.rays, horizonStats.threads,
+                    horizonStats.totalMs);
     }
     if (auto s = dfb::writeDeepBuffer(buffer.value(), outPath); !s) {
         std::cerr << "dfb-bake: " << s.error().toString() << "\n";

@@ -9,6 +9,7 @@
 #include "common_falloff.glsl"
 #include "common_bendy.glsl"
 #include "common_pixel_footprint.glsl"
+#include "common_horizon.glsl"
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
@@ -88,15 +89,16 @@ vec3 bendyStraightPoint(TubeCoords c, TubeShift k, float s, vec3 d) {
 // The deformed shadow map at a receiver with tube coordinates `c` and arc length `s`, at distance
 // `dist` from the source along its flow line: the receiver is biased along its geometric normal
 // by `offset` (world units) and mapped like any caster vertex; its plane's tangents are carried
-// through the same map for the receiver-plane comparison (filteredShadowPlane).
-float bendyShadow(TubeCoords c, TubeShift k, float s, vec3 Ng, float offset, float dist) {
+// through the same map for the receiver-plane comparison (filteredShadowPlane). NgL: the cosine
+// of Ng with the light direction at the receiver (nearFieldLift).
+float bendyShadow(TubeCoords c, TubeShift k, float s, vec3 Ng, float offset, float dist, float NgL) {
     vec3 d = Ng * offset;
     vec3 q = bendyStraightPoint(c, k, s, d);
     // The tangents by a small step: the map is smooth, receiverPlaneLookup needs only directions.
     mat2x3 tf = tangentFrame(Ng);
     float e = 1e-3 * (s + c.foot.w) + 1e-6;
     ShadowLookup l;
-    vec3 lift = normalize(uBendy.bendyP[0].xyz - q) * shadowLift(dist);
+    vec3 lift = normalize(uBendy.bendyP[0].xyz - q) * nearFieldLift(shadowLift(dist), NgL);
     if (!receiverPlaneLookup(q, bendyStraightPoint(c, k, s, d + tf[0] * e) - q, bendyStraightPoint(c, k, s, d + tf[1] * e) - q, lift, l))
         return 0.0;
     if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * uLight.lightShadow.x, vec2(1.0)))) return 1.0;
@@ -109,10 +111,11 @@ float bendyShadow(TubeCoords c, TubeShift k, float s, vec3 Ng, float offset, flo
 // visibility (bendyShadow with the tap as the receiver). `vis`: the mean visibility alone;
 // `reach` > 0 where some tap lies inside the cone.
 // Li: the sample's light direction (its turn over the pixel is neglected, as for the bias).
-float bendyFootprintLight(TubeCoords c, float arc, vec3 P, vec3 Ng, vec3 Li, float coverage, out float vis, out float reach) {
+float bendyFootprintLight(ivec2 t, TubeCoords c, float arc, vec3 P, vec3 Ng, vec3 Li, float coverage, out float vis, out float reach) {
     mat2x3 fp = pixelFootprint(P, Ng, coverage);
-    // Facing away geometrically: shadowed by itself at every tap (shadowVisibility's rule).
-    bool facing = dot(Ng, Li) > 0.0;
+    // Facing away geometrically or below the near-field horizon: shadowed at every tap
+    // (shadowVisibility's rule, relight_spot.frag).
+    bool facing = !SHADE_SHADOWED || nearFieldVisibility(t, Ng, Li) > 0.0;
     TubeShift shift = tubeShift(c);
     float sum = 0.0, visSum = 0.0;
     reach = 0.0;
@@ -122,7 +125,7 @@ float bendyFootprintLight(TubeCoords c, float arc, vec3 P, vec3 Ng, vec3 Li, flo
         vec3 toSource = uBendy.bendyP[0].xyz - deformedPointAt(q, s);
         float dist = max(length(toSource), 1e-6);
         float m = spotCone(uLight.lightCone.xy, toSource / dist, uBendy.bendyAxisU.xyz);
-        float v = !SHADE_SHADOWED ? 1.0 : facing ? bendyShadow(q, tubeShift(q), s, Ng, shadowNormalOffset(dist), dist) : 0.0;
+        float v = !SHADE_SHADOWED ? 1.0 : facing ? bendyShadow(q, tubeShift(q), s, Ng, shadowNormalOffset(dist), dist, dot(Ng, Li)) : 0.0;
         sum += m * v;
         visSum += v;
         reach = max(reach, m);
@@ -154,13 +157,14 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_FOOTPRINT_TAPS > 1) {
         // Edges inside the pixel: cone and visibility over the footprint's taps.
         float reach;
-        spot = bendyFootprintLight(c, arc, P, Ng, Li, pA.w, vis, reach);
+        spot = bendyFootprintLight(t, c, arc, P, Ng, Li, pA.w, vis, reach);
         if (reach <= 0.0) return vec3(0.0);
         if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
         vis = 1.0; // in spot
     } else if (SHADE_SHADOWED) {
-        // Facing away geometrically: shadowed by itself (as shadowVisibility, relight_spot.frag).
-        vis = dot(Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, tubeShift(c), arc, Ng, shadowNormalOffset(dist), dist);
+        // Facing away geometrically or below the near-field horizon: shadowed (as
+        // shadowVisibility, relight_spot.frag).
+        vis = nearFieldVisibility(t, Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, tubeShift(c), arc, Ng, shadowNormalOffset(dist), dist, dot(Ng, Li));
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);

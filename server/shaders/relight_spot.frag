@@ -8,6 +8,7 @@
 #include "common_brdf.glsl"
 #include "common_falloff.glsl"
 #include "common_pixel_footprint.glsl"
+#include "common_horizon.glsl"
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
@@ -88,21 +89,22 @@ float filteredShadowCube(vec3 dir, vec3 Ng, float h, float lift) {
     return sum / float((2 * r + 1) * (2 * r + 1));
 }
 
-float shadowVisibility(vec3 P, vec3 Ng, vec3 L, float dist) {
-    // A surface whose geometric normal faces away from the light is shadowed by itself (the
-    // shading normal can still face it near a smooth mesh's terminator); the shadow map holds
-    // closed meshes' far sides only, which cannot say so (issue 16: most leaks on the bunny).
-    if (dot(Ng, L) <= 0.0) return 0.0;
+// t: the sample's texel (its near-field horizon).
+float shadowVisibility(ivec2 t, vec3 P, vec3 Ng, vec3 L, float dist) {
+    // Below the sample's geometric plane or its near-field horizon: shadowed by geometry the map
+    // cannot resolve (issue 16: most leaks were on the bunny's terminator and at grazing contacts).
+    if (nearFieldVisibility(t, Ng, L) <= 0.0) return 0.0;
     vec3 biased = P + Ng * shadowNormalOffset(dist);
+    float lift = nearFieldLift(shadowLift(dist), dot(Ng, L));
     if (SHADE_KIND == KIND_POINT) {
         // Point light: the filter on the cube face, each texel compared with the receiver plane
         // (filteredShadowCube; receiver-plane depth bias as filteredShadowPlane).
         vec3 d = biased - uLight.lightPosition.xyz;
-        return filteredShadowCube(d, Ng, dot(d, Ng), shadowLift(dist));
+        return filteredShadowCube(d, Ng, dot(d, Ng), lift);
     }
     mat2x3 tf = tangentFrame(Ng);
     ShadowLookup l;
-    if (!receiverPlaneLookup(biased, tf[0], tf[1], L * shadowLift(dist), l)) return 0.0;
+    if (!receiverPlaneLookup(biased, tf[0], tf[1], L * lift, l)) return 0.0;
     if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * uLight.lightShadow.x, vec2(1.0)))) return 1.0;
     return filteredShadowPlane(shadowMap, l);
 }
@@ -145,7 +147,7 @@ vec3 spotMaskGrad(vec3 fromLight, vec2 gx, vec2 gy) {
 // visibility, each evaluated at the tap (shadowVisibility with the tap as the receiver). `vis`:
 // the mean visibility alone; `reach` > 0 where some tap lies inside the mask (the shadow-mask
 // output's samples the light reaches).
-vec3 footprintLight(vec3 P, vec3 Ng, float coverage, out float vis, out float reach) {
+vec3 footprintLight(ivec2 t, vec3 P, vec3 Ng, float coverage, out float vis, out float reach) {
     mat2x3 fp = pixelFootprint(P, Ng, coverage);
     vec2 gx = vec2(0.0), gy = vec2(0.0);
     if (SHADE_KIND == 1 && SHADE_COOKIE) {
@@ -174,7 +176,7 @@ vec3 footprintLight(vec3 P, vec3 Ng, float coverage, out float vis, out float re
                 if ((SHADE_DOORS || SHADE_COOKIE) && m.x > 0.0) m *= spotMaskGrad(-L, gx, gy);
             }
         }
-        float v = SHADE_SHADOWED ? shadowVisibility(q, Ng, L, dist) : 1.0;
+        float v = SHADE_SHADOWED ? shadowVisibility(t, q, Ng, L, dist) : 1.0;
         sum += m * v;
         visSum += v;
         reach = max(reach, max(m.x, max(m.y, m.z)));
@@ -214,12 +216,12 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_FOOTPRINT_TAPS > 1) {
         // Edges inside the pixel: cone, doors, cookie and visibility over the footprint's taps.
         float reach;
-        spot = footprintLight(P, normalize(texelFetch(gNg, t, 0).xyz), pA.w, vis, reach);
+        spot = footprintLight(t, P, normalize(texelFetch(gNg, t, 0).xyz), pA.w, vis, reach);
         if (reach <= 0.0) return vec3(0.0);
         if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
         vis = 1.0; // in spot
     } else if (SHADE_SHADOWED) {
-        vis = shadowVisibility(P, normalize(texelFetch(gNg, t, 0).xyz), L, dist);
+        vis = shadowVisibility(t, P, normalize(texelFetch(gNg, t, 0).xyz), L, dist);
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);

@@ -489,6 +489,11 @@ TEST(EngineDeep, EachSampleSplitInTwoRendersAsTheFlatShot) {
         split(d.envTransfer, f.envTransfer, ENV_TRANSFER_COEFFICIENTS);
         d.envRays = f.envRays;
     }
+    if (f.hasHorizon()) {
+        d.horizon.resize(f.horizon.size() * 2);
+        split(d.horizon, f.horizon, HORIZON_AZIMUTHS);
+        d.horizonRadius = f.horizonRadius;
+    }
     for (float& a : d.A) a *= 0.5f;
     for (size_t p = 0; p < f.pixelCount(); ++p) {
         d.objectId[2 * p] = d.objectId[2 * p + 1] = f.objectId[p];

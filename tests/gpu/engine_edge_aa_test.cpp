@@ -84,6 +84,9 @@ DeepBuffer fromReference(const DeepBuffer& big, int block, int samplesPerPixel) 
                                  {&DeepBuffer::emission, 3}};
     // The optional environment transfer, when baked: linear in V, so averaged as the bake would.
     if (big.hasEnvTransfer()) layers.push_back({&DeepBuffer::envTransfer, ENV_TRANSFER_COEFFICIENTS});
+    // The near-field horizon: kept exactly where a group is one position (block 1); averaged over
+    // a group's positions otherwise (their frames differ a little: an approximation, as merging is).
+    if (big.hasHorizon()) layers.push_back({&DeepBuffer::horizon, HORIZON_AZIMUTHS});
     struct Group {
         std::vector<size_t> subs; // sample indices of the big shot
         float z = 0;
@@ -111,6 +114,10 @@ DeepBuffer fromReference(const DeepBuffer& big, int block, int samplesPerPixel) 
     if (big.hasEnvTransfer()) {
         d.envTransfer.assign(d.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
         d.envRays = big.envRays;
+    }
+    if (big.hasHorizon()) {
+        d.horizon.assign(d.sampleCount() * HORIZON_AZIMUTHS, 0.f);
+        d.horizonRadius = big.horizonRadius;
     }
     d.samplesPerPixel = samplesPerPixel;
     d.camera = big.camera;

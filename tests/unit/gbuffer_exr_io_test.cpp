@@ -6,7 +6,9 @@
 #include <ImfChannelList.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
+#include <ImfFloatAttribute.h>
 #include <ImfIntAttribute.h>
+#include <ImfMultiPartInputFile.h>
 #include <ImfOutputFile.h>
 #include <ImfStandardAttributes.h>
 #include <gtest/gtest.h>
@@ -101,6 +103,18 @@ void addRandomEnvLobe(DeepBuffer& b, uint32_t seed) {
             b.envLobe[s * 3 + 1] = u(rng);
             b.envLobe[s * 3 + 2] = share(rng);
         }
+}
+
+// A random near-field horizon (sines in [0, 1]) on the covered samples, zeros elsewhere, as the
+// bake stores it.
+void addRandomHorizon(DeepBuffer& b, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.f, 1.f);
+    b.horizon.assign(b.sampleCount() * HORIZON_AZIMUTHS, 0.f);
+    for (size_t s = 0; s < b.sampleCount(); ++s)
+        if (b.A[s] > 0.f)
+            for (int k = 0; k < HORIZON_AZIMUTHS; ++k) b.horizon[s * HORIZON_AZIMUTHS + size_t(k)] = u(rng);
+    b.horizonRadius = 0.0625f;
 }
 
 std::string readBytes(const std::string& path) {
@@ -546,6 +560,114 @@ TEST(ExrIO, EnvLobeOutOfRangeOrPartialIsRefusedNamingTheChannel) {
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::MissingData);
     EXPECT_NE(r.error().message.find("'env.lobe.v' is missing"), std::string::npos) << r.error().message;
+    std::filesystem::remove(path);
+}
+
+TEST(ExrIO, HorizonRoundTripsFlatAndDeepAndAVersion5FileLoadsWithoutIt) {
+    for (bool deep : {false, true}) {
+        SCOPED_TRACE(deep ? "deep" : "flat");
+        DeepBuffer b = randomBuffer(16, 9, 31);
+        if (deep) { // 0..3 samples per pixel
+            std::mt19937 rng(30);
+            std::vector<uint32_t> counts(size_t(12 * 7));
+            for (auto& c : counts) c = rng() % 4;
+            b.allocateSamples(12, 7, counts);
+            b.samplesPerPixel = 4;
+            for (size_t s = 0; s < b.sampleCount(); ++s) {
+                b.A[s] = 0.2f;
+                b.N[s * 3 + 1] = 1.f;
+            }
+        }
+        addRandomHorizon(b, 32);
+        b.horizon[0] = 1.f; // the range's ends survive half precision
+        b.horizon[1] = 0.f;
+        const std::string path = tempPath("horizon.exr");
+        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+        {
+            Imf::MultiPartInputFile f(path.c_str());
+            for (int k = 0; k < HORIZON_AZIMUTHS; ++k) {
+                const Imf::Channel* ch = f.header(0).channels().findChannel("horizon.h" + std::to_string(k));
+                ASSERT_NE(ch, nullptr) << k;
+                EXPECT_EQ(ch->type, Imf::HALF) << k;
+            }
+            EXPECT_EQ(f.header(0).channels().findChannel("horizon.h16"), nullptr);
+        }
+        auto r = readDeepBuffer(path);
+        ASSERT_TRUE(r.ok()) << r.error().toString();
+        ASSERT_TRUE(r->hasHorizon());
+        EXPECT_EQ(r->horizonRadius, 0.0625f);
+        ASSERT_EQ(r->horizon.size(), b.horizon.size());
+        for (size_t k = 0; k < b.horizon.size(); ++k) ASSERT_NEAR(r->horizon[k], b.horizon[k], 4.9e-4f) << "element " << k;
+        // Without the horizon (a version 5 shot): no horizon channels, and it reads back without one.
+        b.horizon.clear();
+        b.horizonRadius = 0.f;
+        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+        {
+            Imf::MultiPartInputFile f(path.c_str());
+            EXPECT_EQ(f.header(0).channels().findChannel("horizon.h0"), nullptr);
+            EXPECT_EQ(f.header(0).findTypedAttribute<Imf::FloatAttribute>("dfb.horizonRadius"), nullptr);
+        }
+        patchFormatVersion(path, 5);
+        r = readDeepBuffer(path);
+        ASSERT_TRUE(r.ok()) << r.error().toString();
+        EXPECT_FALSE(r->hasHorizon());
+        EXPECT_EQ(r->horizonRadius, 0.f);
+        std::filesystem::remove(path);
+    }
+}
+
+TEST(ExrIO, HorizonOutOfRangeOrPartialIsRefusedNamingTheChannel) {
+    struct Case {
+        int azimuth;
+        float value;
+    };
+    for (const Case& c : {Case{0, std::nanf("")}, Case{7, -0.25f}, Case{15, 1.5f}}) {
+        DeepBuffer b = randomBuffer(16, 16, 33);
+        addRandomHorizon(b, 34);
+        const size_t i = 37;
+        b.horizon[i * HORIZON_AZIMUTHS + size_t(c.azimuth)] = c.value;
+        const std::string path = tempPath("horizon_bad.exr");
+        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+        auto r = readDeepBuffer(path);
+        const std::string channel = "'horizon.h" + std::to_string(c.azimuth) + "'";
+        ASSERT_FALSE(r.ok()) << channel << " = " << c.value;
+        EXPECT_EQ(r.error().code, ErrorCode::InvalidValue);
+        EXPECT_NE(r.error().message.find(channel), std::string::npos) << r.error().message;
+        EXPECT_NE(r.error().message.find("(" + std::to_string(i % 16) + ", " + std::to_string(i / 16) + ")"), std::string::npos)
+            << r.error().message;
+        std::filesystem::remove(path);
+    }
+    // A reach that is no distance.
+    {
+        DeepBuffer b = randomBuffer(8, 8, 35);
+        addRandomHorizon(b, 36);
+        b.horizonRadius = -1.f;
+        const std::string path = tempPath("horizon_reach.exr");
+        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+        auto r = readDeepBuffer(path);
+        ASSERT_FALSE(r.ok());
+        EXPECT_EQ(r.error().code, ErrorCode::InvalidValue);
+        EXPECT_NE(r.error().message.find("dfb.horizonRadius"), std::string::npos) << r.error().message;
+        std::filesystem::remove(path);
+    }
+    // Some but not all of the horizon's channels: refused naming the first absent one.
+    const std::string path = tempPath("horizon_partial.exr");
+    {
+        Imf::Header h(4, 4);
+        Imf::addWorldToCamera(h, Imath::M44f());
+        Imf::addWorldToNDC(h, Imath::M44f());
+        for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
+        for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A"})
+            h.channels().insert(c, Imf::Channel(Imf::HALF));
+        for (int k = 0; k < HORIZON_AZIMUTHS; ++k)
+            if (k != 9) h.channels().insert("horizon.h" + std::to_string(k), Imf::Channel(Imf::HALF));
+        for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
+        Imf::OutputFile f(path.c_str(), h);
+    }
+    auto r = readDeepBuffer(path);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::MissingData);
+    EXPECT_NE(r.error().message.find("'horizon.h9' is missing"), std::string::npos) << r.error().message;
     std::filesystem::remove(path);
 }
 

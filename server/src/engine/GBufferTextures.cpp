@@ -86,6 +86,20 @@ Status GBufferTextures::upload(const DeepBuffer& g) {
         envTransfer = gl::makeTexture2DArray(GL_RGBA16F, sampleRow, rows, envLayers);
         glTextureSubImage3D(envTransfer.id(), 0, 0, 0, 0, sampleRow, rows, envLayers, GL_RGBA, GL_FLOAT, data.data());
     }
+    hasHorizon = g.hasHorizon();
+    horizonRadius = hasHorizon ? g.horizonRadius : 0.f;
+    if (hasHorizon) {
+        // Azimuth k of sample s at layer k / 4, component k % 4 (common_horizon.glsl).
+        static_assert(HORIZON_AZIMUTHS % 4 == 0 && HORIZON_AZIMUTHS == int(HORIZON_AZIMUTH_COUNT));
+        constexpr int layers = HORIZON_AZIMUTHS / 4;
+        const size_t n = g.sampleCount(), texels = size_t(sampleRow) * size_t(rows);
+        std::vector<float> data(texels * 4 * size_t(layers), 0.f);
+        for (size_t i = 0; i < n; ++i)
+            for (int k = 0; k < HORIZON_AZIMUTHS; ++k)
+                data[(size_t(k / 4) * texels + i) * 4 + size_t(k % 4)] = g.horizon[i * HORIZON_AZIMUTHS + size_t(k)];
+        horizon = gl::makeTexture2DArray(GL_RGBA16F, sampleRow, rows, layers);
+        glTextureSubImage3D(horizon.id(), 0, 0, 0, 0, sampleRow, rows, layers, GL_RGBA, GL_FLOAT, data.data());
+    }
     {
         std::vector<uint32_t> objectIds(size_t(sampleRow) * size_t(rows), 0);
         for (size_t i = 0; i < g.sampleCount(); ++i) {
@@ -118,6 +132,7 @@ void GBufferTextures::bindForShading() const {
     glBindTextureUnit(TEX_GBUFFER_COAT, coat.id());
     glBindTextureUnit(TEX_PIXEL_SAMPLES, pixelSamples.id());
     if (hasEnvTransfer) glBindTextureUnit(TEX_GBUFFER_ENV, envTransfer.id());
+    if (hasHorizon) glBindTextureUnit(TEX_GBUFFER_HORIZON, horizon.id());
 }
 
 } // namespace dfb::engine

@@ -31,6 +31,8 @@ struct GBufferTextures {
     bool hasEnvLobe = false;                // and the specular lobe (DeepBuffer::envLobe)
     int envBands = 0;                       // the transfer's bands (DeepBuffer::envBands) when held
     int envLayers = 0;                      // envTransfer's layers (envTransferLayers)
+    bool hasHorizon = false;                // the shot holds the near-field horizon (DeepBuffer::horizon)
+    float horizonRadius = 0.f;              // and its reach, scene units (DeepBuffer::horizonRadius)
     uint32_t maxObjectId = 0;
     // Edge taps per sample over its pixel footprint (common_pixel_footprint.glsl): the shot's
     // samples per pixel, at most FOOTPRINT_MAX_TAPS; 1 = one lookup at the sample (flat shots).
@@ -38,6 +40,7 @@ struct GBufferTextures {
     std::vector<glm::vec2> footprintOffsets; // their offsets from the pixel centre, pixels (y down)
     gl::Texture P, N, Ng, albedo, brdf, emission, sheen, coat, pixelSamples, ids;
     gl::Texture envTransfer; // 2D array: T_0..T_{n-1}, then the lobe's u, v, share, four per layer
+    gl::Texture horizon;     // 2D array: the horizon's sines, four per layer (TEX_GBUFFER_HORIZON)
 };
 
 /// Layers of the transfer's array texture: envBands^2 coefficients and the lobe's three values,

@@ -13,6 +13,7 @@
 // `#define NAME value // what`. This header includes no GL (the generator is a plain program).
 
 #include <dfb/lightmath/BendyLight.h>
+#include <dfb/lightmath/Horizon.h>
 #include <dfb/lightmath/Ltc.h>
 
 #include <glm/glm.hpp>
@@ -49,7 +50,8 @@
     X(TEX_ENV_PREFILTERED, 21, "RGBA32F lat-long, ENV_LEVELS mips: an environment light's map prefiltered by GGX roughness level / (ENV_LEVELS - 1)") \
     X(TEX_ENV_DFG, 22, "RG32F ENV_DFG_SIZE^2: the split sum's (A, B) by (N.v, roughness) (Environment.h dfgTable)") \
     X(TEX_GBUFFER_ENV, 23, "RGBA16F 2D array: the baked environment transfer T_0..T_{n-1} (DeepBuffer::envTransfer, n = envBands^2) then the specular lobe (DeepBuffer::envLobe) u, v, share, four per layer") \
-    X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of normals in the map's frame: its exact E(N) / pi less the order-3 expansion (envIrradianceMap)")
+    X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of normals in the map's frame: its exact E(N) / pi less the order-3 expansion (envIrradianceMap)") \
+    X(TEX_GBUFFER_HORIZON, 27, "RGBA16F 2D array: the near-field horizon's sines (DeepBuffer::horizon), azimuth k at layer k / 4, component k % 4")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).
 #define DFB_GPU_STORAGE_BINDINGS(X)                                                                    \
@@ -102,6 +104,7 @@
     X(ENV_LEVELS, 6, "mip levels of the prefiltered environment, roughness 0 .. 1 (EnvironmentMap.cpp)") \
     X(ENV_DFG_SIZE, 32, "rows and columns of the DFG table")                                      \
     X(ENV_IRRADIANCE_WIDTH, 32, "texels across the exact irradiance map (16 rows)")                   \
+    X(HORIZON_AZIMUTH_COUNT, dfb::lightmath::HORIZON_AZIMUTHS, "azimuths of a sample's near-field horizon (Horizon.h)") \
     X(AREA_MAX_LAYERS, 256, "an area light's shadow maps: MAX_AREA_SHADOW_GRID squared (Rig.h; ShadowMaps.cpp asserts it)") \
     X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands") \
     X(BENDY_TESS_WORK_WORD, offsetof(dfb::engine::BendyDrawCommands, tessWork) / 4, "BendyDrawCommands.tessWork's uint")

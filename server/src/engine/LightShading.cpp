@@ -14,6 +14,15 @@
 #include <vector>
 
 namespace dfb::engine {
+
+namespace {
+// A float as a GLSL literal (scientific notation: always a float, never an int).
+std::string glslFloat(float v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9e", double(v));
+    return buf;
+}
+} // namespace
 namespace {
 
 // The longest one band of an area light's reference may take (the engine's GPU watchdog's).
@@ -347,6 +356,10 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
                    std::to_string(mGBuffer.envLayers) + "\n"
              : "") +
         (environment && mGBuffer.hasEnvLobe ? "#define ENV_LOBE 1\n" : "") +
+        // Nor whether it holds the near-field horizon, which straight and bent lights' shadows read.
+        (mGBuffer.hasHorizon && !area && !environment
+             ? "#define NEAR_FIELD_HORIZON 1\n#define NEAR_FIELD_REACH " + glslFloat(mGBuffer.horizonRadius) + "\n"
+             : "") +
         // Which shading the light asks for is not a specialisation: generic shaders need it too.
         // 1: a rectangle, 2: a disk (common_ltc.glsl runs only that one's integral).
         (area && referenceCells == 0 && shadesWithLtc(l)

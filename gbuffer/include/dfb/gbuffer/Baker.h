@@ -5,6 +5,7 @@
 #include <dfb/core/Result.h>
 #include <dfb/gbuffer/DeepBuffer.h>
 #include <dfb/gbuffer/EnvTransfer.h>
+#include <dfb/gbuffer/NearField.h>
 #include <dfb/gbuffer/Scene.h>
 
 #include <functional>
@@ -29,6 +30,11 @@ struct BakeOptions {
     int envBands = ENV_TRANSFER_BANDS;
     /// When set and envRays > 0: filled with what the transfer cost (its share of the bake).
     EnvTransferStats* envStats = nullptr;
+    /// The near-field horizon's reach (DeepBuffer::horizon, bakeHorizon) as a fraction of the
+    /// scene's bounding radius, in (0, MAX_HORIZON_RADIUS_FRACTION]; 0 = not baked.
+    float horizonRadius = HORIZON_RADIUS_FRACTION;
+    /// When set and horizonRadius > 0: filled with what the horizon cost.
+    HorizonStats* horizonStats = nullptr;
     /// Called with (done, total) work units while baking; may be empty.
     std::function<void(size_t, size_t)> progress;
 };
@@ -43,7 +49,9 @@ std::vector<glm::vec2> sampleOffsets(int samples);
 Result<CameraInfo> chooseCamera(const Scene& scene, const BakeOptions& options);
 
 /// Bakes the scene. Creates its own EGL context on the calling thread. Fails with GpuError when no
-/// context can be made, InvalidValue for bad sizes, sample counts, environment ray or band counts.
+/// context can be made, InvalidValue for bad sizes, sample counts, environment ray or band counts,
+/// or horizon radii. With horizonRadius > 0 the stored samples then get their near-field horizon
+/// (bakeHorizon, over every core).
 /// With envRays > 0, each pass's surface points also get the environment transfer, on the CPU over
 /// every core (the estimator of bakeEnvTransfer): a pixel's envRays directions, shifted once per
 /// pixel (seeded by the pixel index: reproducible), are dealt out to its passes, every
