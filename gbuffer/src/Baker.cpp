@@ -1,6 +1,7 @@
 #include <dfb/gbuffer/Baker.h>
 
 #include "EnvTracer.h"
+#include "HorizonTracer.h"
 
 #include <dfb/gl/Context.h>
 #include <dfb/gl/Objects.h>
@@ -56,6 +57,7 @@ struct Group {
     float sum[FLOATS];
     float env[ENV_TRANSFER_COEFFICIENTS]; // summed environment transfer of the points (when baked)
     double lobe[EnvTracer::LOBE_SUMS];    // summed specular-lobe sums of the points (when baked)
+    float horizon[HORIZON_AZIMUTHS];      // summed near-field horizons of the points (when baked)
 };
 
 using Clock = std::chrono::steady_clock;
@@ -269,9 +271,22 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         envStats.totalMs += msSince(t0);
     }
 
-    // Work units for the progress report: upload, each sample pass (raster, environment rays),
-    // merging.
-    const size_t totalWork = 2 + size_t(o.samples) * (env ? 3 : 2) + (o.horizonRadius > 0.f ? 1 : 0);
+    // The near-field horizon, traced at each pass's exact surface points too (a merged sample's
+    // averaged position may lie inside a curved mesh or a corner; the horizon of the merge is the
+    // mean of its points', as for the transfer: on the 16-spp edge test the sun's shadow edges
+    // 5.2 % of the mean radiance from the averaged positions' horizons, 4.3 % from the mean).
+    std::optional<HorizonTracer> horizon;
+    HorizonStats horizonStats;
+    std::atomic<size_t> horizonTraced{0};
+    if (o.horizonRadius > 0.f) {
+        const auto t0 = Clock::now();
+        horizon.emplace(scene, o.horizonRadius);
+        horizonStats.totalMs += msSince(t0);
+    }
+
+    // Work units for the progress report: upload, each sample pass (raster, environment rays,
+    // horizon), merging.
+    const size_t totalWork = 2 + size_t(o.samples) * (2 + (env ? 1 : 0) + (horizon ? 1 : 0));
     size_t done = 0;
     auto progress = [&]() {
         if (o.progress) o.progress(++done, totalWork);
@@ -367,6 +382,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
     std::vector<std::vector<float>> pass(TARGETS);
     std::vector<float> passEnv(env ? np * ENV_TRANSFER_COEFFICIENTS : 0);
     std::vector<double> passLobe(env ? np * EnvTracer::LOBE_SUMS : 0);
+    std::vector<float> passHorizon(horizon ? np * HORIZON_AZIMUTHS : 0);
 
     const std::vector<glm::vec2> offsets = sampleOffsets(o.samples);
     for (int s = 0; s < o.samples; ++s) {
@@ -457,6 +473,23 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
             envStats.totalMs += msSince(t0);
             progress();
         }
+        if (horizon) {
+            const auto t0 = Clock::now();
+            horizonStats.threads = parallelChunks(np, 0, [&](size_t lo, size_t hi) {
+                size_t mine = 0;
+                for (size_t dst = lo; dst < hi; ++dst) {
+                    const size_t src = (size_t(H) - 1 - dst / size_t(W)) * size_t(W) + dst % size_t(W);
+                    if (uint32_t(pass[2][src * 4 + 3]) == 0) continue;
+                    const float* p = &pass[0][src * 4];
+                    const float* n = &pass[2][src * 4]; // target 2's xyz: Ng (bake_gbuffer.frag)
+                    mine += horizon->trace(glm::vec3(p[0], p[1], p[2]), glm::vec3(n[0], n[1], n[2]),
+                                           &passHorizon[dst * HORIZON_AZIMUTHS]);
+                }
+                horizonTraced.fetch_add(mine);
+            });
+            horizonStats.totalMs += msSince(t0);
+            progress();
+        }
         // Merge this pass's samples into the pixels' groups. GL's row 0 is the bottom; the deep
         // buffer's row 0 is the top (EXR convention).
         for (size_t dst = 0; dst < np; ++dst) {
@@ -480,6 +513,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
                 std::fill(std::begin(g->sum), std::end(g->sum), 0.f);
                 std::fill(std::begin(g->env), std::end(g->env), 0.f);
                 std::fill(std::begin(g->lobe), std::end(g->lobe), 0.0);
+                std::fill(std::begin(g->horizon), std::end(g->horizon), 0.f);
             }
             ++g->count;
             for (int t = 0; t < TARGETS; ++t)
@@ -490,6 +524,8 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
                 const double* l = &passLobe[dst * EnvTracer::LOBE_SUMS];
                 for (int i = 0; i < EnvTracer::LOBE_SUMS; ++i) g->lobe[i] += l[i];
             }
+            if (horizon)
+                for (int k = 0; k < HORIZON_AZIMUTHS; ++k) g->horizon[k] += passHorizon[dst * HORIZON_AZIMUTHS + size_t(k)];
         }
         progress();
     }
@@ -509,6 +545,10 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
         b.envRays = o.envRays;
         b.envBands = o.envBands;
+    }
+    if (horizon) {
+        b.horizon.assign(b.sampleCount() * HORIZON_AZIMUTHS, 0.f);
+        b.horizonRadius = horizon->reach();
     }
     b.samplesPerPixel = o.samples;
     b.camera = cam;
@@ -554,6 +594,10 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
             EnvTracer::encodeLobe(g.lobe, N, cam.towardsEye(P), &b.envLobe[s * ENV_LOBE_COMPONENTS]);
             envStats.samples += b.A[s] > 0.f;
         }
+        if (horizon) {
+            for (int k = 0; k < HORIZON_AZIMUTHS; ++k) b.horizon[s * HORIZON_AZIMUTHS + size_t(k)] = g.horizon[k] * inv;
+            horizonStats.samples += b.A[s] > 0.f;
+        }
     };
     std::vector<const Group*> groups;
     for (size_t p = 0; p < np; ++p) {
@@ -573,11 +617,9 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
         for (const Group* g : groups) store(s++, *g);
     }
     progress();
-    if (o.horizonRadius > 0.f) {
-        auto h = bakeHorizon(scene, b, o.horizonRadius);
-        if (!h) return h.error();
-        if (o.horizonStats) *o.horizonStats = h.value();
-        progress();
+    if (horizon && o.horizonStats) {
+        horizonStats.rays = horizonTraced.load();
+        *o.horizonStats = horizonStats;
     }
     if (env && o.envStats) {
         envStats.rays = envTraced.load();

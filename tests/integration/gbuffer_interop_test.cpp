@@ -20,6 +20,8 @@ const std::vector<std::string> CHANNELS = [] {
         "env.lobe.u", "env.lobe.v", "env.lobe.vis"};
     // The environment transfer, which dfb-bake bakes by default, on five bands (--env-bands 5).
     for (int i = 0; i < 25; ++i) c.push_back("env.sh" + std::to_string(i));
+    // The near-field horizon, baked by default too (format version 6).
+    for (int i = 0; i < 16; ++i) c.push_back("horizon.h" + std::to_string(i));
     return c;
 }();
 } // namespace
@@ -40,6 +42,7 @@ TEST(Interop, IinfoListsEveryChannelOfFlatAndDeepShots) {
         EXPECT_NE(info.find("worldToCamera"), std::string::npos);
         EXPECT_NE(info.find("worldToNDC"), std::string::npos);
         EXPECT_NE(info.find("dfb.sourceSha256"), std::string::npos);
+        EXPECT_NE(info.find("dfb.horizonRadius"), std::string::npos);
         if (samples > 1) {
             EXPECT_NE(info.find("deep"), std::string::npos) << info;
         }

@@ -435,6 +435,50 @@ TEST(EnvTransfer, MultiSampleBakeMatchesTheFlatBake) {
     EXPECT_NEAR(four.lobeShare, flat.lobeShare, 0.01);
 }
 
+TEST(BakeCli, HorizonRadiusOption) {
+    const std::string shot = tempPath("cli_horizon.exr");
+    // Out of range: refused by name, nothing written.
+    for (const char* bad : {"0.5", "-0.1"}) {
+        auto [rc, out] = test::run({DFB_BAKE_EXE, DFB_SOURCE_DIR "/scenes/tabletop.glb", "-o", shot, "--width", "32",
+                                    "--height", "18", "--env-rays", "0", "--horizon-radius", bad});
+        EXPECT_NE(rc, 0) << out;
+        EXPECT_NE(out.find("--horizon-radius"), std::string::npos) << out;
+        EXPECT_FALSE(std::filesystem::exists(shot));
+    }
+    // The default bakes the horizon at 0.016 of the scene's radius and says what it traced; --info
+    // says what the shot holds; 0 bakes none.
+    {
+        auto [rc, out] = test::run({DFB_BAKE_EXE, DFB_SOURCE_DIR "/scenes/tabletop.glb", "-o", shot, "--width", "32",
+                                    "--height", "18", "--env-rays", "0"});
+        ASSERT_EQ(rc, 0) << out;
+        EXPECT_NE(out.find("near-field horizon: reach"), std::string::npos) << out;
+        auto r = readDeepBuffer(shot);
+        ASSERT_TRUE(r.ok()) << r.error().toString();
+        ASSERT_TRUE(r->hasHorizon());
+        auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
+        ASSERT_TRUE(scene.ok());
+        EXPECT_NEAR(r->horizonRadius, HORIZON_RADIUS_FRACTION * scene->bounds.radius(), 1e-5f);
+        size_t closed = 0;
+        for (float h : r->horizon) closed += h > 0.f;
+        EXPECT_GT(closed, 0u) << "the bunny's bumps and the objects' contacts close some azimuths";
+        auto [irc, info] = test::run({DFB_BAKE_EXE, "--info", shot});
+        EXPECT_EQ(irc, 0) << info;
+        EXPECT_NE(info.find("near-field horizon (horizon.h0..15)"), std::string::npos) << info;
+    }
+    {
+        auto [rc, out] = test::run({DFB_BAKE_EXE, DFB_SOURCE_DIR "/scenes/tabletop.glb", "-o", shot, "--width", "32",
+                                    "--height", "18", "--env-rays", "0", "--horizon-radius", "0"});
+        ASSERT_EQ(rc, 0) << out;
+        EXPECT_EQ(out.find("near-field horizon"), std::string::npos) << out;
+        auto r = readDeepBuffer(shot);
+        ASSERT_TRUE(r.ok()) << r.error().toString();
+        EXPECT_FALSE(r->hasHorizon());
+        auto [irc, info] = test::run({DFB_BAKE_EXE, "--info", shot});
+        EXPECT_NE(info.find("no near-field horizon"), std::string::npos) << info;
+    }
+    std::filesystem::remove(shot);
+}
+
 TEST(BakeCli, EnvRaysOption) {
     const std::string shot = tempPath("cli.exr");
     for (const char* bad : {"5000", "-1"}) {

@@ -50,8 +50,9 @@ Result<CameraInfo> chooseCamera(const Scene& scene, const BakeOptions& options);
 
 /// Bakes the scene. Creates its own EGL context on the calling thread. Fails with GpuError when no
 /// context can be made, InvalidValue for bad sizes, sample counts, environment ray or band counts,
-/// or horizon radii. With horizonRadius > 0 the stored samples then get their near-field horizon
-/// (bakeHorizon, over every core).
+/// or horizon radii. With horizonRadius > 0 each pass's surface points also get their near-field
+/// horizon (bakeHorizon's estimator, over every core), and a merged sample the mean of its
+/// points' horizons.
 /// With envRays > 0, each pass's surface points also get the environment transfer, on the CPU over
 /// every core (the estimator of bakeEnvTransfer): a pixel's envRays directions, shifted once per
 /// pixel (seeded by the pixel index: reproducible), are dealt out to its passes, every

@@ -1,8 +1,8 @@
 #pragma once
 // The near-field horizon of each G-buffer sample (DeepBuffer::horizon; the math of
 // dfb/lightmath/Horizon.h), traced against the scene the bake rasterised. The bake computes it
-// itself (BakeOptions::horizonRadius); bakeHorizon gives one to a buffer that has none (a shot
-// read from a file, a hand-made buffer).
+// itself at each pass's surface points (BakeOptions::horizonRadius); bakeHorizon gives one to a
+// buffer that has none (a shot read from a file, a hand-made buffer) from its stored samples.
 
 #include <dfb/core/Result.h>
 #include <dfb/gbuffer/DeepBuffer.h>
