@@ -37,12 +37,14 @@ float horizonSine(ivec2 texel, vec3 n, vec3 L) {
 // 1 where light from the unit direction L reaches the sample at `texel` (geometric normal Ng)
 // past its near field, else 0 (horizonLit): above its geometric plane (a facet facing away from
 // the light is shadowed by itself; the shadow map holds closed meshes' far sides only, which
-// cannot say so) and, with NEAR_FIELD_HORIZON, above its horizon.
-float nearFieldVisibility(ivec2 texel, vec3 Ng, vec3 L) {
+// cannot say so) and, with NEAR_FIELD_HORIZON, above its horizon. `highest`: the sample's highest
+// horizon sine (TEX_GBUFFER_NG's w): a light above it is above the interpolated horizon too, and
+// most samples of a shot (open ground, convex surfaces) skip the lookup.
+float nearFieldVisibility(ivec2 texel, vec3 Ng, float highest, vec3 L) {
     float e = dot(Ng, L);
     if (e <= 0.0) return 0.0;
 #ifdef NEAR_FIELD_HORIZON
-    if (e <= horizonSine(texel, Ng, L)) return 0.0;
+    if (e <= highest && e <= horizonSine(texel, Ng, L)) return 0.0;
 #endif
     return 1.0;
 }

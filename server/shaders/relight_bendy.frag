@@ -111,11 +111,12 @@ float bendyShadow(TubeCoords c, TubeShift k, float s, vec3 Ng, float offset, flo
 // visibility (bendyShadow with the tap as the receiver). `vis`: the mean visibility alone;
 // `reach` > 0 where some tap lies inside the cone.
 // Li: the sample's light direction (its turn over the pixel is neglected, as for the bias).
-float bendyFootprintLight(ivec2 t, TubeCoords c, float arc, vec3 P, vec3 Ng, vec3 Li, float coverage, out float vis, out float reach) {
+float bendyFootprintLight(ivec2 t, TubeCoords c, float arc, vec3 P, vec3 Ng, float highest, vec3 Li, float coverage, out float vis,
+                          out float reach) {
     mat2x3 fp = pixelFootprint(P, Ng, coverage);
     // Facing away geometrically or below the near-field horizon: shadowed at every tap
     // (shadowVisibility's rule, relight_spot.frag).
-    bool facing = !SHADE_SHADOWED || nearFieldVisibility(t, Ng, Li) > 0.0;
+    bool facing = !SHADE_SHADOWED || nearFieldVisibility(t, Ng, highest, Li) > 0.0;
     TubeShift shift = tubeShift(c);
     float sum = 0.0, visSum = 0.0;
     reach = 0.0;
@@ -153,18 +154,19 @@ vec3 shadeSample(ivec2 t) {
     vec3 Li = lightDirection(c, P, BENDY_EXACT);
     if (dot(N, Li) <= 0.0) return vec3(0.0);
     float vis = 1.0;
-    vec3 Ng = normalize(texelFetch(gNg, t, 0).xyz);
+    vec4 ng = texelFetch(gNg, t, 0); // w: the highest horizon sine
+    vec3 Ng = normalize(ng.xyz);
     if (SHADE_FOOTPRINT_TAPS > 1) {
         // Edges inside the pixel: cone and visibility over the footprint's taps.
         float reach;
-        spot = bendyFootprintLight(t, c, arc, P, Ng, Li, pA.w, vis, reach);
+        spot = bendyFootprintLight(t, c, arc, P, Ng, ng.w, Li, pA.w, vis, reach);
         if (reach <= 0.0) return vec3(0.0);
         if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
         vis = 1.0; // in spot
     } else if (SHADE_SHADOWED) {
         // Facing away geometrically or below the near-field horizon: shadowed (as
         // shadowVisibility, relight_spot.frag).
-        vis = nearFieldVisibility(t, Ng, Li) <= 0.0 ? 0.0 : bendyShadow(c, tubeShift(c), arc, Ng, shadowNormalOffset(dist), dist, dot(Ng, Li));
+        vis = nearFieldVisibility(t, Ng, ng.w, Li) <= 0.0 ? 0.0 : bendyShadow(c, tubeShift(c), arc, Ng, shadowNormalOffset(dist), dist, dot(Ng, Li));
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);

@@ -89,11 +89,11 @@ float filteredShadowCube(vec3 dir, vec3 Ng, float h, float lift) {
     return sum / float((2 * r + 1) * (2 * r + 1));
 }
 
-// t: the sample's texel (its near-field horizon).
-float shadowVisibility(ivec2 t, vec3 P, vec3 Ng, vec3 L, float dist) {
+// t: the sample's texel, highest: its highest horizon sine (its near-field horizon).
+float shadowVisibility(ivec2 t, vec3 P, vec3 Ng, float highest, vec3 L, float dist) {
     // Below the sample's geometric plane or its near-field horizon: shadowed by geometry the map
     // cannot resolve (issue 16: most leaks were on the bunny's terminator and at grazing contacts).
-    if (nearFieldVisibility(t, Ng, L) <= 0.0) return 0.0;
+    if (nearFieldVisibility(t, Ng, highest, L) <= 0.0) return 0.0;
     vec3 biased = P + Ng * shadowNormalOffset(dist);
     float lift = nearFieldLift(shadowLift(dist), dot(Ng, L));
     if (SHADE_KIND == KIND_POINT) {
@@ -147,7 +147,7 @@ vec3 spotMaskGrad(vec3 fromLight, vec2 gx, vec2 gy) {
 // visibility, each evaluated at the tap (shadowVisibility with the tap as the receiver). `vis`:
 // the mean visibility alone; `reach` > 0 where some tap lies inside the mask (the shadow-mask
 // output's samples the light reaches).
-vec3 footprintLight(ivec2 t, vec3 P, vec3 Ng, float coverage, out float vis, out float reach) {
+vec3 footprintLight(ivec2 t, vec3 P, vec3 Ng, float highest, float coverage, out float vis, out float reach) {
     mat2x3 fp = pixelFootprint(P, Ng, coverage);
     vec2 gx = vec2(0.0), gy = vec2(0.0);
     if (SHADE_KIND == 1 && SHADE_COOKIE) {
@@ -176,7 +176,7 @@ vec3 footprintLight(ivec2 t, vec3 P, vec3 Ng, float coverage, out float vis, out
                 if ((SHADE_DOORS || SHADE_COOKIE) && m.x > 0.0) m *= spotMaskGrad(-L, gx, gy);
             }
         }
-        float v = SHADE_SHADOWED ? shadowVisibility(t, q, Ng, L, dist) : 1.0;
+        float v = SHADE_SHADOWED ? shadowVisibility(t, q, Ng, highest, L, dist) : 1.0;
         sum += m * v;
         visSum += v;
         reach = max(reach, max(m.x, max(m.y, m.z)));
@@ -216,12 +216,14 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_FOOTPRINT_TAPS > 1) {
         // Edges inside the pixel: cone, doors, cookie and visibility over the footprint's taps.
         float reach;
-        spot = footprintLight(t, P, normalize(texelFetch(gNg, t, 0).xyz), pA.w, vis, reach);
+        vec4 ng = texelFetch(gNg, t, 0);
+        spot = footprintLight(t, P, normalize(ng.xyz), ng.w, pA.w, vis, reach);
         if (reach <= 0.0) return vec3(0.0);
         if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
         vis = 1.0; // in spot
     } else if (SHADE_SHADOWED) {
-        vis = shadowVisibility(t, P, normalize(texelFetch(gNg, t, 0).xyz), L, dist);
+        vec4 ng = texelFetch(gNg, t, 0);
+        vis = shadowVisibility(t, P, normalize(ng.xyz), ng.w, L, dist);
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);

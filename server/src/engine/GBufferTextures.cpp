@@ -55,7 +55,15 @@ Status GBufferTextures::upload(const DeepBuffer& g) {
     footprintOffsets = sampleOffsets(footprintTaps);
     P = uploadLayer(GL_RGBA32F, sampleRow, rows, g.P, 3, &g.A);
     N = uploadLayer(GL_RGBA16F, sampleRow, rows, g.N, 3, nullptr);
-    Ng = uploadLayer(GL_RGBA16F, sampleRow, rows, g.Ng, 3, nullptr);
+    // Ng's w: the sample's highest horizon sine, when the shot holds a horizon (common_horizon.glsl:
+    // a light above it skips the azimuth lookup).
+    std::vector<float> highest;
+    if (g.hasHorizon()) {
+        highest.assign(g.sampleCount(), 0.f);
+        for (size_t i = 0; i < g.sampleCount(); ++i)
+            for (int k = 0; k < HORIZON_AZIMUTHS; ++k) highest[i] = std::max(highest[i], g.horizon[i * HORIZON_AZIMUTHS + size_t(k)]);
+    }
+    Ng = uploadLayer(GL_RGBA16F, sampleRow, rows, g.Ng, 3, highest.empty() ? nullptr : &highest);
     albedo = uploadLayer(GL_RGBA16F, sampleRow, rows, g.albedo, 3, nullptr);
     brdf = uploadLayer(GL_RGBA16F, sampleRow, rows, g.brdf, 4, nullptr);
     emission = uploadLayer(GL_RGBA16F, sampleRow, rows, g.emission, 3, nullptr);

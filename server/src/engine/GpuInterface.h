@@ -28,7 +28,7 @@
 #define DFB_GPU_TEXTURE_UNITS(X)                                                                          \
     X(TEX_GBUFFER_P, 0, "RGBA32F: world position xyz, coverage A in w")                                   \
     X(TEX_GBUFFER_N, 1, "RGBA16F: shading normal xyz")                                                    \
-    X(TEX_GBUFFER_NG, 2, "RGBA16F: geometric normal xyz")                                                 \
+    X(TEX_GBUFFER_NG, 2, "RGBA16F: geometric normal xyz, w the highest near-field horizon sine (0 without one)") \
     X(TEX_GBUFFER_ALBEDO, 3, "RGBA16F: albedo rgb")                                                       \
     X(TEX_GBUFFER_BRDF, 4, "RGBA16F: metallic, roughness, specular, occlusion")                          \
     X(TEX_GBUFFER_EMISSION, 5, "RGBA16F: emission rgb")                                                   \
