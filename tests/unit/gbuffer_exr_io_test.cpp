@@ -122,17 +122,38 @@ std::string readBytes(const std::string& path) {
     return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-// A flat 4x4 file with every required channel and env.sh{from} .. env.sh{to} (zero-filled pixels).
-void writeFileWithEnvChannels(const std::string& path, int from, int to) {
+// A flat 4x4 file with every required channel and the half channels `extra` (zero-filled pixels).
+void writeFileWithChannels(const std::string& path, const std::vector<std::string>& extra) {
     Imf::Header h(4, 4);
     Imf::addWorldToCamera(h, Imath::M44f());
     Imf::addWorldToNDC(h, Imath::M44f());
     for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
     for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A"})
         h.channels().insert(c, Imf::Channel(Imf::HALF));
+    for (const std::string& c : extra) h.channels().insert(c, Imf::Channel(Imf::HALF));
     for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
-    for (int i = from; i <= to; ++i) h.channels().insert("env.sh" + std::to_string(i), Imf::Channel(Imf::HALF));
     Imf::OutputFile f(path.c_str(), h); // unwritten lines are zero-filled on close
+}
+
+// The same with env.sh{from} .. env.sh{to}.
+void writeFileWithEnvChannels(const std::string& path, int from, int to) {
+    std::vector<std::string> extra;
+    for (int i = from; i <= to; ++i) extra.push_back("env.sh" + std::to_string(i));
+    writeFileWithChannels(path, extra);
+}
+
+// Writes `b` (which the writer accepts) and expects the reader to refuse it with InvalidValue,
+// naming `channel` and the pixel of flat sample i of a 16-wide buffer.
+void expectRefusedNaming(const DeepBuffer& b, const std::string& channel, size_t i) {
+    const std::string path = tempPath("refused.exr");
+    ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+    auto r = readDeepBuffer(path);
+    ASSERT_FALSE(r.ok()) << channel;
+    EXPECT_EQ(r.error().code, ErrorCode::InvalidValue);
+    EXPECT_NE(r.error().message.find("'" + channel + "'"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("(" + std::to_string(i % 16) + ", " + std::to_string(i / 16) + ")"), std::string::npos)
+        << r.error().message;
+    std::filesystem::remove(path);
 }
 
 // Rewrites an EXR's int attribute `dfb.formatVersion` in place (its 4 value bytes follow the name,
@@ -533,29 +554,12 @@ TEST(ExrIO, EnvLobeOutOfRangeOrPartialIsRefusedNamingTheChannel) {
         addRandomEnvLobe(b, 26);
         const size_t i = 37;
         b.envLobe[i * ENV_LOBE_COMPONENTS + size_t(c.component)] = c.value;
-        const std::string path = tempPath("env_lobe_bad.exr");
-        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
-        auto r = readDeepBuffer(path);
-        ASSERT_FALSE(r.ok()) << c.channel << " = " << c.value;
-        EXPECT_EQ(r.error().code, ErrorCode::InvalidValue);
-        EXPECT_NE(r.error().message.find(std::string("'") + c.channel + "'"), std::string::npos) << r.error().message;
-        EXPECT_NE(r.error().message.find("(" + std::to_string(i % 16) + ", " + std::to_string(i / 16) + ")"), std::string::npos)
-            << r.error().message;
-        std::filesystem::remove(path);
+        SCOPED_TRACE(c.value);
+        expectRefusedNaming(b, c.channel, i);
     }
     // Some but not all of the lobe's channels: refused naming the first absent one.
     const std::string path = tempPath("env_lobe_partial.exr");
-    {
-        Imf::Header h(4, 4);
-        Imf::addWorldToCamera(h, Imath::M44f());
-        Imf::addWorldToNDC(h, Imath::M44f());
-        for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
-        for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A",
-                              "env.lobe.u", "env.lobe.vis"})
-            h.channels().insert(c, Imf::Channel(Imf::HALF));
-        for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
-        Imf::OutputFile f(path.c_str(), h);
-    }
+    writeFileWithChannels(path, {"env.lobe.u", "env.lobe.vis"});
     auto r = readDeepBuffer(path);
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::MissingData);
@@ -626,16 +630,8 @@ TEST(ExrIO, HorizonOutOfRangeOrPartialIsRefusedNamingTheChannel) {
         addRandomHorizon(b, 34);
         const size_t i = 37;
         b.horizon[i * HORIZON_AZIMUTHS + size_t(c.azimuth)] = c.value;
-        const std::string path = tempPath("horizon_bad.exr");
-        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
-        auto r = readDeepBuffer(path);
-        const std::string channel = "'horizon.h" + std::to_string(c.azimuth) + "'";
-        ASSERT_FALSE(r.ok()) << channel << " = " << c.value;
-        EXPECT_EQ(r.error().code, ErrorCode::InvalidValue);
-        EXPECT_NE(r.error().message.find(channel), std::string::npos) << r.error().message;
-        EXPECT_NE(r.error().message.find("(" + std::to_string(i % 16) + ", " + std::to_string(i / 16) + ")"), std::string::npos)
-            << r.error().message;
-        std::filesystem::remove(path);
+        SCOPED_TRACE(c.value);
+        expectRefusedNaming(b, "horizon.h" + std::to_string(c.azimuth), i);
     }
     // A reach that is no distance.
     {
@@ -652,18 +648,10 @@ TEST(ExrIO, HorizonOutOfRangeOrPartialIsRefusedNamingTheChannel) {
     }
     // Some but not all of the horizon's channels: refused naming the first absent one.
     const std::string path = tempPath("horizon_partial.exr");
-    {
-        Imf::Header h(4, 4);
-        Imf::addWorldToCamera(h, Imath::M44f());
-        Imf::addWorldToNDC(h, Imath::M44f());
-        for (const char* c : {"P.X", "P.Y", "P.Z", "Z"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
-        for (const char* c : {"N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "brdf.metallic", "brdf.roughness", "A"})
-            h.channels().insert(c, Imf::Channel(Imf::HALF));
-        for (int k = 0; k < HORIZON_AZIMUTHS; ++k)
-            if (k != 9) h.channels().insert("horizon.h" + std::to_string(k), Imf::Channel(Imf::HALF));
-        for (const char* c : {"id.object", "id.material"}) h.channels().insert(c, Imf::Channel(Imf::UINT));
-        Imf::OutputFile f(path.c_str(), h);
-    }
+    std::vector<std::string> partial;
+    for (int k = 0; k < HORIZON_AZIMUTHS; ++k)
+        if (k != 9) partial.push_back("horizon.h" + std::to_string(k));
+    writeFileWithChannels(path, partial);
     auto r = readDeepBuffer(path);
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::MissingData);
