@@ -2,7 +2,7 @@
 // An environment light's contribution per pixel from the G-buffer samples (docs/lighting.md,
 // "Environment light"), at unit radiance (the composite scales by colour x intensity):
 // - diffuse = (1 - metallic)(1 - F_d(N.v)) albedo sum_i L_i T_i: the map's spherical harmonics
-//   L (SSBO_ENV_SH, projected and rotated on the CPU: Environment.h envProjectSh) against the
+//   L (UBO_ENV_SH, projected and rotated on the CPU: Environment.h envProjectSh) against the
 //   sample's diffuse transfer T (ENV_BANDS bands), its baked visibility when the light is
 //   shadowed and the shot has one (precomputed radiance transfer: Sloan, Kautz and Snyder 2002),
 //   else the unshadowed clamped cosine (Ramamoorthi and Hanrahan 2001);
@@ -43,7 +43,7 @@ layout(binding = TEX_GBUFFER_ENV) uniform sampler2DArray gEnv;
 #else
 #define shOpenTransfer shUnshadowedTransfer
 #endif
-layout(std430, binding = SSBO_ENV_SH) readonly buffer EnvSh { vec4 envSh[25]; }; // rgb L_i of the turned map, five bands
+layout(std140, binding = UBO_ENV_SH) uniform EnvShBlock { vec4 envSh[25]; }; // rgb L_i of the turned map, five bands
 
 layout(location = OUT_COLOR) out vec4 oColor;
 layout(early_fragment_tests) in;

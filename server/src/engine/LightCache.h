@@ -39,7 +39,7 @@ struct LightCache {
     GLsizei casterIndexCount = 0; // Casters::indicesFor when its shadow map was last rendered
     gl::Buffer linkMask; // light linking: one bit per object id
     gl::Buffer areaLayers;  // an area light's shadow layers (SSBO_AREA_LAYERS; ShadowMaps::renderArea)
-    gl::Buffer envSh;       // an environment light's turned map as SH (SSBO_ENV_SH)
+    gl::Buffer envSh;       // an environment light's turned map as SH (UBO_ENV_SH)
     int shadowLayers = 0;   // their count (its grid, or 2 x 2 at most in a preview)
     float areaHalfAngle = 0.f; // its shadow frustum's half-angle, radians (areaShadowHalfAngle)
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with

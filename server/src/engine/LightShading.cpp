@@ -321,7 +321,10 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         glm::vec4 sh[lightmath::SH_TRANSFER_COEFFICIENTS];
         for (int i = 0; i < lightmath::SH_TRANSFER_COEFFICIENTS; ++i) sh[i] = glm::vec4(glm::vec3(L[size_t(i)]), 0.f);
         c.envSh = gl::makeBuffer(sh, sizeof sh);
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_ENV_SH, c.envSh.id());
+        // A uniform block, not a storage buffer: every sample reads the same 25 values, which
+        // llvmpipe then loads once per pass instead of per lane (the rotation's environment pass
+        // at 960x540 read them 50 times per sample).
+        glBindBufferBase(GL_UNIFORM_BUFFER, UBO_ENV_SH, c.envSh.id());
         // What the expansion misses, in the map's frame (Cookies::irradianceResidual).
         glBindTextureUnit(TEX_ENV_IRRADIANCE, env->irradianceResidual);
         glBindTextureUnit(TEX_ENV_PREFILTERED, env->texture);
