@@ -10,7 +10,9 @@
 // Per shadow layer k: xy = what the layer's eye, offset in the emitter's plane, subtracts from the
 // centre view's clip-space x and y; zw = the eye's place on the emitter along right and up, world
 // units (ShadowMaps::renderArea).
-layout(std430, binding = SSBO_AREA_LAYERS) readonly buffer AreaLayers { vec4 areaLayer[]; };
+// A uniform block: every sample reads the same layers, which llvmpipe loads once per pass instead
+// of per lane as from a storage buffer.
+layout(std140, binding = UBO_AREA_LAYERS) uniform AreaLayers { vec4 areaLayer[AREA_MAX_LAYERS]; };
 
 // AreaLight.h representativePoint: the point of the emitter's plane maximising cos(pt, n)
 // cos^m(pt, A) / |pt|^2 (paper 001 appendices A and B, eqs. 9, 10 and 12).

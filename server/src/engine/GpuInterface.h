@@ -60,15 +60,15 @@
     X(SSBO_FLAT_INDICES, 3, "bendy_classify.comp's triangles for the plain draws")                    \
     X(SSBO_TESS_INDICES, 4, "bendy_classify.comp's triangles for the tessellated draws")              \
     X(SSBO_DRAW_COMMANDS, 5, "BendyDrawCommands: the deformed map's four indirect draws")             \
-    X(SSBO_LINK_MASK, 6, "per light: bit (id % 32) of word (id / 32) set = the object is lit")    \
-    X(SSBO_AREA_LAYERS, 7, "an area light's shadow layers: vec4(clip-space x, y offset of the layer's eye, its emitter coordinates along right, up)")
+    X(SSBO_LINK_MASK, 6, "per light: bit (id % 32) of word (id / 32) set = the object is lit")
 
 // Uniform blocks (glBindBufferBase(GL_UNIFORM_BUFFER); layout(std140, binding)).
 #define DFB_GPU_UNIFORM_BLOCKS(X)                                                  \
     X(UBO_LIGHT, 0, "LightBlock: the light being rendered or shaded")             \
     X(UBO_VIEW, 1, "ViewBlock: the shot's camera, exposure and sample layout")    \
     X(UBO_BENDY, 2, "BendyBlock: a BendyLight's chain")                          \
-    X(UBO_ENV_SH, 3, "EnvShBlock: an environment light's radiance as 25 vec4 (rgb L_i of the turned map, five bands; SphericalHarmonics.h)")
+    X(UBO_ENV_SH, 3, "EnvShBlock: an environment light's radiance as 25 vec4 (rgb L_i of the turned map, five bands; SphericalHarmonics.h)") \
+    X(UBO_AREA_LAYERS, 4, "AreaLayers: an area light's shadow layers, AREA_MAX_LAYERS vec4(clip-space x, y offset of the layer's eye, its emitter coordinates along right, up)")
 
 // Uniform locations (glUniform*; layout(location) uniform), per program: relight_spot.frag,
 // relight_bendy.frag and relight_mask.frag (RELIGHT), composite_add.frag and

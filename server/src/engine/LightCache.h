@@ -38,7 +38,7 @@ struct LightCache {
     int bendySegments() const { return int(bendy.axisV.w + 0.5f); }
     GLsizei casterIndexCount = 0; // Casters::indicesFor when its shadow map was last rendered
     gl::Buffer linkMask; // light linking: one bit per object id
-    gl::Buffer areaLayers;  // an area light's shadow layers (SSBO_AREA_LAYERS; ShadowMaps::renderArea)
+    gl::Buffer areaLayers;  // an area light's shadow layers (UBO_AREA_LAYERS; ShadowMaps::renderArea)
     gl::Buffer envSh;       // an environment light's turned map as SH (UBO_ENV_SH)
     int shadowLayers = 0;   // their count (its grid, or 2 x 2 at most in a preview)
     float areaHalfAngle = 0.f; // its shadow frustum's half-angle, radians (areaShadowHalfAngle)

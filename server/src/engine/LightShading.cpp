@@ -305,10 +305,10 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         glBindTextureUnit(TEX_LTC_MATRIX, mLtcMatrix.id());
         glBindTextureUnit(TEX_LTC_AMPLITUDE, mLtcAmplitude.id());
         if (!c.areaLayers) {
-            const glm::vec4 none(0.f);
-            c.areaLayers = gl::makeBuffer(&none, sizeof none);
+            const std::vector<glm::vec4> none(size_t(AREA_MAX_LAYERS), glm::vec4(0.f));
+            c.areaLayers = gl::makeBuffer(none.data(), none.size() * sizeof(glm::vec4));
         }
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_AREA_LAYERS, c.areaLayers.id());
+        glBindBufferBase(GL_UNIFORM_BUFFER, UBO_AREA_LAYERS, c.areaLayers.id());
     }
     const bool environment = l.type == LightType::Environment;
     if (environment) {

@@ -212,7 +212,7 @@ Status ShadowMaps::renderCube(LightCache& c, int size) {
 // An area light's m x n maps (docs/lighting.md, "Area lights"): one depth array, a layer per grid
 // point, all from the centre view's projection with the eye moved in the emitter's plane; in clip
 // space that only subtracts (P00 dx, P11 dy) from x and y (a symmetric perspective), so the layers'
-// offsets are all the shaders need (SSBO_AREA_LAYERS). One instanced pass writes every layer
+// offsets are all the shaders need (UBO_AREA_LAYERS). One instanced pass writes every layer
 // (gl_Layer from the vertex shader, ARB_shader_viewport_layer_array), or one pass per layer where
 // the driver lacks it.
 Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
@@ -233,7 +233,8 @@ Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
     const auto f = areaFrameOf<float>(l);
     const lightmath::SpotFrame<float> view = lightmath::spotFrame(f.normal);
     const float p00 = 1.f / std::tan(c.areaHalfAngle); // glm::perspective's x and y scale (aspect 1)
-    std::vector<glm::vec4> offsets(static_cast<size_t>(layers));
+    // The uniform block's whole array (AREA_MAX_LAYERS), the unused layers zero.
+    std::vector<glm::vec4> offsets(size_t(AREA_MAX_LAYERS), glm::vec4(0.f));
     for (int j = 0; j < grid.y; ++j)
         for (int i = 0; i < grid.x; ++i) {
             const glm::vec2 g = areaGridPoint(l, i, j, grid);
@@ -241,7 +242,7 @@ Status ShadowMaps::renderArea(LightCache& c, int size, bool preview) {
             offsets[size_t(j * grid.x + i)] = glm::vec4(p00 * glm::dot(d, view.right), p00 * glm::dot(d, view.up), g.x, g.y);
         }
     c.areaLayers = gl::makeBuffer(offsets.data(), offsets.size() * sizeof(glm::vec4));
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, SSBO_AREA_LAYERS, c.areaLayers.id());
+    glBindBufferBase(GL_UNIFORM_BUFFER, UBO_AREA_LAYERS, c.areaLayers.id());
     LightBlock block{};
     block.worldToLightClip = c.worldToLightClip;
     mLight.upload(block);
