@@ -280,7 +280,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
     std::atomic<size_t> horizonTraced{0};
     if (o.horizonRadius > 0.f) {
         const auto t0 = Clock::now();
-        horizon.emplace(scene, o.horizonRadius);
+        horizon.emplace(scene, o.horizonRadius, env ? env->bvh() : nullptr); // one hierarchy for both
         horizonStats.totalMs += msSince(t0);
     }
 

@@ -12,17 +12,22 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
 namespace dfb {
+
+/// The ray-casting hierarchy of every part of `scene` (world space, as rasterised), shared by the
+/// bake's tracers (environment transfer, near-field horizon) so that it is built once.
+std::shared_ptr<const TriangleBvh> sceneBvh(const Scene& scene);
 
 /// Rays against every triangle of a scene and one fixed pattern of directions. Threading: built on
 /// one thread; estimate() is const and may run on any number of threads at once.
 class EnvTracer {
 public:
-    /// Builds the hierarchy of every part of `scene` (world space, as rasterised) and a pattern of
+    /// Casts against `bvh` (sceneBvh of `scene`; built here when null) with a pattern of
     /// `patternRays` >= 1 directions.
-    EnvTracer(const Scene& scene, int patternRays);
+    EnvTracer(const Scene& scene, int patternRays, std::shared_ptr<const TriangleBvh> bvh = nullptr);
 
     /// The transfer at the surface point P (shading normal N, geometric normal Ng; both are
     /// normalised here): out[i] = (1/m) sum_k V(w_k) Y_i(w_k) over the m pattern directions
@@ -50,10 +55,11 @@ public:
     static void encodeLobe(const double sums[LOBE_SUMS], const glm::vec3& N, const glm::vec3& V, float out[ENV_LOBE_COMPONENTS]);
 
     int patternRays() const { return int(mPattern.size()); }
-    double bvhMs() const { return mBvhMs; } ///< building the hierarchy, milliseconds
+    double bvhMs() const { return mBvhMs; } ///< building the hierarchy (0 when given), milliseconds
+    const std::shared_ptr<const TriangleBvh>& bvh() const { return mBvh; }
 
 private:
-    TriangleBvh mBvh;
+    std::shared_ptr<const TriangleBvh> mBvh;
     std::vector<glm::vec2> mPattern; // Hammersley points in [0, 1)^2
     float mHair = 0.f, mLength = 0.f;
     double mBvhMs = 0.0;

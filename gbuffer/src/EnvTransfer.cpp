@@ -71,11 +71,19 @@ constexpr size_t CHUNK = 256;
 
 } // namespace
 
-EnvTracer::EnvTracer(const Scene& scene, int patternRays) {
-    const auto t0 = Clock::now();
-    for (const MeshPart& p : scene.parts) mBvh.addMesh(p.positions, p.indices);
-    mBvh.commit();
-    mBvhMs = msSince(t0);
+std::shared_ptr<const TriangleBvh> sceneBvh(const Scene& scene) {
+    auto bvh = std::make_shared<TriangleBvh>();
+    for (const MeshPart& p : scene.parts) bvh->addMesh(p.positions, p.indices);
+    bvh->commit();
+    return bvh;
+}
+
+EnvTracer::EnvTracer(const Scene& scene, int patternRays, std::shared_ptr<const TriangleBvh> bvh) : mBvh(std::move(bvh)) {
+    if (!mBvh) {
+        const auto t0 = Clock::now();
+        mBvh = sceneBvh(scene);
+        mBvhMs = msSince(t0);
+    }
     const float radius = scene.bounds.empty() ? 1.f : std::max(scene.bounds.radius(), 1e-6f);
     mHair = RAY_HAIR * radius;
     mLength = RAY_LENGTH * radius;
@@ -115,7 +123,7 @@ size_t EnvTracer::estimate(const glm::vec3& P, const glm::vec3& normal, const gl
         const glm::vec3 w = glm::normalize(t * (r * std::cos(phi)) + bt * (r * std::sin(phi)) + N * z);
         if (glm::dot(Ng, w) <= 0.f) continue; // below its own surface: occluded
         ++traced;
-        if (mBvh.occluded(from, from + w * mLength, 1e-6f)) continue;
+        if (mBvh->occluded(from, from + w * mLength, 1e-6f)) continue;
         const auto y = lightmath::shEvaluate25(w);
         for (size_t i = 0; i < K; ++i) sum[i] += y[i];
     }
@@ -155,7 +163,7 @@ size_t EnvTracer::lobe(const glm::vec3& P, const glm::vec3& normal, const glm::v
         out[0] += w;
         if (glm::dot(Ng, L) <= 0.f) continue; // below its own surface: occluded
         ++traced;
-        if (mBvh.occluded(from, from + L * mLength, 1e-6f)) continue;
+        if (mBvh->occluded(from, from + L * mLength, 1e-6f)) continue;
         out[1] += w;
         for (int c = 0; c < 3; ++c) out[2 + c] += w * double(L[c]);
     }

@@ -10,6 +10,7 @@
 #include <glm/glm.hpp>
 
 #include <cstddef>
+#include <memory>
 
 namespace dfb {
 
@@ -17,9 +18,9 @@ namespace dfb {
 /// is const and may run on any number of threads at once.
 class HorizonTracer {
 public:
-    /// Builds the hierarchy of every part of `scene` (world space, as rasterised); the reach is
+    /// Casts against `bvh` (sceneBvh of `scene`, EnvTracer.h; built here when null); the reach is
     /// `radiusFraction` x the scene's bounding radius.
-    HorizonTracer(const Scene& scene, float radiusFraction);
+    HorizonTracer(const Scene& scene, float radiusFraction, std::shared_ptr<const TriangleBvh> bvh = nullptr);
 
     /// The horizon at the surface point P with geometric normal Ng (normalised here, after
     /// rounding to half floats as the engine reads it): out[k] for the HORIZON_AZIMUTHS azimuths
@@ -30,7 +31,7 @@ public:
 
 private:
     const Scene& mScene;
-    TriangleBvh mBvh;
+    std::shared_ptr<const TriangleBvh> mBvh;
     float mReach = 0.f, mHair = 0.f;
 };
 

@@ -44,9 +44,8 @@ glm::vec3 storedNormal(const glm::vec3& Ng) {
 
 } // namespace
 
-HorizonTracer::HorizonTracer(const Scene& scene, float radiusFraction) : mScene(scene) {
-    for (const MeshPart& p : scene.parts) mBvh.addMesh(p.positions, p.indices);
-    mBvh.commit();
+HorizonTracer::HorizonTracer(const Scene& scene, float radiusFraction, std::shared_ptr<const TriangleBvh> bvh)
+    : mScene(scene), mBvh(bvh ? std::move(bvh) : sceneBvh(scene)) {
     const float sceneRadius = scene.bounds.empty() ? 1.f : std::max(scene.bounds.radius(), 1e-6f);
     mReach = radiusFraction * sceneRadius;
     mHair = RAY_HAIR * sceneRadius;
@@ -64,7 +63,7 @@ size_t HorizonTracer::trace(const glm::vec3& P, const glm::vec3& geometric, floa
     // too, which can only leave light for the shadow map to stop.
     for (int escape = 0; escape < MAX_ESCAPES; ++escape) {
         ++rays;
-        auto hit = mBvh.intersect(from, from + Ng * mReach, 0.f, 1.f);
+        auto hit = mBvh->intersect(from, from + Ng * mReach, 0.f, 1.f);
         if (!hit) break;
         const MeshPart& p = mScene.parts[hit->mesh];
         const glm::vec3 a = p.positions[p.indices[size_t(hit->triangle) * 3]];
@@ -75,7 +74,7 @@ size_t HorizonTracer::trace(const glm::vec3& P, const glm::vec3& geometric, floa
     }
     auto closed = [&](int k, float sine) {
         ++rays;
-        return mBvh.occluded(from, from + mReach * lightmath::horizonDirection(Ng, t, bt, k, sine), 1e-6f);
+        return mBvh->occluded(from, from + mReach * lightmath::horizonDirection(Ng, t, bt, k, sine), 1e-6f);
     };
     for (int k = 0; k < HORIZON_AZIMUTHS; ++k) {
         float h = 0.f;
