@@ -5,7 +5,7 @@
 // or fails.
 //
 //   dfb-env-bench SHOT.exr [--scene S.glb] [--maps DIR] [--map NAME ...] [--rays N] [--edits N]
-//                 [--no-errors] [--unshadowed] [--transfer-bands] [--specular-bins]
+//                 [--no-errors] [--unshadowed] [--transfer-bands] [--specular-bins] [--specular-bands]
 //
 // Errors, per map (default: scenes/env's sunrise, an outdoor map with a sun, and interior): the
 // shot as Lambert (specular 0, metallic 0: the diffuse term), as a metal of its own roughness
@@ -18,7 +18,9 @@
 // of 3, 5, 7 and 9 spherical-harmonic bands (TransferBands.h, on the CPU): what the order-3
 // visibility costs, and what a finer one would give. --specular-bins: the specular row's error per
 // quarter of N.v and of roughness, unshadowed and shadowed: where the split sum and the specular
-// occlusion miss.
+// occlusion miss. --specular-bands: the specular row as a baked specular transfer of 3, 5, 7 and 9
+// bands would give it (SpecularBands.h, on the CPU), alone and for the rough samples only beside
+// the engine's split sum.
 
 #include <dfb/core/Stats.h>
 #include <dfb/core/Version.h>
@@ -27,6 +29,7 @@
 
 #include "BenchShot.h"
 #include "EnvFigures.h"
+#include "SpecularBands.h"
 #include "TransferBands.h"
 
 #include <dfb/server/ImageCodec.h>
@@ -83,6 +86,12 @@ int main(int argc, char** argv) {
     bool transferBands = false;
     app.add_flag("--transfer-bands", transferBands,
                  "the diffuse row with a transfer of 3, 5, 7 and 9 bands (the engine's formula on the CPU)");
+    bool specularBands = false;
+    // --specular-bands' hybrid rows: the transfer where the roughness is at least this (the
+    // tabletop's table, 0.5-0.75), the engine's split sum below.
+    constexpr float SPECULAR_TRANSFER_MIN_ROUGHNESS = 0.4f;
+    app.add_flag("--specular-bands", specularBands,
+                 "the specular row with a baked specular transfer of 3, 5, 7 and 9 bands (on the CPU: SpecularBands.h)");
     if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-env-bench"); rc >= 0) return rc;
     keepFreedMemoryForFrames();
 
@@ -197,6 +206,64 @@ int main(int argc, char** argv) {
                 const Figures f = compare(images[i], ref.value(), lambert);
                 std::printf("  %-14s %d bands (%2d coefficients)  mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%\n", map.c_str(), bands[i],
                             bands[i] * bands[i], 100 * f.mean, 100 * f.p95, 100 * f.aggregate);
+            }
+        }
+    }
+
+    if (specularBands) {
+        const std::vector<int> bands{3, 5, 7, 9};
+        const DeepBuffer metal = variant(g, "specular");
+        std::printf(" the specular row with a baked specular transfer (on the CPU, %d GGX rays per sample, against the\n"
+                    " reference): mean / p95 / aggregate; \"direct\": the rays' own estimate\n", rays);
+        for (const std::string& map : maps) {
+            auto img = readHdrImage((std::filesystem::path(mapDir) / map).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+            if (!img) {
+                std::cerr << "dfb-env-bench: " << img.error().toString() << "\n";
+                return 2;
+            }
+            Light l = env;
+            l.envMap = map;
+            auto ref = renderEnvironmentReference(metal, l.shadow ? &bvh : nullptr, radius, l, mapDir, rays);
+            if (!ref) {
+                std::cerr << "dfb-env-bench: " << ref.error().toString() << "\n";
+                return 1;
+            }
+            const auto images = bench::specularBandImages(metal, bvh, radius, std::move(img.value()), rays, bands, l.shadow);
+            // The engine's split sum where the lobe is narrow, the transfer where it is wide.
+            auto engine = Engine::create(metal, opened.casters);
+            if (!engine) {
+                std::cerr << "dfb-env-bench: " << engine.error().toString() << "\n";
+                return 3;
+            }
+            engine.value()->setAssetDirectory(mapDir);
+            Rig rig;
+            rig.lights = {l};
+            auto fast = engine.value()->renderLightLinear(rig, l.name);
+            if (!fast) {
+                std::cerr << "dfb-env-bench: " << fast.error().toString() << "\n";
+                return 1;
+            }
+            auto hybrid = [&](const ImageF& transferImage) {
+                ImageF out = fast.value();
+                for (size_t p = 0; p < metal.pixelCount(); ++p) {
+                    const uint32_t s0 = metal.sampleOffset[p];
+                    if (s0 == metal.sampleOffset[p + 1] || metal.brdf[size_t(s0) * 4 + 1] < SPECULAR_TRANSFER_MIN_ROUGHNESS) continue;
+                    for (int k = 0; k < 3; ++k) out.rgba[p * 4 + size_t(k)] = transferImage.rgba[p * 4 + size_t(k)];
+                }
+                return out;
+            };
+            auto row = [&](const std::string& what, const ImageF& image) {
+                const Figures f = compare(image, ref.value(), metal);
+                std::printf("  %-14s %-34s %s  mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%\n", map.c_str(), what.c_str(),
+                            l.shadow ? "shadowed" : "open", 100 * f.mean, 100 * f.p95, 100 * f.aggregate);
+            };
+            row("engine (split sum)", fast.value());
+            row("direct (the rays' own estimate)", images[bands.size()]);
+            for (size_t i = 0; i < bands.size(); ++i) {
+                const std::string name = std::to_string(bands[i]) + " bands";
+                row(name + ", RGB", images[i]);
+                row(name + ", scalar x mean Fresnel", images[bands.size() + 1 + i]);
+                row(name + ", scalar, rough only", hybrid(images[bands.size() + 1 + i]));
             }
         }
     }

@@ -1,0 +1,151 @@
+#pragma once
+// dfb-env-bench --specular-bands: what the environment light's specular term would measure if
+// each sample held a baked specular transfer (issue 19 point 4: the tabletop's specular error).
+// The view is fixed, so a sample's GGX lobe is too, and its reflection of a map L is the linear
+// function sum_i L_i S_i of the map's spherical harmonics, with
+//   S_i = integral f(l, v) N.l V(l) Y_i(l) dl
+// (the glossy transfer of Sloan, Kautz and Snyder, "Precomputed Radiance Transfer for Real-Time
+// Rendering in Dynamic, Low-Frequency Lighting Environments", 2002, section 6, whose transfer
+// matrix becomes a vector for one view). Evaluated here on the CPU for the metal shot
+// (bench::variant "specular": F0 = albedo, F90 = 1) at B bands:
+//   specular = sum_i L_i S_i + sum_k E_k f(s_k, v) N.s_k V(s_k)
+// - L_i: the map without its suns (engine::extractSuns), from the engine's own 128 x 64 copy;
+// - S_i: `rays` GGX-distributed directions per sample (ggxHalfVector, weights ggxLobeWeight times
+//   the Fresnel factor), traced against the scene; "open" leaves V out on both sides;
+// - the suns: exact, visibility by one ray each (the engine's shadow maps);
+// plus a row "direct": the same rays' own estimate of the integral against the small map (no
+// expansion), which bounds what any number of bands could reach with these rays.
+
+#include "engine/EnvironmentMap.h"
+
+#include <dfb/bvh/TriangleBvh.h>
+#include <dfb/gbuffer/DeepBuffer.h>
+#include <dfb/lightmath/Brdf.h>
+#include <dfb/lightmath/Environment.h>
+#include <dfb/lightmath/SphericalHarmonics.h>
+#include <dfb/protocol/Rig.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+namespace dfb::bench {
+
+/// Per pixel (RGBA) the metal shot `g`'s specular radiance under `map` (unrotated, with its suns)
+/// with a specular transfer of each of `bandCounts` (RGB, the Fresnel factor per direction), then
+/// the rays' direct estimate, then with a scalar transfer per sample times the lobe's mean Fresnel
+/// factor at each of `bandCounts`.
+/// `shadowed`: the transfer and the suns traced against the scene.
+inline std::vector<ImageF> specularBandImages(const DeepBuffer& g, const TriangleBvh& bvh, float radius, ImageF map, int rays,
+                                              const std::vector<int>& bandCounts, bool shadowed) {
+    namespace lm = lightmath;
+    constexpr int K = lm::SH_MAX_BANDS * lm::SH_MAX_BANDS;
+    const std::vector<engine::EnvSun> suns = engine::extractSuns(map);
+    const engine::EnvLevels levels = engine::prefilterEnvironment(map, 1, ENV_PREFILTER_WIDTH);
+    const ImageF small{levels.shWidth, levels.shHeight, levels.sh};
+    std::vector<glm::dvec3> L(K, glm::dvec3(0.0));
+    double y[K];
+    for (int j = 0; j < small.height; ++j)
+        for (int i = 0; i < small.width; ++i) {
+            const glm::dvec3 d = lm::envDirection((i + 0.5) / small.width, (j + 0.5) / small.height);
+            const float* t = &small.rgba[(size_t(j) * size_t(small.width) + size_t(i)) * 4];
+            const glm::dvec3 c = glm::dvec3(t[0], t[1], t[2]) * lm::envTexelSolidAngle(j, small.width, small.height);
+            lm::shEvaluateBands(d, lm::SH_MAX_BANDS, y);
+            for (int k = 0; k < K; ++k) L[size_t(k)] += c * y[k];
+        }
+    auto smallAt = [&](const glm::dvec3& d) {
+        const glm::dvec2 uv = lm::envLatLong(d);
+        const int i = std::clamp(int(uv.x * small.width), 0, small.width - 1), j = std::clamp(int(uv.y * small.height), 0, small.height - 1);
+        const float* t = &small.rgba[(size_t(j) * size_t(small.width) + size_t(i)) * 4];
+        return glm::dvec3(t[0], t[1], t[2]);
+    };
+    const size_t n = g.sampleCount(), nb = 2 * bandCounts.size() + 1;
+    std::vector<glm::dvec3> radiance(n * nb, glm::dvec3(0.0));
+    const glm::dvec3 eye(g.camera.position());
+    std::atomic<size_t> next{0};
+    auto work = [&] {
+        std::vector<glm::dvec3> S(K);
+        std::vector<double> Sw(K); // without the Fresnel factor (scalarFresnel)
+        double w[K];
+        for (size_t s; (s = next.fetch_add(1)) < n;) {
+            if (g.A[s] <= 0.f) continue;
+            const glm::dvec3 P(g.position(s));
+            const glm::dvec3 N = glm::normalize(glm::dvec3(g.N[s * 3], g.N[s * 3 + 1], g.N[s * 3 + 2]));
+            const glm::dvec3 Ng = glm::normalize(glm::dvec3(g.Ng[s * 3], g.Ng[s * 3 + 1], g.Ng[s * 3 + 2]));
+            if (!std::isfinite(N.x) || !std::isfinite(Ng.x)) continue;
+            const glm::dvec3 V = g.camera.orthographic ? -glm::dvec3(g.camera.forward()) : glm::normalize(eye - P);
+            const double NdotV = std::max(glm::dot(N, V), lm::MIN_NDOTV);
+            const double roughness = g.brdf[s * 4 + 1];
+            const double alpha = std::max(roughness * roughness, lm::MIN_ALPHA);
+            const glm::dvec3 f0(g.albedo[s * 3], g.albedo[s * 3 + 1], g.albedo[s * 3 + 2]);
+            const glm::vec3 from = glm::vec3(P + Ng * (1e-5 * double(radius)));
+            auto visible = [&](const glm::dvec3& d) {
+                if (glm::dot(Ng, d) <= 0) return false;
+                return !shadowed || !bvh.occluded(from, from + glm::vec3(d) * (4.f * radius), 1e-6f);
+            };
+            const glm::dvec3 t = glm::normalize(glm::cross(N, std::abs(N.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0)));
+            const glm::dvec3 b = glm::cross(N, t);
+            std::fill(S.begin(), S.end(), glm::dvec3(0.0));
+            std::fill(Sw.begin(), Sw.end(), 0.0);
+            glm::dvec3 direct(0.0), fresnelSum(0.0);
+            double weightSum = 0;
+            const double du = std::fmod(double(s) * 0.7548776662466927, 1.0), dv = std::fmod(double(s) * 0.5698402909980532, 1.0);
+            for (int k = 0; k < rays; ++k) {
+                const glm::dvec2 xi = lm::hammersley(uint32_t(k), uint32_t(rays));
+                const glm::dvec3 hl = lm::ggxHalfVector({std::fmod(xi.x + du, 1.0), std::fmod(xi.y + dv, 1.0)}, alpha);
+                const glm::dvec3 H = glm::normalize(t * hl.x + b * hl.y + N * hl.z);
+                const double VdotH = glm::dot(V, H);
+                const glm::dvec3 l = 2.0 * VdotH * H - V;
+                const double weight = lm::ggxLobeWeight(glm::dot(N, l), NdotV, hl.z, VdotH, alpha);
+                if (weight <= 0) continue;
+                const glm::dvec3 f = weight * lm::fresnelSchlick(f0, 1.0, VdotH) / double(rays);
+                weightSum += weight / double(rays);
+                fresnelSum += f;
+                if (!visible(l)) continue;
+                lm::shEvaluateBands(l, lm::SH_MAX_BANDS, w);
+                for (int i = 0; i < K; ++i) S[size_t(i)] += f * w[i], Sw[size_t(i)] += weight / double(rays) * w[i];
+                direct += f * smallAt(l);
+            }
+            glm::dvec3 sunPart(0.0);
+            for (const engine::EnvSun& sun : suns) {
+                const glm::dvec3 l = glm::normalize(glm::dvec3(sun.direction));
+                const double NdotL = glm::dot(N, l);
+                if (NdotL <= 0 || !visible(l)) continue;
+                const glm::dvec3 H = glm::normalize(l + V);
+                const double D = lm::distributionGGX(glm::dot(N, H), alpha);
+                const double vis = lm::visibilitySmithGGX(NdotL, NdotV, alpha);
+                sunPart += glm::dvec3(sun.irradiance) * lm::fresnelSchlick(f0, 1.0, glm::dot(V, H)) * (D * vis * NdotL);
+            }
+            // One scalar transfer per sample: the Fresnel factor as the lobe's mean, (F0 A + F90 B) /
+            // (A + B) of the split sum, outside the integral.
+            const glm::dvec3 meanFresnel = weightSum > 0 ? fresnelSum / weightSum : glm::dvec3(0.0);
+            const size_t nbands = bandCounts.size();
+            for (size_t c = 0; c < nbands; ++c) {
+                glm::dvec3 sum(0.0), scalar(0.0);
+                for (int i = 0; i < bandCounts[c] * bandCounts[c]; ++i) sum += L[size_t(i)] * S[size_t(i)], scalar += L[size_t(i)] * Sw[size_t(i)];
+                radiance[s * nb + c] = double(g.A[s]) * (glm::max(sum, glm::dvec3(0.0)) + sunPart);
+                radiance[s * nb + nbands + 1 + c] = double(g.A[s]) * (glm::max(scalar * meanFresnel, glm::dvec3(0.0)) + sunPart);
+            }
+            radiance[s * nb + nbands] = double(g.A[s]) * (direct + sunPart);
+        }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned i = 1; i < std::max(1u, std::thread::hardware_concurrency()); ++i) pool.emplace_back(work);
+    work();
+    for (std::thread& th : pool) th.join();
+    std::vector<ImageF> out;
+    for (size_t c = 0; c < nb; ++c) {
+        ImageF img{g.width, g.height, std::vector<float>(g.pixelCount() * 4, 1.f)};
+        for (size_t p = 0; p < g.pixelCount(); ++p) {
+            glm::dvec3 sum(0.0);
+            for (uint32_t s = g.sampleOffset[p]; s < g.sampleOffset[p + 1]; ++s) sum += radiance[s * nb + c];
+            for (int k = 0; k < 3; ++k) img.rgba[p * 4 + size_t(k)] = float(sum[k]);
+        }
+        out.push_back(std::move(img));
+    }
+    return out;
+}
+
+} // namespace dfb::bench
