@@ -107,19 +107,17 @@ struct ShadowLookup {
 };
 
 // The lookup of point q (world, or a BendyLight's straight space) on the receiver plane spanned by
-// the tangents t1, t2 (the same space) in the 2D map worldToLightClip: the projection's Jacobian
-// (d ndc = (M_i - ndc_i M_w) dq / w) carries the tangents into the map, and the plane's depth
-// gradient per texel solves the 2x2 system. `lift`: the receiver's lift towards the light (the
-// same space), depth only. False where q is behind the projection.
-bool receiverPlaneLookup(vec3 q, vec3 t1, vec3 t2, vec3 lift, out ShadowLookup o) {
-    mat4 M = uLight.worldToLightClip;
+// the tangents t1, t2 (the same space) in the 2D map M (of `size` texels a side): the projection's
+// Jacobian (d ndc = (M_i - ndc_i M_w) dq / w) carries the tangents into the map, and the plane's
+// depth gradient per texel solves the 2x2 system. `lift`: the receiver's lift towards the light
+// (the same space), depth only. False where q is behind the projection.
+bool receiverPlaneLookupIn(mat4 M, float size, vec3 q, vec3 t1, vec3 t2, vec3 lift, out ShadowLookup o) {
     vec4 clip = M * vec4(q, 1.0);
     o.st = vec2(0.0);
     o.ref = 1.0;
     o.slope = vec2(0.0);
     if (clip.w <= 0.0) return false;
     vec3 ndc = clip.xyz / clip.w;
-    float size = 1.0 / uLight.lightShadow.x;
     o.st = (ndc.xy * 0.5 + 0.5) * size;
     o.ref = ndc.z * 0.5 + 0.5;
     // Rows of M (GLSL matrices are column-major: row i is (M[0][i], M[1][i], M[2][i])).
@@ -137,22 +135,25 @@ bool receiverPlaneLookup(vec3 q, vec3 t1, vec3 t2, vec3 lift, out ShadowLookup o
     return true;
 }
 
+// receiverPlaneLookupIn in the light's own map (uLight.worldToLightClip).
+bool receiverPlaneLookup(vec3 q, vec3 t1, vec3 t2, vec3 lift, out ShadowLookup o) {
+    return receiverPlaneLookupIn(uLight.worldToLightClip, 1.0 / uLight.lightShadow.x, q, t1, t2, lift, o);
+}
+
 // Two unit tangents of the plane with normal n.
 mat2x3 tangentFrame(vec3 n) {
     vec3 t1 = normalize(cross(n, abs(n.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
     return mat2x3(t1, cross(n, t1));
 }
 
-// Percentage-closer filter of radius uLight.lightShadow.y texels (r, the light's soft-shadow
-// filter size): the mean of the (2r+1)^2 bilinear comparisons at offsets -r..r texels. Those taps
-// weigh the 2r+2 texels per axis from base - r to base + r + 1 by (1 - f, 1, ..., 1, f) (f the
+// Percentage-closer filter of radius r texels (the light's soft-shadow filter size,
+// uLight.lightShadow.y) in `map` of `size` texels a side: the mean of the (2r+1)^2 bilinear
+// comparisons at offsets -r..r texels. Those taps weigh the 2r+2 texels per axis from base - r to base + r + 1 by (1 - f, 1, ..., 1, f) (f the
 // bilinear fraction), so the same sum comes from (r+1)^2 gathers of four texels with these
 // weights: 4 texture reads instead of 9 at r = 1. Each texel is compared with the receiver
 // plane's depth at its centre; `map` holds raw depths (no comparison mode), as one gather reads
 // four depths where a comparison gather would read four results.
-float filteredShadowPlane(sampler2D map, ShadowLookup l) {
-    int r = SHADE_PCF_RADIUS;
-    float size = 1.0 / uLight.lightShadow.x;
+float filteredShadowPlaneIn(sampler2D map, float size, int r, ShadowLookup l) {
     vec2 st = l.st - 0.5;
     vec2 base = floor(st);
     vec2 f = st - base;
@@ -169,4 +170,9 @@ float filteredShadowPlane(sampler2D map, ShadowLookup l) {
         }
     }
     return sum / float((2 * r + 1) * (2 * r + 1));
+}
+
+// filteredShadowPlaneIn in the light's own map at its own filter radius.
+float filteredShadowPlane(sampler2D map, ShadowLookup l) {
+    return filteredShadowPlaneIn(map, 1.0 / uLight.lightShadow.x, SHADE_PCF_RADIUS, l);
 }

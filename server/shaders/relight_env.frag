@@ -13,10 +13,15 @@
 //   specular occlusion from the transfer (directionalVisibility);
 // - clear coat: its own GGX lobe on top, the base attenuated by 1 - coat Fc(N.v) as
 //   evaluateLayeredBrdfCos; sheen scales the base as there (the sheen lobe's own reflection of
-//   the environment is left out).
+//   the environment is left out);
+// - the suns taken out of the map (engine extractSuns): directional lights of unit intensity
+//   weighted by their irradiance, each with its own shadow map, shaded as relight_spot.frag
+//   shades a directional light, in this pass (one read of the sample for all of them).
 #include "common_uniforms.glsl"
 #include "common_brdf.glsl"
 #include "common_env.glsl"
+#include "common_pixel_footprint.glsl"
+#include "common_horizon.glsl"
 
 layout(binding = TEX_GBUFFER_P) uniform sampler2D gP;
 layout(binding = TEX_GBUFFER_N) uniform sampler2D gN;
@@ -44,6 +49,31 @@ layout(binding = TEX_GBUFFER_ENV) uniform sampler2DArray gEnv;
 #define shOpenTransfer shUnshadowedTransfer
 #endif
 layout(std140, binding = UBO_ENV_SH) uniform EnvShBlock { vec4 envSh[25]; }; // rgb L_i of the turned map, five bands
+
+// The map's suns (GpuInterface.h EnvSunData): ENV_SUNS of them, a specialisation (LightShading),
+// else the block's count.
+struct EnvSun {
+    mat4 worldToLightClip; // its shadow map's projection
+    vec4 toSun;            // xyz unit direction towards it, w = 1 / its map's size
+    vec4 weight;           // rgb its irradiance at normal incidence
+    vec4 shadow;           // x = normal offset, y = lift towards it (world), z = 1 if it has a map
+};
+layout(std140, binding = UBO_ENV_SUNS) uniform EnvSunBlock {
+    EnvSun envSun[ENV_SUN_SLOTS];
+    ivec4 envSunCount;
+};
+// Raw depths, one sampler each: llvmpipe (Mesa 22) fails to compile a gather from an indexed
+// sampler array.
+#if ENV_SUN_SLOTS != 3
+#error "sunsRadiance shades ENV_SUN_SLOTS suns, one call each"
+#endif
+layout(binding = TEX_ENV_SUN_MAPS) uniform sampler2D envSunMap0;
+layout(binding = TEX_ENV_SUN_MAPS + 1) uniform sampler2D envSunMap1;
+layout(binding = TEX_ENV_SUN_MAPS + 2) uniform sampler2D envSunMap2;
+layout(binding = TEX_GBUFFER_NG) uniform sampler2D gNg;
+#ifndef ENV_SUNS
+#define ENV_SUNS envSunCount.x
+#endif
 
 layout(location = OUT_COLOR) out vec4 oColor;
 layout(early_fragment_tests) in;
@@ -97,6 +127,56 @@ float ambientSpecularOcclusion(float NdotV, float visibility, float roughness) {
 vec3 specularLobe(vec3 d, float NdotV, float roughness, vec3 f0, float f90) {
     vec2 ab = texture(envDfg, vec2(NdotV, roughness)).rg;
     return prefiltered(d, roughness) * (f0 * ab.x + vec3(f90 * ab.y));
+}
+
+// Sun k's visibility at receiver point q of the sample at texel t (geometric normal Ng, highest
+// horizon sine `highest`), towards L: relight_spot.frag's shadowVisibility for a directional light
+// (dist 1), in the sun's own map and filter radius 1 (environmentSun's shadowFilter).
+float sunVisibility(int k, sampler2D map, ivec2 t, vec3 q, vec3 Ng, float highest, vec3 L) {
+    if (nearFieldVisibility(t, Ng, highest, L) <= 0.0) return 0.0;
+    vec3 biased = q + Ng * envSun[k].shadow.x;
+    float lift = nearFieldLift(envSun[k].shadow.y, dot(Ng, L));
+    mat2x3 tf = tangentFrame(Ng);
+    ShadowLookup l;
+    float size = 1.0 / envSun[k].toSun.w;
+    if (!receiverPlaneLookupIn(envSun[k].worldToLightClip, size, biased, tf[0], tf[1], L * lift, l)) return 0.0;
+    if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * envSun[k].toSun.w, vec2(1.0)))) return 1.0;
+    return filteredShadowPlaneIn(map, size, 1, l);
+}
+
+// Sun k's radiance at the sample (unit coverage; its map `map`), as relight_spot.frag shades a
+// directional light: the layered BRDF times its visibility, over the sample's pixel footprint's
+// taps `fp` when the shot has them (footprintLight), times its irradiance.
+vec3 sunRadiance(int k, sampler2D map, ivec2 t, vec3 P, vec4 ng, mat2x3 fp, vec3 N, vec3 V, vec3 albedo, vec4 brdf, vec4 sheen,
+                 vec2 coat) {
+    vec3 L = envSun[k].toSun.xyz;
+    if (dot(N, L) <= 0.0) return vec3(0.0);
+    float vis = 1.0;
+    if (SHADE_SHADOWED && envSun[k].shadow.z > 0.5) {
+        vec3 Ng = normalize(ng.xyz);
+        if (SHADE_FOOTPRINT_TAPS > 1) {
+            vis = 0.0;
+            for (int j = 0; j < SHADE_FOOTPRINT_TAPS; ++j) vis += sunVisibility(k, map, t, P + footprintTap(fp, j), Ng, ng.w, L);
+            vis /= float(SHADE_FOOTPRINT_TAPS);
+        } else {
+            vis = sunVisibility(k, map, t, P, Ng, ng.w, L);
+        }
+    }
+    if (vis <= 0.0) return vec3(0.0);
+    return envSun[k].weight.rgb * evaluateLayeredBrdfCos(N, L, V, albedo, brdf, sheen, coat) * vis;
+}
+
+// The suns' radiance at the sample (unit coverage): ENV_SUNS of them, a constant in the engine's
+// variants, so the calls past it compile out.
+vec3 sunsRadiance(ivec2 t, vec3 P, vec3 N, vec3 V, float coverage, vec3 albedo, vec4 brdf, vec4 sheen, vec2 coat) {
+    vec4 ng = texelFetch(gNg, t, 0);
+    mat2x3 fp = mat2x3(0.0);
+    if (SHADE_SHADOWED && SHADE_FOOTPRINT_TAPS > 1) fp = pixelFootprint(P, normalize(ng.xyz), coverage);
+    vec3 sum = vec3(0.0);
+    if (ENV_SUNS > 0) sum += sunRadiance(0, envSunMap0, t, P, ng, fp, N, V, albedo, brdf, sheen, coat);
+    if (ENV_SUNS > 1) sum += sunRadiance(1, envSunMap1, t, P, ng, fp, N, V, albedo, brdf, sheen, coat);
+    if (ENV_SUNS > 2) sum += sunRadiance(2, envSunMap2, t, P, ng, fp, N, V, albedo, brdf, sheen, coat);
+    return sum;
 }
 
 vec3 shadeSample(ivec2 t) {
@@ -187,6 +267,7 @@ vec3 shadeSample(ivec2 t) {
         float coatOcclusion = ambientSpecularOcclusion(NdotV, visibility, coat.y);
         base = base * (1.0 - coat.x * Fc) + coat.x * specularLobe(dominantDirection(N, V, coat.y), NdotV, coat.y, vec3(0.04), 1.0) * coatOcclusion;
     }
+    if (SHADE_OUTPUT == 0 && ENV_SUNS > 0) base += sunsRadiance(t, pA.xyz, N, V, pA.w, albedo, brdf, sheen, coat);
     return base * pA.w;
 }
 

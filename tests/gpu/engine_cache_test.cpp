@@ -349,8 +349,10 @@ TEST(LightLinking, ExcludedObjectsAreUnlitByThatLightAndEverythingElseIsUnchange
 
 // The specialised shader variants and the footprint pre-pass (LightShading::shade) compute what the
 // generic shaders compute: each light alone and the sum, for spots with barn doors, a wide
-// shadow filter and light linking, a shadowed point light, a directional light and BendyLights
-// of two and three segments (both light-direction models), on a flat and on a deep shot.
+// shadow filter and light linking, a shadowed point light, a directional light, BendyLights
+// of two and three segments (both light-direction models) and environment lights whose maps'
+// suns are shaded in their own pass (one sun: sunrise.exr; three: interior.exr; ENV_SUNS against
+// the block's count), with the baked transfer and horizon, on a flat and on a deep shot.
 TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
     auto scene = loadScene(DFB_SOURCE_DIR "/scenes/tabletop.glb");
     ASSERT_TRUE(scene.ok()) << scene.error().toString();
@@ -376,6 +378,15 @@ TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
     rig.lights.push_back(bendy3);
     rig.lights.push_back(bulbLight(rig.lights[1], 256));
     rig.lights.push_back(sunLight(rig.lights[1], 512));
+    for (const char* map : {"sunrise.exr", "interior.exr"}) {
+        Light env;
+        env.name = std::string("env-") + map;
+        env.type = LightType::Environment;
+        env.envMap = map;
+        env.envRotationDeg = {35.f, 0.f, 0.f};
+        env.intensityCd = 0.5f;
+        rig.lights.push_back(env);
+    }
 
     for (int samples : {1, 4}) {
         SCOPED_TRACE(std::to_string(samples) + " samples per pixel");
@@ -383,6 +394,7 @@ TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
         o.width = 160;
         o.height = 90;
         o.samples = samples;
+        o.envRays = 64;
         auto shot = bake(scene.value(), o);
         ASSERT_TRUE(shot.ok()) << shot.error().toString();
         auto special = Engine::create(shot.value(), casters);
@@ -390,6 +402,8 @@ TEST(EngineSpecialisation, VariantsAndFootprintMatchTheGenericShaders) {
         auto generic = Engine::create(shot.value(), casters);
         unsetenv("DFB_GENERIC_SHADERS");
         ASSERT_TRUE(special.ok() && generic.ok());
+        special.value()->setAssetDirectory(DFB_SOURCE_DIR "/scenes/env");
+        generic.value()->setAssetDirectory(DFB_SOURCE_DIR "/scenes/env");
         for (const Light& l : rig.lights) {
             auto a = special.value()->renderLightLinear(rig, l.name);
             auto g = generic.value()->renderLightLinear(rig, l.name);

@@ -1,6 +1,7 @@
 // Real spherical harmonics of any order (lightmath/SphericalHarmonics.h, shEvaluateBands): the
 // engine's nine for bands 0-2, orthonormal over the sphere, and each band's addition theorem.
 
+#include <dfb/lightmath/Environment.h>
 #include <dfb/lightmath/SphericalHarmonics.h>
 
 #include <gtest/gtest.h>
@@ -110,6 +111,39 @@ TEST(SphericalHarmonics, AreOrthonormalOverTheSphere) {
     }
     for (int a = 0; a < K; ++a)
         for (int b = a; b < K; ++b) EXPECT_NEAR(gram[size_t(a * K + b)], a == b ? 1.0 : 0.0, 1e-3) << a << ", " << b;
+}
+
+// The five bands' rotation (shRotation25) turns a map's coefficients exactly as projecting the
+// turned map does (envProjectSh, what the engine did at every rotation), for rotations about
+// every axis, and keeps each band's energy (its block is orthogonal).
+TEST(SphericalHarmonics, RotatingTheCoefficientsIsProjectingTheTurnedMap) {
+    constexpr int W = 64, H = 32;
+    std::vector<float> map(size_t(W * H * 4), 1.f);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(0.f, 4.f);
+    for (size_t i = 0; i < map.size(); ++i) map[i] = u(rng);
+    // A bright spot: high frequencies that the coefficients must carry as projected.
+    for (int j = 5; j < 9; ++j)
+        for (int i = 20; i < 26; ++i) map[size_t((j * W + i) * 4 + 1)] = 300.f;
+    const auto L = lm::envProjectSh(map.data(), W, H, 4, glm::dmat3(1.0));
+    for (const std::array<float, 3>& ypr : {std::array<float, 3>{37.f, 0.f, 0.f}, {0.f, -71.f, 0.f}, {0.f, 0.f, 128.f},
+                                             {-160.f, 45.f, 10.f}, {300.f, -89.f, 179.f}}) {
+        const glm::dmat3 R = lm::envRotation(ypr);
+        const auto want = lm::envProjectSh(map.data(), W, H, 4, R);
+        const auto got = lm::shRotate25(L, R);
+        double scale = 0;
+        for (const glm::dvec3& c : want) scale = std::max(scale, glm::length(c));
+        for (int i = 0; i < lm::SH_TRANSFER_COEFFICIENTS; ++i)
+            for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[size_t(i)][c], want[size_t(i)][c], 1e-9 * scale) << i << ", " << c;
+        for (int band = 0; band < lm::SH_TRANSFER_BANDS; ++band) {
+            double before = 0, after = 0;
+            for (int i = band * band; i < (band + 1) * (band + 1); ++i) {
+                before += L[size_t(i)].y * L[size_t(i)].y;
+                after += got[size_t(i)].y * got[size_t(i)].y;
+            }
+            EXPECT_NEAR(after, before, 1e-9 * before) << band;
+        }
+    }
 }
 
 } // namespace

@@ -75,10 +75,10 @@ namespace {
 // 512 normals x the map's small copy). The shader reads it at R^T N and adds the turned
 // expansion: rotating the map is rotating where both are read, exactly, since the expansion's
 // coefficients turn with their directions (envProjectSh) and E_turned(N) = E(R^T N).
-gl::Texture irradianceResidual(const std::vector<float>& sh, int w, int h) {
+gl::Texture irradianceResidual(const std::vector<float>& sh, int w, int h,
+                               const std::array<glm::dvec3, lightmath::SH_TRANSFER_COEFFICIENTS>& L) {
     constexpr int IW = int(ENV_IRRADIANCE_WIDTH), IH = IW / 2;
     const glm::dmat3 identity(1.0);
-    const auto L = lightmath::envProjectSh(sh.data(), w, h, 4, identity);
     std::vector<float> E = lightmath::envIrradianceMap(sh.data(), w, h, 4, identity, IW, IH);
     for (int j = 0; j < IH; ++j)
         for (int i = 0; i < IW; ++i) {
@@ -135,11 +135,12 @@ Result<Cookies::Environment> Cookies::environment(const Light& l) {
         e.shWidth = levels.shWidth;
         e.shHeight = levels.shHeight;
         e.suns = std::move(suns);
-        e.irradianceResidual = irradianceResidual(e.sh, e.shWidth, e.shHeight);
+        e.coefficients = lightmath::envProjectSh(e.sh.data(), e.shWidth, e.shHeight, 4, glm::dmat3(1.0));
+        e.irradianceResidual = irradianceResidual(e.sh, e.shWidth, e.shHeight, e.coefficients);
         it = mEnvironments.emplace(l.envMap, std::move(e)).first;
     }
     return Environment{it->second.texture.id(), it->second.irradianceResidual.id(), &it->second.sh, it->second.shWidth,
-                       it->second.shHeight, it->second.suns};
+                       it->second.shHeight, it->second.suns, it->second.coefficients};
 }
 
 } // namespace dfb::engine

@@ -9,8 +9,11 @@
 #include <dfb/gl/Objects.h>
 #include <dfb/protocol/Rig.h>
 
+#include <dfb/lightmath/SphericalHarmonics.h>
+
 #include <glm/glm.hpp>
 
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -49,6 +52,9 @@ public:
         const std::vector<float>* sh = nullptr;
         int shWidth = 0, shHeight = 0;
         std::vector<EnvSun> suns; // taken out of the map (texture and sh hold the rest): extractSuns
+        /// sh's spherical harmonics, unturned (envProjectSh once per map; a rotation turns them:
+        /// lightmath::shRotate25).
+        std::array<glm::dvec3, lightmath::SH_TRANSFER_COEFFICIENTS> coefficients{};
     };
     Result<Environment> environment(const Light& l);
 
@@ -59,6 +65,7 @@ private:
         std::vector<float> sh;
         int shWidth = 0, shHeight = 0;
         std::vector<EnvSun> suns;
+        std::array<glm::dvec3, lightmath::SH_TRANSFER_COEFFICIENTS> coefficients{};
     };
     std::map<std::string, EnvEntry> mEnvironments; // by file name ("" = constant)
     std::string mDirectory = ".";

@@ -51,7 +51,8 @@
     X(TEX_ENV_DFG, 22, "RG32F ENV_DFG_SIZE^2: the split sum's (A, B) by (N.v, roughness) (Environment.h dfgTable)") \
     X(TEX_GBUFFER_ENV, 23, "RGBA16F 2D array: the baked environment transfer T_0..T_{n-1} (DeepBuffer::envTransfer, n = envBands^2) then the specular lobe (DeepBuffer::envLobe) u, v, share, four per layer") \
     X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of normals in the map's frame: its exact E(N) / pi less the order-3 expansion (envIrradianceMap)") \
-    X(TEX_GBUFFER_HORIZON, 27, "RGBA16F 2D array: the near-field horizon's sines (DeepBuffer::horizon), azimuth k at layer k / 4, component k % 4")
+    X(TEX_GBUFFER_HORIZON, 27, "RGBA16F 2D array: the near-field horizon's sines (DeepBuffer::horizon), azimuth k at layer k / 4, component k % 4") \
+    X(TEX_ENV_SUN_MAPS, 28, "DEPTH32F, raw depths: an environment light's suns' shadow maps, sun k at unit TEX_ENV_SUN_MAPS + k (ENV_SUN_SLOTS units)")
 
 // Shader storage buffers (glBindBufferBase(GL_SHADER_STORAGE_BUFFER); layout(std430, binding)).
 #define DFB_GPU_STORAGE_BINDINGS(X)                                                                    \
@@ -68,7 +69,8 @@
     X(UBO_VIEW, 1, "ViewBlock: the shot's camera, exposure and sample layout")    \
     X(UBO_BENDY, 2, "BendyBlock: a BendyLight's chain")                          \
     X(UBO_ENV_SH, 3, "EnvShBlock: an environment light's radiance as 25 vec4 (rgb L_i of the turned map, five bands; SphericalHarmonics.h)") \
-    X(UBO_AREA_LAYERS, 4, "AreaLayers: an area light's shadow layers, AREA_MAX_LAYERS vec4(clip-space x, y offset of the layer's eye, its emitter coordinates along right, up)")
+    X(UBO_AREA_LAYERS, 4, "AreaLayers: an area light's shadow layers, AREA_MAX_LAYERS vec4(clip-space x, y offset of the layer's eye, its emitter coordinates along right, up)") \
+    X(UBO_ENV_SUNS, 5, "EnvSunBlock: the suns taken out of an environment light's map, shaded in its pass")
 
 // Uniform locations (glUniform*; layout(location) uniform), per program: relight_spot.frag,
 // relight_bendy.frag and relight_mask.frag (RELIGHT), composite_add.frag and
@@ -104,6 +106,7 @@
     X(ENV_LEVELS, 6, "mip levels of the prefiltered environment, roughness 0 .. 1 (EnvironmentMap.cpp)") \
     X(ENV_DFG_SIZE, 32, "rows and columns of the DFG table")                                      \
     X(ENV_IRRADIANCE_WIDTH, 32, "texels across the exact irradiance map (16 rows)")                   \
+    X(ENV_SUN_SLOTS, 3, "suns an environment light's pass shades (Rig.h ENV_MAX_SUNS; LightShading.cpp asserts it)") \
     X(HORIZON_AZIMUTH_COUNT, dfb::lightmath::HORIZON_AZIMUTHS, "azimuths of a sample's near-field horizon (Horizon.h)") \
     X(AREA_MAX_LAYERS, 256, "an area light's shadow maps: MAX_AREA_SHADOW_GRID squared (Rig.h; ShadowMaps.cpp asserts it)") \
     X(BENDY_DRAW_COMMAND_WORDS, sizeof(dfb::engine::BendyDrawCommands) / 4, "uints in BendyDrawCommands") \
@@ -152,6 +155,27 @@ enum Limit : unsigned {
     DFB_GPU_LIMITS(DFB_GPU_LIMIT)
 #undef DFB_GPU_LIMIT
 };
+
+/// One sun of an environment light's map (engine extractSuns), a directional light of unit
+/// intensity shaded in the environment's own pass (EnvSunBlock, UBO_ENV_SUNS). GLSL mirror: EnvSun
+/// in relight_env.frag. The shadow terms are those its LightBlock would carry (LightShading.cpp,
+/// lightBlock).
+struct EnvSunData {
+    glm::mat4 worldToLightClip; // its shadow map's projection
+    glm::vec4 toSun;            // xyz unit direction towards it, w = 1 / its shadow map's size
+    glm::vec4 weight;           // rgb its irradiance at normal incidence (per unit radiance of the map)
+    glm::vec4 shadow;           // x = normal offset, y = lift towards it (world; LightBlock's
+                                // lightShadow.w and lightCone.w), z = 1 if it has a shadow map
+};
+static_assert(offsetof(EnvSunData, toSun) == 64);
+static_assert(offsetof(EnvSunData, weight) == 80);
+static_assert(offsetof(EnvSunData, shadow) == 96);
+static_assert(sizeof(EnvSunData) == 112);
+struct EnvSunBlock {
+    EnvSunData sun[ENV_SUN_SLOTS];
+    glm::ivec4 count; // x = the suns in use
+};
+static_assert(offsetof(EnvSunBlock, count) == ENV_SUN_SLOTS * 112);
 
 /// The light being rendered or shaded (UBO_LIGHT). GLSL mirror: LightBlock in common_uniforms.glsl.
 struct LightBlock {

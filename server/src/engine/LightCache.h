@@ -40,6 +40,7 @@ struct LightCache {
     gl::Buffer linkMask; // light linking: one bit per object id
     gl::Buffer areaLayers;  // an area light's shadow layers (UBO_AREA_LAYERS; ShadowMaps::renderArea)
     gl::Buffer envSh;       // an environment light's turned map as SH (UBO_ENV_SH)
+    gl::Buffer envSuns;     // and its suns (UBO_ENV_SUNS, EnvSunBlock), shaded in its pass
     int shadowLayers = 0;   // their count (its grid, or 2 x 2 at most in a preview)
     float areaHalfAngle = 0.f; // its shadow frustum's half-angle, radians (areaShadowHalfAngle)
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with

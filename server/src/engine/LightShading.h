@@ -39,13 +39,15 @@ private:
     struct Accumulation {
         bool on = false;
         bool first = false;
-        glm::vec3 weight{1.f}; // per channel (an environment's sun: its RGB irradiance)
+        glm::vec3 weight{1.f}; // per channel
     };
     Status shadeInto(LightCache& c, LightCache& into, int output, bool preview, int referenceCells, Accumulation acc);
     Status shadeBentArea(LightCache& c, int output, bool preview);
     std::string shadeDefines(const LightCache& c, int output, bool cookie, bool linked) const;
     Result<GLuint> target(LightCache& c, bool perSample);
-    Status markFootprint(GLuint target, const std::string& defines, bool bendy, int step, bool clearColor);
+    /// `coverage` >= 0: the footprint is every covered sample (an environment light's), the same
+    /// for every frame: kept in mCoverage[coverage] the first time and copied from there after.
+    Status markFootprint(GLuint target, const std::string& defines, bool bendy, int step, bool clearColor, int coverage = -1);
     void bindLinkMask(LightCache& c, bool linked);
 
     ShaderVariants& mShaders;
@@ -58,6 +60,9 @@ private:
     gl::Texture mEnvDfg; // the split sum's DFG table (TEX_ENV_DFG)
     gl::Buffer mNoLink; // bound when a light has no linking (the shader declares the buffer)
     gl::Texture mMaskDepth; // every contribution target's depth: the light's footprint (relight_mask.frag)
+    // The covered samples' footprint (an environment light's mask), per target layout: the full
+    // frame's pixels, a preview's every second pixel, the sample textures (markFootprint).
+    gl::Texture mCoverage[3];
     // Deep buffers: the relight passes run once per sample over the sample textures' layout into
     // these (radiance, footprint), and composite_resolve.frag sums each pixel's samples.
     gl::Texture mSampleRadiance, mSampleDepth;
