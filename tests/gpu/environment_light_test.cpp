@@ -571,6 +571,27 @@ TEST(EnvironmentLight, ASunIsExtractedAndShadowsSharply) {
     ASSERT_TRUE(s.engine->render(b.rig, &st).ok());
     EXPECT_EQ(st.shadowMapsRendered, 1);
     EXPECT_EQ(st.lightsShaded, 1);
+    // Turned back to 20 degrees after a dragged turn (preview: every second pixel into the
+    // image's top-left quarter, the sun's map at preview size) or after a full-quality one, the
+    // image is the one first shaded at 20 degrees, empty pixels included: its contribution is not
+    // cleared between frames over the same footprint (LightShading::shadeInto), but is after a
+    // preview.
+    auto at20 = s.engine->renderLightLinear(b.rig, "env");
+    ASSERT_TRUE(at20.ok());
+    for (bool preview : {true, false}) {
+        s.engine->setPreview(preview);
+        b.rig.lights[0].envRotationDeg = {60.f, 0.f, 0.f};
+        ASSERT_TRUE(s.engine->render(b.rig, &st).ok());
+        s.engine->setPreview(false);
+        b.rig.lights[0].envRotationDeg = {20.f, 0.f, 0.f};
+        ASSERT_TRUE(s.engine->render(b.rig, &st).ok());
+        auto again = s.engine->renderLightLinear(b.rig, "env");
+        ASSERT_TRUE(again.ok());
+        size_t differ = 0;
+        for (size_t i = 0; i < again->rgba.size(); ++i)
+            differ += std::abs(again->rgba[i] - at20->rgba[i]) > 1e-6f * std::max(1.f, std::abs(at20->rgba[i]));
+        EXPECT_EQ(differ, 0u) << (preview ? "after a preview" : "after a full frame");
+    }
 }
 
 } // namespace

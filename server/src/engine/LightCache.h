@@ -41,6 +41,9 @@ struct LightCache {
     gl::Buffer areaLayers;  // an area light's shadow layers (UBO_AREA_LAYERS; ShadowMaps::renderArea)
     gl::Buffer envSh;       // an environment light's turned map as SH (UBO_ENV_SH)
     gl::Buffer envSuns;     // and its suns (UBO_ENV_SUNS, EnvSunBlock), shaded in its pass
+    // The footprint the contribution was last shaded over when it was the shot's coverage (an
+    // environment light's; LightShading's mCoverage index), else -1: outside it the image is zero.
+    int coverageWritten = -1;
     int shadowLayers = 0;   // their count (its grid, or 2 x 2 at most in a preview)
     float areaHalfAngle = 0.f; // its shadow frustum's half-angle, radians (areaShadowHalfAngle)
     int subdivisionLimit = 0; // the limit its deformed shadow map was rendered with

@@ -410,11 +410,15 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
                                    defines);
     if (!shader) return shader.error();
     const bool footprint = !mShaders.generic();
+    // An environment light reaches every covered sample (relight_mask.frag): that footprint is the
+    // shot's, kept once per target layout. Its contribution's pixels outside it are never written,
+    // so they are still zero when it was last shaded over the same footprint: no clear (8 MB of
+    // RGBA32F at 960x540).
+    const int coverage = footprint && environment ? (perSample ? 2 : step == 1 ? 0 : 1) : -1;
     if (footprint) {
-        // An environment light reaches every covered sample (relight_mask.frag): that footprint
-        // is the shot's, kept once per target layout.
-        const int coverage = !environment ? -1 : perSample ? 2 : step == 1 ? 0 : 1;
-        if (auto s = markFootprint(target.value(), defines, bendy, step, perSample || !acc.on || acc.first, coverage); !s) return s;
+        const bool zeroOutside = !perSample && coverage >= 0 && into.coverageWritten == coverage;
+        const bool clear = (perSample || !acc.on || acc.first) && !zeroOutside;
+        if (auto s = markFootprint(target.value(), defines, bendy, step, clear, coverage); !s) return s;
     }
     // Accumulating: the pass adds weight x its radiance (or replaces with it, the first), straight
     // into the target or through the per-sample resolve.
@@ -484,6 +488,7 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         glDrawArrays(GL_TRIANGLES, 0, 3);
     }
     glDisable(GL_BLEND);
+    into.coverageWritten = perSample ? -1 : coverage;
     if (acc.on) return okStatus(); // the bent area light records its own contribution
     c.hasContribution = true;
     if (output == 0 && referenceCells == 0) {
