@@ -50,7 +50,7 @@ constexpr int ENV_PREFILTER_WIDTH = 512;
 /// The shadow map's side of an environment map's sun (shaded as a directional light). 1024, not
 /// 2048 as before 2026-12-06: the map is re-rendered at every turn of the environment, and at
 /// 960x540 the tabletop's errors against the reference moved by under 0.1 point with it
-/// (docs/operations.md) while a rotation's frame got about 7 ms faster.
+/// (docs/operations.md) while a rotation's frame got 5-7 ms faster.
 constexpr int ENV_SUN_MAP_SIZE = 1024;
 /// Most lights taken out of one environment map (engine extractSuns: the sun, then lamps and
 /// windows), and the shadow map's side of each after the first: they are dimmer than the first
