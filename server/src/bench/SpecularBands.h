@@ -16,6 +16,7 @@
 // plus a row "direct": the same rays' own estimate of the integral against the small map (no
 // expansion), which bounds what any number of bands could reach with these rays.
 
+#include "TransferBands.h"
 #include "engine/EnvironmentMap.h"
 
 #include <dfb/bvh/TriangleBvh.h>
@@ -42,19 +43,10 @@ inline std::vector<ImageF> specularBandImages(const DeepBuffer& g, const Triangl
                                               const std::vector<int>& bandCounts, bool shadowed) {
     namespace lm = lightmath;
     constexpr int K = lm::SH_MAX_BANDS * lm::SH_MAX_BANDS;
-    const std::vector<engine::EnvSun> suns = engine::extractSuns(map);
-    const engine::EnvLevels levels = engine::prefilterEnvironment(map, 1, ENV_PREFILTER_WIDTH);
-    const ImageF small{levels.shWidth, levels.shHeight, levels.sh};
-    std::vector<glm::dvec3> L(K, glm::dvec3(0.0));
-    double y[K];
-    for (int j = 0; j < small.height; ++j)
-        for (int i = 0; i < small.width; ++i) {
-            const glm::dvec3 d = lm::envDirection((i + 0.5) / small.width, (j + 0.5) / small.height);
-            const float* t = &small.rgba[(size_t(j) * size_t(small.width) + size_t(i)) * 4];
-            const glm::dvec3 c = glm::dvec3(t[0], t[1], t[2]) * lm::envTexelSolidAngle(j, small.width, small.height);
-            lm::shEvaluateBands(d, lm::SH_MAX_BANDS, y);
-            for (int k = 0; k < K; ++k) L[size_t(k)] += c * y[k];
-        }
+    const MapWithoutSuns m = mapWithoutSuns(std::move(map));
+    const std::vector<engine::EnvSun>& suns = m.suns;
+    const ImageF& small = m.small;
+    const std::vector<glm::dvec3>& L = m.L;
     auto smallAt = [&](const glm::dvec3& d) {
         const glm::dvec2 uv = lm::envLatLong(d);
         const int i = std::clamp(int(uv.x * small.width), 0, small.width - 1), j = std::clamp(int(uv.y * small.height), 0, small.height - 1);
@@ -131,21 +123,8 @@ inline std::vector<ImageF> specularBandImages(const DeepBuffer& g, const Triangl
             radiance[s * nb + nbands] = double(g.A[s]) * (direct + sunPart);
         }
     };
-    std::vector<std::thread> pool;
-    for (unsigned i = 1; i < std::max(1u, std::thread::hardware_concurrency()); ++i) pool.emplace_back(work);
-    work();
-    for (std::thread& th : pool) th.join();
-    std::vector<ImageF> out;
-    for (size_t c = 0; c < nb; ++c) {
-        ImageF img{g.width, g.height, std::vector<float>(g.pixelCount() * 4, 1.f)};
-        for (size_t p = 0; p < g.pixelCount(); ++p) {
-            glm::dvec3 sum(0.0);
-            for (uint32_t s = g.sampleOffset[p]; s < g.sampleOffset[p + 1]; ++s) sum += radiance[s * nb + c];
-            for (int k = 0; k < 3; ++k) img.rgba[p * 4 + size_t(k)] = float(sum[k]);
-        }
-        out.push_back(std::move(img));
-    }
-    return out;
+    onEveryCore(work);
+    return perPixelImages(g, radiance, nb);
 }
 
 } // namespace dfb::bench

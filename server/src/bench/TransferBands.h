@@ -34,10 +34,66 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <functional>
 #include <thread>
 #include <vector>
 
 namespace dfb::bench {
+
+/// A map as the engine lights with it: its suns taken out (engine::extractSuns), and the rest as
+/// the engine's own small copy (prefilterEnvironment's, one level), its texels as directions with
+/// radiance x solid angle, and its L_i on SH_MAX_BANDS bands.
+struct MapWithoutSuns {
+    std::vector<engine::EnvSun> suns;
+    ImageF small;
+    std::vector<glm::dvec3> dirs, weighted, L;
+};
+
+inline MapWithoutSuns mapWithoutSuns(ImageF map) {
+    namespace lm = lightmath;
+    constexpr int K = lm::SH_MAX_BANDS * lm::SH_MAX_BANDS;
+    MapWithoutSuns m;
+    m.suns = engine::extractSuns(map);
+    const engine::EnvLevels levels = engine::prefilterEnvironment(map, 1, ENV_PREFILTER_WIDTH);
+    m.small = ImageF{levels.shWidth, levels.shHeight, levels.sh};
+    m.L.assign(K, glm::dvec3(0.0));
+    double y[K];
+    for (int j = 0; j < m.small.height; ++j)
+        for (int i = 0; i < m.small.width; ++i) {
+            const glm::dvec3 d = lm::envDirection((i + 0.5) / m.small.width, (j + 0.5) / m.small.height);
+            const float* t = &m.small.rgba[(size_t(j) * size_t(m.small.width) + size_t(i)) * 4];
+            const glm::dvec3 c = glm::dvec3(t[0], t[1], t[2]) * lm::envTexelSolidAngle(j, m.small.width, m.small.height);
+            m.dirs.push_back(d);
+            m.weighted.push_back(c);
+            lm::shEvaluateBands(d, lm::SH_MAX_BANDS, y);
+            for (int k = 0; k < K; ++k) m.L[size_t(k)] += c * y[k];
+        }
+    return m;
+}
+
+/// Runs `work` on every hardware thread, this one included, and waits for all.
+inline void onEveryCore(const std::function<void()>& work) {
+    std::vector<std::thread> pool;
+    for (unsigned i = 1; i < std::max(1u, std::thread::hardware_concurrency()); ++i) pool.emplace_back(work);
+    work();
+    for (std::thread& th : pool) th.join();
+}
+
+/// Per pixel (RGBA, alpha 1) the sum of its samples' values radiance[s * count + c]: one image per
+/// c < count.
+inline std::vector<ImageF> perPixelImages(const DeepBuffer& g, const std::vector<glm::dvec3>& radiance, size_t count) {
+    std::vector<ImageF> out;
+    for (size_t c = 0; c < count; ++c) {
+        ImageF img{g.width, g.height, std::vector<float>(g.pixelCount() * 4, 1.f)};
+        for (size_t p = 0; p < g.pixelCount(); ++p) {
+            glm::dvec3 sum(0.0);
+            for (uint32_t s = g.sampleOffset[p]; s < g.sampleOffset[p + 1]; ++s) sum += radiance[s * count + c];
+            for (int k = 0; k < 3; ++k) img.rgba[p * 4 + size_t(k)] = float(sum[k]);
+        }
+        out.push_back(std::move(img));
+    }
+    return out;
+}
 
 /// Per pixel (the coverage-weighted sum of its samples, RGBA) the diffuse radiance of the Lambert
 /// shot `g` (bench::variant "diffuse") under `map` (RGBA float lat-long, unrotated, with its sun)
@@ -46,24 +102,9 @@ inline std::vector<ImageF> transferBandImages(const DeepBuffer& g, const Triangl
                                               const std::vector<int>& bandCounts) {
     namespace lm = lightmath;
     constexpr int K = lm::SH_MAX_BANDS * lm::SH_MAX_BANDS;
-    const std::vector<engine::EnvSun> suns = engine::extractSuns(map);
-    // The engine's own small copy (prefilterEnvironment's, one level: no prefiltering needed).
-    const engine::EnvLevels levels = engine::prefilterEnvironment(map, 1, ENV_PREFILTER_WIDTH);
-    const ImageF small{levels.shWidth, levels.shHeight, levels.sh};
-    // The small map's texels as directions with radiance x solid angle, and its L_i on every band.
-    std::vector<glm::dvec3> dirs, weighted;
-    std::vector<glm::dvec3> L(K, glm::dvec3(0.0));
-    double y[K];
-    for (int j = 0; j < small.height; ++j)
-        for (int i = 0; i < small.width; ++i) {
-            const glm::dvec3 d = lm::envDirection((i + 0.5) / small.width, (j + 0.5) / small.height);
-            const float* t = &small.rgba[(size_t(j) * size_t(small.width) + size_t(i)) * 4];
-            const glm::dvec3 c = glm::dvec3(t[0], t[1], t[2]) * lm::envTexelSolidAngle(j, small.width, small.height);
-            dirs.push_back(d);
-            weighted.push_back(c);
-            lm::shEvaluateBands(d, lm::SH_MAX_BANDS, y);
-            for (int k = 0; k < K; ++k) L[size_t(k)] += c * y[k];
-        }
+    const MapWithoutSuns m = mapWithoutSuns(std::move(map));
+    const std::vector<engine::EnvSun>& suns = m.suns;
+    const std::vector<glm::dvec3>&dirs = m.dirs, &weighted = m.weighted, &L = m.L;
     const size_t n = g.sampleCount(), nb = bandCounts.size();
     std::vector<glm::dvec3> radiance(n * nb, glm::dvec3(0.0));
     std::atomic<size_t> next{0};
@@ -114,21 +155,8 @@ inline std::vector<ImageF> transferBandImages(const DeepBuffer& g, const Triangl
             }
         }
     };
-    std::vector<std::thread> pool;
-    for (unsigned i = 1; i < std::max(1u, std::thread::hardware_concurrency()); ++i) pool.emplace_back(work);
-    work();
-    for (std::thread& th : pool) th.join();
-    std::vector<ImageF> out;
-    for (size_t c = 0; c < nb; ++c) {
-        ImageF img{g.width, g.height, std::vector<float>(g.pixelCount() * 4, 1.f)};
-        for (size_t p = 0; p < g.pixelCount(); ++p) {
-            glm::dvec3 sum(0.0);
-            for (uint32_t s = g.sampleOffset[p]; s < g.sampleOffset[p + 1]; ++s) sum += radiance[s * nb + c];
-            for (int k = 0; k < 3; ++k) img.rgba[p * 4 + size_t(k)] = float(sum[k]);
-        }
-        out.push_back(std::move(img));
-    }
-    return out;
+    onEveryCore(work);
+    return perPixelImages(g, radiance, nb);
 }
 
 } // namespace dfb::bench
