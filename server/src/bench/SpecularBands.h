@@ -59,7 +59,7 @@ inline std::vector<ImageF> specularBandImages(const DeepBuffer& g, const Triangl
     std::atomic<size_t> next{0};
     auto work = [&] {
         std::vector<glm::dvec3> S(K);
-        std::vector<double> Sw(K); // without the Fresnel factor (scalarFresnel)
+        std::vector<double> Sw(K); // without the Fresnel factor: the scalar transfer
         double w[K];
         for (size_t s; (s = next.fetch_add(1)) < n;) {
             if (g.A[s] <= 0.f) continue;
