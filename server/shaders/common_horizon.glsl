@@ -66,3 +66,26 @@ float nearFieldLift(float lift, float NgL) {
     return lift;
 #endif
 }
+
+// The receiver for a shadow-map lookup from the sample at `texel` (receiver point q, geometric
+// normal Ng, highest horizon sine `highest`) towards the unit direction L: false where its near
+// field shadows it (nearFieldVisibility), else q moved along Ng by `normalOffset` (`biased`) and
+// its lift towards the light (nearFieldLift of the one-texel `lift`). Spot, point and directional
+// lights (relight_spot.frag) and an environment's suns (relight_env.frag).
+bool nearFieldReceiver(ivec2 texel, vec3 q, vec3 Ng, float highest, vec3 L, float normalOffset, float lift, out vec3 biased,
+                       out float lifted) {
+    biased = q + Ng * normalOffset;
+    lifted = nearFieldLift(lift, dot(Ng, L));
+    return nearFieldVisibility(texel, Ng, highest, L) > 0.0;
+}
+
+// The visibility of that receiver in the 2D map M (raw depths in `map`, 1 / its size `invSize`),
+// filtered over radius r texels: 1 outside the map, 0 behind its projection
+// (receiverPlaneLookupIn, filteredShadowPlaneIn).
+float planarShadow(sampler2D map, mat4 M, float invSize, int r, vec3 biased, vec3 Ng, vec3 L, float lifted) {
+    mat2x3 tf = tangentFrame(Ng);
+    ShadowLookup l;
+    if (!receiverPlaneLookupIn(M, 1.0 / invSize, biased, tf[0], tf[1], L * lifted, l)) return 0.0;
+    if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * invSize, vec2(1.0)))) return 1.0;
+    return filteredShadowPlaneIn(map, 1.0 / invSize, r, l);
+}

@@ -148,8 +148,8 @@ mat2x3 tangentFrame(vec3 n) {
 
 // Percentage-closer filter of radius r texels (the light's soft-shadow filter size,
 // uLight.lightShadow.y) in `map` of `size` texels a side: the mean of the (2r+1)^2 bilinear
-// comparisons at offsets -r..r texels. Those taps weigh the 2r+2 texels per axis from base - r to base + r + 1 by (1 - f, 1, ..., 1, f) (f the
-// bilinear fraction), so the same sum comes from (r+1)^2 gathers of four texels with these
+// comparisons at offsets -r..r texels. Those taps weigh the 2r+2 texels per axis from base - r to
+// base + r + 1 by (1 - f, 1, ..., 1, f) (f the bilinear fraction), so the same sum comes from (r+1)^2 gathers of four texels with these
 // weights: 4 texture reads instead of 9 at r = 1. Each texel is compared with the receiver
 // plane's depth at its centre; `map` holds raw depths (no comparison mode), as one gather reads
 // four depths where a comparison gather would read four results.

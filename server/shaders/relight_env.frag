@@ -2,7 +2,8 @@
 // An environment light's contribution per pixel from the G-buffer samples (docs/lighting.md,
 // "Environment light"), at unit radiance (the composite scales by colour x intensity):
 // - diffuse = (1 - metallic)(1 - F_d(N.v)) albedo sum_i L_i T_i: the map's spherical harmonics
-//   L (UBO_ENV_SH, projected and rotated on the CPU: Environment.h envProjectSh) against the
+//   L (UBO_ENV_SH: projected once per map on the CPU, Environment.h envProjectSh, and turned by
+//   the light's rotation, SphericalHarmonics.h shRotate25) against the
 //   sample's diffuse transfer T (ENV_BANDS bands), its baked visibility when the light is
 //   shadowed and the shot has one (precomputed radiance transfer: Sloan, Kautz and Snyder 2002),
 //   else the unshadowed clamped cosine (Ramamoorthi and Hanrahan 2001);
@@ -133,15 +134,10 @@ vec3 specularLobe(vec3 d, float NdotV, float roughness, vec3 f0, float f90) {
 // horizon sine `highest`), towards L: relight_spot.frag's shadowVisibility for a directional light
 // (dist 1), in the sun's own map and filter radius 1 (environmentSun's shadowFilter).
 float sunVisibility(int k, sampler2D map, ivec2 t, vec3 q, vec3 Ng, float highest, vec3 L) {
-    if (nearFieldVisibility(t, Ng, highest, L) <= 0.0) return 0.0;
-    vec3 biased = q + Ng * envSun[k].shadow.x;
-    float lift = nearFieldLift(envSun[k].shadow.y, dot(Ng, L));
-    mat2x3 tf = tangentFrame(Ng);
-    ShadowLookup l;
-    float size = 1.0 / envSun[k].toSun.w;
-    if (!receiverPlaneLookupIn(envSun[k].worldToLightClip, size, biased, tf[0], tf[1], L * lift, l)) return 0.0;
-    if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * envSun[k].toSun.w, vec2(1.0)))) return 1.0;
-    return filteredShadowPlaneIn(map, size, 1, l);
+    vec3 biased;
+    float lift;
+    if (!nearFieldReceiver(t, q, Ng, highest, L, envSun[k].shadow.x, envSun[k].shadow.y, biased, lift)) return 0.0;
+    return planarShadow(map, envSun[k].worldToLightClip, envSun[k].toSun.w, 1, biased, Ng, L, lift);
 }
 
 // Sun k's radiance at the sample (unit coverage; its map `map`), as relight_spot.frag shades a

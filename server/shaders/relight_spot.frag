@@ -93,20 +93,16 @@ float filteredShadowCube(vec3 dir, vec3 Ng, float h, float lift) {
 float shadowVisibility(ivec2 t, vec3 P, vec3 Ng, float highest, vec3 L, float dist) {
     // Below the sample's geometric plane or its near-field horizon: shadowed by geometry the map
     // cannot resolve (issue 16: most leaks were on the bunny's terminator and at grazing contacts).
-    if (nearFieldVisibility(t, Ng, highest, L) <= 0.0) return 0.0;
-    vec3 biased = P + Ng * shadowNormalOffset(dist);
-    float lift = nearFieldLift(shadowLift(dist), dot(Ng, L));
+    vec3 biased;
+    float lift;
+    if (!nearFieldReceiver(t, P, Ng, highest, L, shadowNormalOffset(dist), shadowLift(dist), biased, lift)) return 0.0;
     if (SHADE_KIND == KIND_POINT) {
         // Point light: the filter on the cube face, each texel compared with the receiver plane
         // (filteredShadowCube; receiver-plane depth bias as filteredShadowPlane).
         vec3 d = biased - uLight.lightPosition.xyz;
         return filteredShadowCube(d, Ng, dot(d, Ng), lift);
     }
-    mat2x3 tf = tangentFrame(Ng);
-    ShadowLookup l;
-    if (!receiverPlaneLookup(biased, tf[0], tf[1], L * lift, l)) return 0.0;
-    if (any(lessThan(l.st, vec2(0.0))) || any(greaterThan(l.st * uLight.lightShadow.x, vec2(1.0)))) return 1.0;
-    return filteredShadowPlane(shadowMap, l);
+    return planarShadow(shadowMap, uLight.worldToLightClip, uLight.lightShadow.x, SHADE_PCF_RADIUS, biased, Ng, L, lift);
 }
 
 // Barn doors and cookie of a spot light, for the direction `fromLight` (unit, light to point):

@@ -59,8 +59,8 @@ Status GlEngine::updateShadows(const Rig& rig, FrameStats& st) {
         LightCache& c = mLights[l.name];
         // An environment light has no shadow map of its own: its visibility is the shot's
         // (relight_env.frag). Its map's suns and lamps, if it has any, are directional lights
-        // with sharp shadow maps (c.interior[k], EnvironmentMap.h extractSuns), added to its
-        // contribution.
+        // with sharp shadow maps (c.interior[k], EnvironmentMap.h extractSuns), shaded in its
+        // own pass (LightShading).
         if (l.type == LightType::Environment) {
             if (c.hasShadow || !sameShadowInputs(c.params, l)) {
                 c.shadowMap = {};
