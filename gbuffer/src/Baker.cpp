@@ -543,6 +543,7 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
     if (env) {
         b.envTransfer.assign(b.sampleCount() * ENV_TRANSFER_COEFFICIENTS, 0.f);
         b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
+        b.envRings.assign(b.sampleCount() * ENV_RING_COMPONENTS, 0.f);
         b.envRays = o.envRays;
         b.envBands = o.envBands;
     }
@@ -590,8 +591,9 @@ Result<DeepBuffer> bake(const Scene& scene, const BakeOptions& o) {
             // point, and the sample stands for their average, as for every attribute above.
             for (int i = 0; i < o.envBands * o.envBands; ++i)
                 b.envTransfer[s * ENV_TRANSFER_COEFFICIENTS + size_t(i)] = g.env[i] * inv;
-            // The lobe's sums add over the points (a ratio and a direction: no mean needed).
+            // The lobe's and its rings' sums add over the points (ratios and directions: no mean needed).
             EnvTracer::encodeLobe(g.lobe, N, cam.towardsEye(P), &b.envLobe[s * ENV_LOBE_COMPONENTS]);
+            EnvTracer::encodeRings(g.lobe, N, cam.towardsEye(P), &b.envRings[s * ENV_RING_COMPONENTS]);
             envStats.samples += b.A[s] > 0.f;
         }
         if (horizon) {

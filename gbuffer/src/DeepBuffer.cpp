@@ -33,6 +33,7 @@ void DeepBuffer::allocateSamples(int w, int h, const std::vector<uint32_t>& coun
     // this buffer's (copies made with `DeepBuffer d = f; d.allocateSamples(...)`).
     envTransfer.clear();
     envLobe.clear();
+    envRings.clear();
     envRays = 0;
     horizon.clear();
     horizonRadius = 0.f;

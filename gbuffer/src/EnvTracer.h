@@ -43,16 +43,23 @@ public:
     /// camera; `roughness` as the G-buffer's), the same pattern's directions k = first, first +
     /// stride, ... mapped through lightmath::ggxHalfVector and shifted by another hash of `seed`:
     /// out[0] = sum of the weights w (lightmath::ggxLobeWeight), out[1] = that of the visible ones
-    /// (V as estimate()'s), out[2..4] = the visible ones' sum of w l. Sums of several calls (a
-    /// merged sample's points) add; encodeLobe turns them into DeepBuffer::envLobe's values.
+    /// (V as estimate()'s), out[2..4] = the visible ones' sum of w l; then per ring r
+    /// (lightmath::lobeRing of the shifted polar coordinate) at 5 + 4r its visible ones' sum of w
+    /// and of w l. Sums of several calls (a merged sample's points) add; encodeLobe and
+    /// encodeRings turn them into DeepBuffer::envLobe's and envRings' values.
     /// Returns the rays traced.
-    static constexpr int LOBE_SUMS = 5;
+    static constexpr int LOBE_SUMS = 5 + 4 * ENV_LOBE_RINGS;
     size_t lobe(const glm::vec3& P, const glm::vec3& N, const glm::vec3& Ng, const glm::vec3& view, float roughness,
                 uint64_t seed, size_t first, size_t stride, double out[LOBE_SUMS]) const;
     /// DeepBuffer::envLobe's three values from lobe()'s sums: the visible mean direction,
     /// octahedral-encoded (the mirror direction of V about N where none is visible), and the
     /// visible share (1 where the lobe has no weight above the surface).
     static void encodeLobe(const double sums[LOBE_SUMS], const glm::vec3& N, const glm::vec3& V, float out[ENV_LOBE_COMPONENTS]);
+    /// DeepBuffer::envRings' values from lobe()'s sums: per ring its visible mean direction
+    /// (octahedral; the mirror direction where none is visible), its visible weight over the whole
+    /// lobe's (0 where the lobe has no weight above the surface) and the prefiltered roughness as
+    /// wide as it (lightmath::prefilterRoughnessForResultant).
+    static void encodeRings(const double sums[LOBE_SUMS], const glm::vec3& N, const glm::vec3& V, float out[ENV_RING_COMPONENTS]);
 
     int patternRays() const { return int(mPattern.size()); }
     double bvhMs() const { return mBvhMs; } ///< building the hierarchy (0 when given), milliseconds

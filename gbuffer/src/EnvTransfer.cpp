@@ -165,7 +165,9 @@ size_t EnvTracer::lobe(const glm::vec3& P, const glm::vec3& normal, const glm::v
         ++traced;
         if (mBvh->occluded(from, from + L * mLength, 1e-6f)) continue;
         out[1] += w;
-        for (int c = 0; c < 3; ++c) out[2 + c] += w * double(L[c]);
+        double* ring = &out[5 + 4 * lightmath::lobeRing(v)];
+        ring[0] += w;
+        for (int c = 0; c < 3; ++c) out[2 + c] += w * double(L[c]), ring[1 + c] += w * double(L[c]);
     }
     return traced;
 }
@@ -180,6 +182,23 @@ void EnvTracer::encodeLobe(const double sums[LOBE_SUMS], const glm::vec3& N, con
     out[0] = float(std::clamp(e.x, -1.0, 1.0));
     out[1] = float(std::clamp(e.y, -1.0, 1.0));
     out[2] = sums[0] > 0.0 ? float(std::clamp(sums[1] / sums[0], 0.0, 1.0)) : 1.f;
+}
+
+void EnvTracer::encodeRings(const double sums[LOBE_SUMS], const glm::vec3& N, const glm::vec3& V, float out[ENV_RING_COMPONENTS]) {
+    static_assert(ENV_LOBE_RINGS == lightmath::ENV_LOBE_RINGS);
+    glm::dvec3 mirror = glm::dvec3(glm::reflect(-V, N));
+    if (!(glm::length(mirror) > 0.0)) mirror = glm::dvec3(N);
+    for (int r = 0; r < ENV_LOBE_RINGS; ++r) {
+        const double* ring = &sums[5 + 4 * r];
+        const glm::dvec3 moment(ring[1], ring[2], ring[3]);
+        const double length = glm::length(moment);
+        const glm::dvec2 e = lightmath::octEncode(length > 0.0 ? moment / length : glm::normalize(mirror));
+        float* o = &out[4 * r];
+        o[0] = float(std::clamp(e.x, -1.0, 1.0));
+        o[1] = float(std::clamp(e.y, -1.0, 1.0));
+        o[2] = sums[0] > 0.0 ? float(std::clamp(ring[0] / sums[0], 0.0, 1.0)) : 0.f;
+        o[3] = ring[0] > 0.0 ? float(lightmath::prefilterRoughnessForResultant(length / ring[0])) : 0.f;
+    }
 }
 
 unsigned parallelChunks(size_t count, unsigned threads, const std::function<void(size_t, size_t)>& fn,
@@ -221,7 +240,7 @@ Result<EnvTransferStats> bakeEnvTransfer(const Scene& scene, DeepBuffer& b, int 
     std::vector<size_t> covered;
     for (size_t s = 0; s < n; ++s)
         if (b.A[s] > 0.f) covered.push_back(s);
-    std::vector<float> transfer(n * K, 0.f), lobe(n * ENV_LOBE_COMPONENTS, 0.f);
+    std::vector<float> transfer(n * K, 0.f), lobe(n * ENV_LOBE_COMPONENTS, 0.f), rings(n * ENV_RING_COMPONENTS, 0.f);
     const bool hasRoughness = b.brdf.size() == n * 4;
     std::atomic<size_t> traced{0};
     EnvTransferStats stats;
@@ -238,12 +257,14 @@ Result<EnvTransferStats> bakeEnvTransfer(const Scene& scene, DeepBuffer& b, int 
                 const glm::vec3 V = b.camera.towardsEye(b.position(s));
                 mine += tracer.lobe(b.position(s), b.normal(s), Ng, V, hasRoughness ? b.brdf[s * 4 + 1] : 1.f, uint64_t(s), 0, 1, sums);
                 EnvTracer::encodeLobe(sums, b.normal(s), V, &lobe[s * ENV_LOBE_COMPONENTS]);
+                EnvTracer::encodeRings(sums, b.normal(s), V, &rings[s * ENV_RING_COMPONENTS]);
             }
             traced.fetch_add(mine);
         },
         progress);
     b.envTransfer = std::move(transfer);
     b.envLobe = std::move(lobe);
+    b.envRings = std::move(rings);
     b.envRays = rays;
     b.envBands = ENV_TRANSFER_BANDS;
     stats.samples = covered.size();

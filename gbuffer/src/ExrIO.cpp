@@ -36,7 +36,7 @@ namespace dfb {
 namespace {
 
 // A file channel and where its samples live in a DeepBuffer layer.
-enum class OptionalLayer { None, EnvTransfer, EnvTransferHigh, EnvLobe, Horizon };
+enum class OptionalLayer { None, EnvTransfer, EnvTransferHigh, EnvLobe, EnvRings, Horizon };
 
 struct ChannelSpec {
     const char* name;
@@ -61,6 +61,8 @@ struct LayerInfo {
 LayerInfo layerInfo(OptionalLayer l) {
     if (l == OptionalLayer::Horizon)
         return {"near-field horizon", "horizon.h0 .. horizon.h15", "horizon.h0", [](const DeepBuffer& b) { return b.hasHorizon(); }};
+    if (l == OptionalLayer::EnvRings)
+        return {"specular lobe's rings", "env.ring0.u .. env.ring2.roughness", "env.ring0.u", [](const DeepBuffer& b) { return b.hasEnvRings(); }};
     if (l == OptionalLayer::EnvLobe)
         return {"specular lobe", "env.lobe.u, env.lobe.v, env.lobe.vis", "env.lobe.u", [](const DeepBuffer& b) { return b.hasEnvLobe(); }};
     // A five-band transfer is the three-band one's channels and bands 3-4's (format version 5).
@@ -103,7 +105,33 @@ std::vector<ChannelSpec> withHorizon(std::vector<ChannelSpec> rows) {
     return rows;
 }
 
-// The channel table of format v6 (docs/gbuffer-format.md). Positions and depth are float for
+// The table's rows with the lobe's rings added (format version 7): env.ringR.u, .v, .share,
+// .roughness per ring R. Half: as the lobe's, octahedral coordinates in [-1, 1], the share and
+// the roughness in [0, 1].
+std::vector<ChannelSpec> withEnvRings(std::vector<ChannelSpec> rows) {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> n;
+        for (int r = 0; r < ENV_LOBE_RINGS; ++r)
+            for (const char* c : {"u", "v", "share", "roughness"}) n.push_back("env.ring" + std::to_string(r) + "." + c);
+        return n;
+    }(); // outlives the table, which holds pointers to its names
+    for (int i = 0; i < ENV_RING_COMPONENTS; ++i)
+        rows.push_back({names[size_t(i)].c_str(), Imf::HALF, i, ENV_RING_COMPONENTS, false,
+                        [](DeepBuffer& b) { return reinterpret_cast<char*>(b.envRings.data()); }, OptionalLayer::EnvRings});
+    return rows;
+}
+
+// The names of the rings' channels, in DeepBuffer::envRings' order.
+const std::string& ringChannelName(int i) {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> n;
+        for (const ChannelSpec& c : withEnvRings({})) n.push_back(c.name);
+        return n;
+    }();
+    return names[size_t(i)];
+}
+
+// The channel table of format v7 (docs/gbuffer-format.md). Positions and depth are float for
 // precision over large scenes; directions, colours, lobe parameters and the environment transfer
 // are half; ids are uint.
 const std::vector<ChannelSpec>& channelSpecs() {
@@ -114,7 +142,7 @@ const std::vector<ChannelSpec>& channelSpecs() {
     auto u = [](std::vector<uint32_t> DeepBuffer::*m) {
         return [m](DeepBuffer& b) { return reinterpret_cast<char*>((b.*m).data()); };
     };
-    static const std::vector<ChannelSpec> specs = withHorizon(withEnvTransfer({
+    static const std::vector<ChannelSpec> specs = withEnvRings(withHorizon(withEnvTransfer({
         {"P.X", PT::FLOAT, 0, 3, true, f(&DeepBuffer::P)},
         {"P.Y", PT::FLOAT, 1, 3, true, f(&DeepBuffer::P)},
         {"P.Z", PT::FLOAT, 2, 3, true, f(&DeepBuffer::P)},
@@ -153,7 +181,7 @@ const std::vector<ChannelSpec>& channelSpecs() {
         {"env.lobe.u", PT::HALF, 0, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
         {"env.lobe.v", PT::HALF, 1, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
         {"env.lobe.vis", PT::HALF, 2, ENV_LOBE_COMPONENTS, false, f(&DeepBuffer::envLobe), OptionalLayer::EnvLobe},
-    }));
+    })));
     static_assert(ENV_LOBE_COMPONENTS == 3, "the table lists env.lobe.u, .v, .vis");
     return specs;
 }
@@ -532,6 +560,7 @@ Result<Imath::Box2i> readPrelude(File& file, const std::string& path, DeepBuffer
 // and ray count, and the specular lobe's layer, when the file has their channels.
 void allocateOptionalLayers(const Imf::Header& h, const std::set<std::string>& missing, DeepBuffer& b) {
     if (!missing.count(layerInfo(OptionalLayer::EnvLobe).firstChannel)) b.envLobe.assign(b.sampleCount() * ENV_LOBE_COMPONENTS, 0.f);
+    if (!missing.count(layerInfo(OptionalLayer::EnvRings).firstChannel)) b.envRings.assign(b.sampleCount() * ENV_RING_COMPONENTS, 0.f);
     if (!missing.count(layerInfo(OptionalLayer::Horizon).firstChannel)) {
         b.horizon.assign(b.sampleCount() * HORIZON_AZIMUTHS, 0.f);
         if (const auto* a = h.findTypedAttribute<Imf::FloatAttribute>("dfb.horizonRadius")) b.horizonRadius = a->value();
@@ -641,6 +670,7 @@ Status writeDeepBuffer(const DeepBuffer& b, const std::string& path) {
         b.P.size() != b.sampleCount() * 3 ||
         (b.hasEnvTransfer() && (b.envTransfer.size() != b.sampleCount() * ENV_TRANSFER_COEFFICIENTS || !validEnvBands(b.envBands))) ||
         (b.hasEnvLobe() && b.envLobe.size() != b.sampleCount() * ENV_LOBE_COMPONENTS) ||
+        (b.hasEnvRings() && b.envRings.size() != b.sampleCount() * ENV_RING_COMPONENTS) ||
         (b.hasHorizon() && b.horizon.size() != b.sampleCount() * HORIZON_AZIMUTHS)) {
         return makeError(ErrorCode::InvalidValue, "refusing to write " + path + ": deep buffer is empty or inconsistent");
     }
@@ -783,6 +813,19 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
                         return makeError(ErrorCode::InvalidValue, path + ": channel '" + names[i] + "' at pixel (" + std::to_string(x) + ", " +
                                                                       std::to_string(y) + ") is " + std::to_string(v) + ", outside [" +
                                                                       (i == 2 ? "0" : "-1") + ", 1]");
+                    }
+                }
+            }
+            // The rings: octahedral coordinates within [-1, 1], shares and roughnesses within [0, 1].
+            for (uint32_t s = b.firstSample(x, y); s < b.firstSample(x, y) + b.pixelSamples(x, y) && b.hasEnvRings(); ++s) {
+                for (int i = 0; i < ENV_RING_COMPONENTS; ++i) {
+                    const float v = b.envRings[size_t(s) * ENV_RING_COMPONENTS + size_t(i)];
+                    const bool direction = i % 4 < 2;
+                    if (!std::isfinite(v) || v < (direction ? -1.f : 0.f) || v > 1.f) {
+                        return makeError(ErrorCode::InvalidValue, path + ": channel '" + ringChannelName(i) + "' at pixel (" +
+                                                                      std::to_string(x) + ", " + std::to_string(y) + ") is " +
+                                                                      std::to_string(v) + ", outside [" + (direction ? "-1" : "0") +
+                                                                      ", 1]");
                     }
                 }
             }

@@ -10,8 +10,9 @@
 // - specular = the prefiltered map at the mirror direction and the lobe's roughness times
 //   F0 A + F90 B from the DFG table (the split sum: Karis 2013), with KHR_materials_specular's
 //   F0 and F90 as common_brdf.glsl, and for shadowed lights the shot's baked specular lobe
-//   (ENV_LOBE: read towards its visible part, scaled by its visible share), or without one a
-//   specular occlusion from the transfer (directionalVisibility);
+//   (ENV_LOBE: read towards its visible part, scaled by its visible share; ENV_RINGS: each of its
+//   rings' visible parts read on its own, towards its mean direction and as wide as it), or
+//   without one a specular occlusion from the transfer (directionalVisibility);
 // - clear coat: its own GGX lobe on top, the base attenuated by 1 - coat Fc(N.v) as
 //   evaluateLayeredBrdfCos; sheen scales the base as there (the sheen lobe's own reflection of
 //   the environment is left out);
@@ -38,7 +39,8 @@ layout(binding = TEX_ENV_IRRADIANCE) uniform sampler2D envIrradiance;   // E(N) 
 #ifdef ENV_TRANSFER
 // ENV_BANDS: the shot's transfer's bands, 3 or 5 (DeepBuffer::envBands). Its ENV_COEFFS values,
 // then the lobe's u, v, share (ENV_LOBE), four per layer over ENV_LAYERS layers (both defined by
-// LightShading from GBufferTextures: envBands, envTransferLayers).
+// LightShading from GBufferTextures: envBands, envTransferLayers); then with ENV_RINGS the lobe's
+// rings, ring r's u, v, share, roughness at layer ENV_LAYERS + r.
 #define ENV_COEFFS (ENV_BANDS * ENV_BANDS)
 layout(binding = TEX_GBUFFER_ENV) uniform sampler2DArray gEnv;
 #else
@@ -129,6 +131,24 @@ vec3 specularLobe(vec3 d, float NdotV, float roughness, vec3 f0, float f90) {
     vec2 ab = texture(envDfg, vec2(NdotV, roughness)).rg;
     return prefiltered(d, roughness) * (f0 * ab.x + vec3(f90 * ab.y));
 }
+
+#ifdef ENV_RINGS
+// The baked lobe's rings (DeepBuffer::envRings): the lobe's GGX samples split by their half
+// vector's polar coordinate, each ring's visible part read from the prefiltered map towards its
+// mean direction at the roughness whose kernel is as wide as it, weighted by its share of the
+// lobe, times F0 A + F90 B. One read of the whole lobe cannot hold a grazing lobe's peak near the
+// mirror direction and its tail towards the horizon at once (docs/lighting.md, "Environment
+// light"; the tabletop's specular error 11.4 / 16.6 % -> the figures there).
+vec3 ringsSpecular(ivec2 t, float NdotV, float roughness, vec3 f0, float f90) {
+    vec3 sum = vec3(0.0);
+    for (int r = 0; r < ENV_LOBE_RINGS; ++r) {
+        vec4 ring = texelFetch(gEnv, ivec3(t, ENV_LAYERS + r), 0);
+        sum += prefiltered(octDecode(ring.xy), ring.w) * ring.z;
+    }
+    vec2 ab = texture(envDfg, vec2(NdotV, roughness)).rg;
+    return sum * (f0 * ab.x + vec3(f90 * ab.y));
+}
+#endif
 
 // Sun k's visibility at receiver point q of the sample at texel t (geometric normal Ng, highest
 // horizon sine `highest`), towards L: relight_spot.frag's shadowVisibility for a directional light
@@ -254,7 +274,13 @@ vec3 shadeSample(ivec2 t) {
 #else
     occlusion = ambientSpecularOcclusion(NdotV, visibility, roughness);
 #endif
-    vec3 base = diffuse + specularLobe(lobeDirection, NdotV, roughness, f0, f90) * occlusion;
+#ifdef ENV_RINGS
+    vec3 specularTerm = SHADE_SHADOWED ? ringsSpecular(t, NdotV, roughness, f0, f90)
+                                       : specularLobe(lobeDirection, NdotV, roughness, f0, f90) * occlusion;
+#else
+    vec3 specularTerm = specularLobe(lobeDirection, NdotV, roughness, f0, f90) * occlusion;
+#endif
+    vec3 base = diffuse + specularTerm;
     vec4 sheen = texelFetch(gSheen, t, 0);
     if (SHADE_SHEEN && any(greaterThan(sheen.rgb, vec3(0.0)))) base *= 1.0 - max(max(sheen.r, sheen.g), sheen.b);
     vec2 coat = texelFetch(gCoat, t, 0).xy;

@@ -1,10 +1,9 @@
 // The environment light on the bundled tabletop (its bowl and vases are concave) against the
 // ray-traced reference, as dfb-env-bench measures it: the specular term of a metal version of the
-// shot under the sunrise map. The shot's baked specular lobe (DeepBuffer::envLobe: the visible
-// share of each sample's GGX lobe and its visible part's mean direction, relight_env.frag
-// ENV_LOBE) gives 11.8 % mean per-pixel error (aggregate 11.9 %); the order-3 occlusion towards
-// the lobe's dominant direction (directionalVisibility) gave 27 % (10.4 %), the ambient-
-// visibility formula 67 % (12 %: the sky reflected inside the bowl).
+// shot under the sunrise and interior maps, and the diffuse term. Specular history under sunrise
+// (mean per-pixel error): the ambient-visibility formula 67 %, the order-3 occlusion towards the
+// lobe's dominant direction 27 %, the baked lobe read once (DeepBuffer::envLobe, ENV_LOBE) 11.8 %,
+// its rings (DeepBuffer::envRings, ENV_RINGS) the figures below.
 
 #include "bench/BenchShot.h"
 #include "bench/EnvFigures.h"
@@ -46,30 +45,43 @@ Light shadowedDome(const char* map) {
     return env;
 }
 
-TEST(EnvironmentTabletop, SpecularOcclusionFollowsTheBakedLobe) {
+// Issue 19 point 4's specular target (mean <= 10 %) under both bundled maps, through the lobe's
+// rings (format version 7, relight_env.frag ENV_RINGS), and the same shot without them (the whole
+// lobe read once, as a version 4-6 shot is lit) measurably worse.
+TEST(EnvironmentTabletop, SpecularMeetsTheTargetThroughTheLobesRings) {
     Tabletop t;
     ASSERT_NO_FATAL_FAILURE(openTabletop(t));
     bench::BenchShot& opened = t.opened;
     ASSERT_TRUE(opened.shot.hasEnvLobe()) << "dfb-bake bakes the specular lobe with the transfer";
-    const std::string& maps = t.maps;
-    const Light env = shadowedDome("sunrise.exr");
+    ASSERT_TRUE(opened.shot.hasEnvRings()) << "and its rings";
     const DeepBuffer metal = bench::variant(opened.shot, "specular");
-    auto engine = Engine::create(metal, opened.casters);
-    ASSERT_TRUE(engine.ok()) << engine.error().toString();
-    engine.value()->setAssetDirectory(maps);
-    Rig rig;
-    rig.lights = {env};
-    auto fast = engine.value()->renderLightLinear(rig, env.name);
-    ASSERT_TRUE(fast.ok()) << fast.error().toString();
-    auto ref = renderEnvironmentReference(metal, &t.bvh, t.radius, env, maps, 256);
-    ASSERT_TRUE(ref.ok()) << ref.error().toString();
-    const bench::Figures f = bench::compare(fast.value(), ref.value(), metal);
-    std::printf("tabletop, metal, sunrise: specular mean %.2f%% p95 %.2f%% aggregate %.2f%% over %zu pixels\n", 100 * f.mean, 100 * f.p95,
-                100 * f.aggregate, f.pixels);
-    EXPECT_GT(f.pixels, 20000u);
-    EXPECT_LT(f.mean, 0.16); // 0.27 from the order-3 transfer, 0.67 with the ambient visibility
-    EXPECT_LT(f.aggregate, 0.13);
-    EXPECT_LT(f.p95, 0.35); // 1.00 from the order-3 transfer: 5 % of the pixels were black
+    DeepBuffer oneRead = metal;
+    oneRead.envRings.clear();
+    for (const char* map : {"sunrise.exr", "interior.exr"}) {
+        const Light env = shadowedDome(map);
+        Rig rig;
+        rig.lights = {env};
+        // 1,024 rays, as dfb-env-bench's figures: at 256 the reference's own noise adds about a
+        // point (interior 9.5 -> 10.6 %).
+        auto ref = renderEnvironmentReference(metal, &t.bvh, t.radius, env, t.maps, 1024);
+        ASSERT_TRUE(ref.ok()) << ref.error().toString();
+        bench::Figures f[2];
+        for (int k = 0; k < 2; ++k) {
+            auto engine = Engine::create(k == 0 ? metal : oneRead, opened.casters);
+            ASSERT_TRUE(engine.ok()) << engine.error().toString();
+            engine.value()->setAssetDirectory(t.maps);
+            auto fast = engine.value()->renderLightLinear(rig, env.name);
+            ASSERT_TRUE(fast.ok()) << fast.error().toString();
+            f[k] = bench::compare(fast.value(), ref.value(), metal);
+            std::printf("tabletop, metal, %s, %s: specular mean %.2f%% p95 %.2f%% aggregate %.2f%% over %zu pixels\n", map,
+                        k == 0 ? "rings" : "one read", 100 * f[k].mean, 100 * f[k].p95, 100 * f[k].aggregate, f[k].pixels);
+            EXPECT_GT(f[k].pixels, 20000u);
+        }
+        SCOPED_TRACE(map);
+        EXPECT_LT(f[0].mean, 0.10); // the issue's target
+        EXPECT_LT(f[0].p95, 0.30);
+        EXPECT_GT(f[1].mean, f[0].mean + 0.015) << "the rings should read the lobe markedly better than one read";
+    }
 }
 
 // The diffuse term under the interior map, whose light comes from a lamp, a window and a second

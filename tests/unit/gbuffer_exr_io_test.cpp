@@ -105,6 +105,17 @@ void addRandomEnvLobe(DeepBuffer& b, uint32_t seed) {
         }
 }
 
+// Random rings of the specular lobe (octahedral coordinates in [-1, 1], shares and roughnesses in
+// [0, 1]) on the covered samples, zeros elsewhere, as the bake stores them.
+void addRandomEnvRings(DeepBuffer& b, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.f, 1.f), unit(0.f, 1.f);
+    b.envRings.assign(b.sampleCount() * ENV_RING_COMPONENTS, 0.f);
+    for (size_t s = 0; s < b.sampleCount(); ++s)
+        if (b.A[s] > 0.f)
+            for (int i = 0; i < ENV_RING_COMPONENTS; ++i) b.envRings[s * ENV_RING_COMPONENTS + size_t(i)] = i % 4 < 2 ? u(rng) : unit(rng);
+}
+
 // A random near-field horizon (sines in [0, 1]) on the covered samples, zeros elsewhere, as the
 // bake stores it.
 void addRandomHorizon(DeepBuffer& b, uint32_t seed) {
@@ -656,6 +667,92 @@ TEST(ExrIO, HorizonOutOfRangeOrPartialIsRefusedNamingTheChannel) {
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::MissingData);
     EXPECT_NE(r.error().message.find("'horizon.h9' is missing"), std::string::npos) << r.error().message;
+    std::filesystem::remove(path);
+}
+
+TEST(ExrIO, EnvRingsRoundTripFlatAndDeepAndAVersion6FileLoadsWithoutThem) {
+    for (bool deep : {false, true}) {
+        SCOPED_TRACE(deep ? "deep" : "flat");
+        DeepBuffer b = randomBuffer(16, 9, 41);
+        if (deep) { // 0..3 samples per pixel
+            std::mt19937 rng(42);
+            std::vector<uint32_t> counts(size_t(12 * 7));
+            for (auto& c : counts) c = rng() % 4;
+            b.allocateSamples(12, 7, counts);
+            b.samplesPerPixel = 4;
+            for (size_t s = 0; s < b.sampleCount(); ++s) {
+                b.A[s] = 0.2f;
+                b.N[s * 3 + 1] = 1.f;
+            }
+        }
+        addRandomEnvTransfer(b, 43);
+        addRandomEnvLobe(b, 44);
+        addRandomEnvRings(b, 45);
+        b.envRings[0] = -1.f; // the range's ends survive half precision
+        b.envRings[3] = 1.f;
+        const std::string path = tempPath("rings.exr");
+        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+        {
+            Imf::MultiPartInputFile f(path.c_str());
+            for (int r = 0; r < ENV_LOBE_RINGS; ++r)
+                for (const char* c : {"u", "v", "share", "roughness"}) {
+                    const std::string name = "env.ring" + std::to_string(r) + "." + c;
+                    const Imf::Channel* ch = f.header(0).channels().findChannel(name);
+                    ASSERT_NE(ch, nullptr) << name;
+                    EXPECT_EQ(ch->type, Imf::HALF) << name;
+                }
+            EXPECT_EQ(f.header(0).channels().findChannel("env.ring3.u"), nullptr);
+            EXPECT_EQ(f.header(0).findTypedAttribute<Imf::IntAttribute>("dfb.formatVersion")->value(), 7);
+        }
+        auto r = readDeepBuffer(path);
+        ASSERT_TRUE(r.ok()) << r.error().toString();
+        ASSERT_TRUE(r->hasEnvRings());
+        ASSERT_EQ(r->envRings.size(), b.envRings.size());
+        for (size_t k = 0; k < b.envRings.size(); ++k) ASSERT_NEAR(r->envRings[k], b.envRings[k], 4.9e-4f) << "element " << k;
+        // Without the rings (a version 6 shot): no ring channels, and it reads back without them.
+        b.envRings.clear();
+        ASSERT_TRUE(writeDeepBuffer(b, path).ok());
+        {
+            Imf::MultiPartInputFile f(path.c_str());
+            EXPECT_EQ(f.header(0).channels().findChannel("env.ring0.u"), nullptr);
+        }
+        patchFormatVersion(path, 6);
+        r = readDeepBuffer(path);
+        ASSERT_TRUE(r.ok()) << r.error().toString();
+        EXPECT_FALSE(r->hasEnvRings());
+        EXPECT_TRUE(r->hasEnvLobe());
+        std::filesystem::remove(path);
+    }
+}
+
+TEST(ExrIO, EnvRingsOutOfRangeOrPartialAreRefusedNamingTheChannel) {
+    struct Case {
+        int component;
+        float value;
+        const char* name;
+    };
+    for (const Case& c : {Case{0, std::nanf(""), "env.ring0.u"}, Case{5, -1.5f, "env.ring1.v"}, Case{6, -0.25f, "env.ring1.share"},
+                          Case{11, 1.5f, "env.ring2.roughness"}}) {
+        DeepBuffer b = randomBuffer(16, 16, 46);
+        addRandomEnvTransfer(b, 47);
+        addRandomEnvLobe(b, 48);
+        addRandomEnvRings(b, 49);
+        const size_t i = 37;
+        b.envRings[i * ENV_RING_COMPONENTS + size_t(c.component)] = c.value;
+        SCOPED_TRACE(c.name);
+        expectRefusedNaming(b, c.name, i);
+    }
+    // Some but not all of the rings' channels: refused naming the first absent one.
+    const std::string path = tempPath("rings_partial.exr");
+    std::vector<std::string> partial;
+    for (int r = 0; r < ENV_LOBE_RINGS; ++r)
+        for (const char* c : {"u", "v", "share", "roughness"})
+            if (!(r == 1 && std::string(c) == "share")) partial.push_back("env.ring" + std::to_string(r) + "." + c);
+    writeFileWithChannels(path, partial);
+    auto r = readDeepBuffer(path);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::MissingData);
+    EXPECT_NE(r.error().message.find("'env.ring1.share' is missing"), std::string::npos) << r.error().message;
     std::filesystem::remove(path);
 }
 

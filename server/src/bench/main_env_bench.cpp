@@ -6,6 +6,7 @@
 //
 //   dfb-env-bench SHOT.exr [--scene S.glb] [--maps DIR] [--map NAME ...] [--rays N] [--edits N]
 //                 [--no-errors] [--unshadowed] [--transfer-bands] [--specular-bins] [--specular-bands]
+//                 [--specular-lobes [--lobe-rays N]]
 //
 // Errors, per map (default: scenes/env's sunrise, an outdoor map with a sun, and interior): the
 // shot as Lambert (specular 0, metallic 0: the diffuse term), as a metal of its own roughness
@@ -20,7 +21,9 @@
 // quarter of N.v and of roughness, unshadowed and shadowed: where the split sum and the specular
 // occlusion miss. --specular-bands: the specular row as a baked specular transfer of 3, 5, 7 and 9
 // bands would give it (SpecularBands.h, on the CPU), alone and for the rough samples only beside
-// the engine's split sum.
+// the engine's split sum. --specular-lobes: the specular row with each sample's visible lobe read
+// from the prefiltered map once per group of its GGX rays (clusters, bins of the sampling domain,
+// the polar rings of format version 7: SpecularLobes.h, on the CPU, N rays per sample).
 
 #include <dfb/core/Stats.h>
 #include <dfb/core/Version.h>
@@ -30,6 +33,7 @@
 #include "BenchShot.h"
 #include "EnvFigures.h"
 #include "SpecularBands.h"
+#include "SpecularLobes.h"
 #include "TransferBands.h"
 
 #include <dfb/server/ImageCodec.h>
@@ -70,12 +74,13 @@ int main(int argc, char** argv) {
     std::vector<std::string> maps{"sunrise.exr", "interior.exr"};
     // 1,024 reference rays: at 256 the reference's own noise was 1-2 points of FlightHelmet's
     // diffuse mean (6.8 % against 4.2 % at 1,024 under interior.exr).
-    int rays = 1024, edits = 10;
+    int rays = 1024, edits = 10, lobeRays = 256;
     bool skipErrors = false;
     app.add_option("shot", shotPath, "deep framebuffer EXR")->required();
     app.add_option("--scene", scenePath, "the scene the reference traces (default: the shot's source scene)");
     app.add_option("--maps", mapDir, "the folder of the maps");
     app.add_option("--map", maps, "maps in that folder (repeat)");
+    app.add_option("--lobe-rays", lobeRays, "--specular-lobes' GGX rays per sample (the bake's)")->check(CLI::Range(1, 65536));
     app.add_option("--rays", rays, "the reference's rays per sample")->check(CLI::Range(3, 65536))->capture_default_str();
     app.add_option("--edits", edits, "timed edits per row")->check(CLI::Range(1, 1000));
     app.add_flag("--no-errors", skipErrors, "only the edit -> frame times");
@@ -92,6 +97,9 @@ int main(int argc, char** argv) {
     constexpr float SPECULAR_TRANSFER_MIN_ROUGHNESS = 0.4f;
     app.add_flag("--specular-bands", specularBands,
                  "the specular row with a baked specular transfer of 3, 5, 7 and 9 bands (on the CPU: SpecularBands.h)");
+    bool specularLobes = false;
+    app.add_flag("--specular-lobes", specularLobes,
+                 "the specular row with each sample's visible lobe as 1-4 prefiltered reads: clusters, bins, rings (on the CPU: SpecularLobes.h)");
     if (const int rc = dfb::parseCommandLine(app, argc, argv, "dfb-env-bench"); rc >= 0) return rc;
     keepFreedMemoryForFrames();
 
@@ -264,6 +272,41 @@ int main(int argc, char** argv) {
                 row(name + ", RGB", images[i]);
                 row(name + ", scalar x mean Fresnel", images[bands.size() + 1 + i]);
                 row(name + ", scalar, rough only", hybrid(images[bands.size() + 1 + i]));
+            }
+        }
+    }
+
+    if (specularLobes) {
+        const std::vector<int> clusters{1, 2, 3, 4, -122, -133, -144, -423};
+        const DeepBuffer metal = variant(g, "specular");
+        std::printf(" the specular row with the visible lobe as K prefiltered reads (on the CPU, %d GGX rays per sample),\n"
+                    " against the reference: mean / p95 / aggregate\n", lobeRays);
+        for (const std::string& map : maps) {
+            auto img = readHdrImage((std::filesystem::path(mapDir) / map).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+            if (!img) {
+                std::cerr << "dfb-env-bench: " << img.error().toString() << "\n";
+                return 2;
+            }
+            Light l = env;
+            l.envMap = map;
+            auto ref = renderEnvironmentReference(metal, l.shadow ? &bvh : nullptr, radius, l, mapDir, rays);
+            if (!ref) {
+                std::cerr << "dfb-env-bench: " << ref.error().toString() << "\n";
+                return 1;
+            }
+            const auto images = bench::specularLobeImages(metal, bvh, radius, std::move(img.value()), lobeRays, clusters, l.shadow);
+            auto row = [&](const std::string& what, const ImageF& image) {
+                const Figures f = compare(image, ref.value(), metal);
+                std::printf("  %-14s %-34s %s  mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%\n", map.c_str(), what.c_str(),
+                            l.shadow ? "shadowed" : "open", 100 * f.mean, 100 * f.p95, 100 * f.aggregate);
+            };
+            row("one read, the sample's roughness", images[clusters.size()]);
+            for (size_t i = 0; i < clusters.size(); ++i) {
+                const int c = clusters[i], a = -c / 100, p = (-c / 10) % 10, k = -c % 10;
+                row(c > 0 ? std::to_string(c) + " k-means clusters of the rays"
+                          : a == 1 && p == k ? std::to_string(p) + " polar rings"
+                                             : std::to_string(a) + " x " + std::to_string(p) + " bins into " + std::to_string(k),
+                    images[i]);
             }
         }
     }

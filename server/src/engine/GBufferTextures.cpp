@@ -75,24 +75,30 @@ Status GBufferTextures::upload(const DeepBuffer& g) {
     for (size_t i = 0; i < g.sampleCount() && !hasCoat; ++i) hasCoat = g.coat[i * 2] > 0.f;
     hasEnvTransfer = g.hasEnvTransfer();
     hasEnvLobe = hasEnvTransfer && g.hasEnvLobe();
+    hasEnvRings = hasEnvLobe && g.hasEnvRings();
     if (hasEnvTransfer) {
         // The environment transfer T_0..T_{n-1} (n = envBands^2) and after it the specular lobe's
         // octahedral direction and visible share (ENV_LOBE), value j at layer j / 4, component
         // j % 4 of one array sample texture: 3 layers for three bands, 7 for five
-        // (relight_env.frag's ENV_LAYERS).
+        // (relight_env.frag's ENV_LAYERS); then the lobe's rings, ring r at layer ENV_LAYERS + r
+        // (u, v, share, roughness: ENV_RINGS).
         const size_t n = g.sampleCount(), texels = size_t(sampleRow) * size_t(rows);
         envBands = g.envBands;
         const int coefficients = envBands * envBands;
         envLayers = envTransferLayers(envBands);
-        std::vector<float> data(texels * 4 * size_t(envLayers), 0.f);
+        const int layers = envLayers + (hasEnvRings ? int(ENV_LOBE_RINGS) : 0);
+        std::vector<float> data(texels * 4 * size_t(layers), 0.f);
         auto put = [&](size_t s, int j, float v) { data[(size_t(j / 4) * texels + s) * 4 + size_t(j % 4)] = v; };
         for (size_t i = 0; i < n; ++i) {
             for (int c = 0; c < coefficients; ++c) put(i, c, g.envTransfer[i * ENV_TRANSFER_COEFFICIENTS + size_t(c)]);
             for (int c = 0; c < ENV_LOBE_COMPONENTS && hasEnvLobe; ++c)
                 put(i, coefficients + c, g.envLobe[i * ENV_LOBE_COMPONENTS + size_t(c)]);
+            for (int c = 0; c < ENV_RING_COMPONENTS && hasEnvRings; ++c)
+                put(i, 4 * envLayers + c, g.envRings[i * ENV_RING_COMPONENTS + size_t(c)]);
         }
-        envTransfer = gl::makeTexture2DArray(GL_RGBA16F, sampleRow, rows, envLayers);
-        glTextureSubImage3D(envTransfer.id(), 0, 0, 0, 0, sampleRow, rows, envLayers, GL_RGBA, GL_FLOAT, data.data());
+        static_assert(ENV_RING_COMPONENTS == 4 * ENV_LOBE_RINGS, "a layer per ring");
+        envTransfer = gl::makeTexture2DArray(GL_RGBA16F, sampleRow, rows, layers);
+        glTextureSubImage3D(envTransfer.id(), 0, 0, 0, 0, sampleRow, rows, layers, GL_RGBA, GL_FLOAT, data.data());
     }
     hasHorizon = g.hasHorizon();
     horizonRadius = hasHorizon ? g.horizonRadius : 0.f;

@@ -29,8 +29,9 @@ struct GBufferTextures {
     bool hasSheen = false, hasCoat = false; // any sample with a sheen / clear-coat lobe
     bool hasEnvTransfer = false;            // the shot holds the environment transfer (DeepBuffer::envTransfer)
     bool hasEnvLobe = false;                // and the specular lobe (DeepBuffer::envLobe)
+    bool hasEnvRings = false;               // and the lobe's rings (DeepBuffer::envRings)
     int envBands = 0;                       // the transfer's bands (DeepBuffer::envBands) when held
-    int envLayers = 0;                      // envTransfer's layers (envTransferLayers)
+    int envLayers = 0;                      // the transfer's and the lobe's layers (envTransferLayers)
     bool hasHorizon = false;                // the shot holds the near-field horizon (DeepBuffer::horizon)
     float horizonRadius = 0.f;              // and its reach, scene units (DeepBuffer::horizonRadius)
     uint32_t maxObjectId = 0;
@@ -39,7 +40,9 @@ struct GBufferTextures {
     int footprintTaps = 1;
     std::vector<glm::vec2> footprintOffsets; // their offsets from the pixel centre, pixels (y down)
     gl::Texture P, N, Ng, albedo, brdf, emission, sheen, coat, pixelSamples, ids;
-    gl::Texture envTransfer; // 2D array: T_0..T_{n-1}, then the lobe's u, v, share, four per layer
+    // 2D array: T_0..T_{n-1}, then the lobe's u, v, share, four per layer (envLayers layers),
+    // then with hasEnvRings one layer per ring: its u, v, share, roughness.
+    gl::Texture envTransfer;
     gl::Texture horizon;     // 2D array: the horizon's sines, four per layer (TEX_GBUFFER_HORIZON)
 };
 

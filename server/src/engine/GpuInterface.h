@@ -13,6 +13,7 @@
 // `#define NAME value // what`. This header includes no GL (the generator is a plain program).
 
 #include <dfb/lightmath/BendyLight.h>
+#include <dfb/lightmath/Environment.h>
 #include <dfb/lightmath/Horizon.h>
 #include <dfb/lightmath/Ltc.h>
 
@@ -105,6 +106,7 @@
     X(LTC_DISK_NEWTON_STEPS, dfb::lightmath::LTC_DISK_NEWTON_STEPS, "Newton steps of the disk's ellipse (Ltc.h)") \
     X(ENV_LEVELS, 6, "mip levels of the prefiltered environment, roughness 0 .. 1 (EnvironmentMap.cpp)") \
     X(ENV_DFG_SIZE, 32, "rows and columns of the DFG table")                                      \
+    X(ENV_LOBE_RINGS, dfb::lightmath::ENV_LOBE_RINGS, "rings of a sample's specular lobe, one prefiltered read each (Environment.h)") \
     X(ENV_IRRADIANCE_WIDTH, 32, "texels across the exact irradiance map (16 rows)")                   \
     X(ENV_SUN_SLOTS, 3, "suns an environment light's pass shades (Rig.h ENV_MAX_SUNS; LightShading.cpp asserts it)") \
     X(HORIZON_AZIMUTH_COUNT, dfb::lightmath::HORIZON_AZIMUTHS, "azimuths of a sample's near-field horizon (Horizon.h)") \

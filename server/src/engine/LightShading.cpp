@@ -392,6 +392,7 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
                    std::to_string(mGBuffer.envLayers) + "\n"
              : "") +
         (environment && mGBuffer.hasEnvLobe ? "#define ENV_LOBE 1\n" : "") +
+        (environment && mGBuffer.hasEnvRings ? "#define ENV_RINGS 1\n" : "") +
         (environment && !mShaders.generic() ? "#define ENV_SUNS " + std::to_string(sunCount) + "\n" : "") +
         // Nor whether it holds the near-field horizon, which straight and bent lights' shadows
         // (and an environment's suns') read.

@@ -12,11 +12,12 @@
 namespace dfb {
 
 /// Version of the file format written by this build (header attribute `dfb.formatVersion`).
-/// Readers accept versions 1 to 6; see docs/gbuffer-format.md (version 3 added the environment
+/// Readers accept versions 1 to 7; see docs/gbuffer-format.md (version 3 added the environment
 /// transfer, `env.sh0` .. `env.sh8`; version 4 the specular lobe, `env.lobe.u/v/vis`; version 5
 /// the five-band transfer, `env.sh0` .. `env.sh24`; version 6 the near-field horizon,
-/// `horizon.h0` .. `horizon.h15`).
-constexpr int GBUFFER_FORMAT_VERSION = 6;
+/// `horizon.h0` .. `horizon.h15`; version 7 the specular lobe's rings, `env.ring0.u` ..
+/// `env.ring2.roughness`).
+constexpr int GBUFFER_FORMAT_VERSION = 7;
 
 /// Spherical-harmonic bands of the environment transfer a bake stores unless told otherwise
 /// (dfb-bake --env-bands): five (25 coefficients). The shadowed diffuse's mean error against the
@@ -31,6 +32,11 @@ constexpr int ENV_TRANSFER_COEFFICIENTS = ENV_TRANSFER_BANDS * ENV_TRANSFER_BAND
 constexpr bool validEnvBands(int bands) { return bands == 3 || bands == ENV_TRANSFER_BANDS; }
 /// Floats per sample of the environment light's specular lobe (DeepBuffer::envLobe).
 constexpr int ENV_LOBE_COMPONENTS = 3;
+/// Rings of the specular lobe (DeepBuffer::envRings; the relight engine's
+/// lightmath::ENV_LOBE_RINGS, dfb/lightmath/Environment.h, which says why 3), and floats per
+/// sample: per ring its octahedral direction (2), visible share and prefiltered roughness.
+constexpr int ENV_LOBE_RINGS = 3;
+constexpr int ENV_RING_COMPONENTS = 4 * ENV_LOBE_RINGS;
 
 /// Azimuths per sample of the near-field horizon (DeepBuffer::horizon; the relight engine's
 /// lightmath::HORIZON_AZIMUTHS, dfb/lightmath/Horizon.h, which says why 16).
@@ -126,6 +132,17 @@ struct DeepBuffer {
     /// environment light reads its prefiltered map towards that direction and scales by that share
     /// (relight_env.frag; docs/lighting.md, "Environment light"). Zero on uncovered samples.
     std::vector<float> envLobe;
+    /// ENV_RING_COMPONENTS per sample, empty when not baked (format version 7; baked with the
+    /// lobe): the same lobe's rings (lightmath::lobeRing: its GGX samples split by the half
+    /// vector's polar coordinate into ENV_LOBE_RINGS equal shares, the core first), four values
+    /// per ring r at 4r: the octahedral encoding of its visible directions' weighted mean
+    /// direction (0, 1; the mirror direction where none is visible), its visible weight's share
+    /// of the whole lobe's weight (2, [0,1]; the rings' shares add to envLobe's), and the
+    /// roughness of the prefiltered map whose kernel is as wide as its visible part
+    /// (lightmath::prefilterRoughnessForResultant of |sum w l| / sum w; 3, [0,1]). The
+    /// environment light reads the map once per ring (relight_env.frag; docs/lighting.md,
+    /// "Environment light"). Zero on uncovered samples.
+    std::vector<float> envRings;
     /// HORIZON_AZIMUTHS per sample, empty when not baked (format version 6): the near-field
     /// horizon (dfb/lightmath/Horizon.h). Value k is the sine of the lowest elevation above the
     /// sample's geometric plane at which a ray from P + Ng x (1e-5 x scene radius) towards azimuth
@@ -168,13 +185,15 @@ struct DeepBuffer {
     bool hasEnvTransfer() const { return !envTransfer.empty(); }
     /// True when the specular lobe is baked: envLobe holds 3 floats per sample.
     bool hasEnvLobe() const { return !envLobe.empty(); }
+    /// True when the lobe's rings are baked: envRings holds ENV_RING_COMPONENTS floats per sample.
+    bool hasEnvRings() const { return !envRings.empty(); }
     /// True when the near-field horizon is baked: horizon holds HORIZON_AZIMUTHS floats per sample.
     bool hasHorizon() const { return !horizon.empty(); }
 
     /// Allocates a flat buffer: one zero-filled sample per pixel.
     void allocate(int w, int h);
     /// Allocates `counts[p]` zero-filled samples for each pixel p. The optional envTransfer,
-    /// envLobe and horizon are left empty (envRays and horizonRadius 0): a bake or a reader that
+    /// envLobe, envRings and horizon are left empty (envRays and horizonRadius 0): a bake or a reader that
     /// has them allocates them after this.
     void allocateSamples(int w, int h, const std::vector<uint32_t>& counts);
 
