@@ -33,7 +33,7 @@ layout(binding = TEX_GBUFFER_SHEEN) uniform sampler2D gSheen;
 layout(binding = TEX_GBUFFER_COAT) uniform sampler2D gCoat;
 layout(binding = TEX_PIXEL_SAMPLES) uniform usampler2D gPixelSamples;
 layout(binding = TEX_GBUFFER_ID) uniform usampler2D gId;
-layout(binding = TEX_ENV_PREFILTERED) uniform sampler2D envPrefiltered; // lat-long, ENV_LEVELS mips by roughness
+layout(binding = TEX_ENV_PREFILTERED) uniform samplerCube envPrefiltered; // ENV_LEVELS mips by roughness
 layout(binding = TEX_ENV_DFG) uniform sampler2D envDfg;                 // (A, B) by (N.v, roughness)
 layout(binding = TEX_ENV_IRRADIANCE) uniform sampler2D envIrradiance;   // E(N) / pi less the expansion, by map-frame normal
 #ifdef ENV_TRANSFER
@@ -85,10 +85,10 @@ layout(location = LOC_RELIGHT_LINKED) uniform int uLinked;
 layout(location = LOC_RELIGHT_PIXEL_STEP) uniform int uPixelStep;
 
 // The map's radiance towards `dirWorld` prefiltered for `roughness`: worldToLightClip holds the
-// world-to-map rotation (R^T of envRotation).
+// world-to-map rotation (R^T of envRotation). A cube map (Cookies::environment), filtered across
+// its faces' edges (GL_TEXTURE_CUBE_MAP_SEAMLESS, enabled by GlEngine::init).
 vec3 prefiltered(vec3 dirWorld, float roughness) {
-    vec3 d = mat3(uLight.worldToLightClip) * dirWorld;
-    return textureLod(envPrefiltered, envLatLong(normalize(d)), roughness * float(ENV_LEVELS - 1)).rgb;
+    return textureLod(envPrefiltered, mat3(uLight.worldToLightClip) * dirWorld, roughness * float(ENV_LEVELS - 1)).rgb;
 }
 
 // The direction a GGX lobe of `roughness` mostly reads: from the mirror direction towards N as

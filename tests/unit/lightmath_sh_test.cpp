@@ -147,3 +147,24 @@ TEST(SphericalHarmonics, RotatingTheCoefficientsIsProjectingTheTurnedMap) {
 }
 
 } // namespace
+
+// The engine's prefiltered environment is a cube map (EnvironmentMap.h): a face's texel direction
+// (cubeDirection) is where OpenGL's face selection (cubeFace, the specification's table 8.19)
+// sends it back, and each face's centre is its axis.
+TEST(EnvironmentCube, FaceDirectionsInvertOpenGLsSelection) {
+    const glm::dvec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int f = 0; f < 6; ++f) EXPECT_LT(glm::length(lm::cubeDirection(f, 0.5, 0.5) - axes[f]), 1e-12) << f;
+    std::mt19937 rng(7);
+    std::normal_distribution<double> g;
+    for (int k = 0; k < 10000; ++k) {
+        const glm::dvec3 d = glm::normalize(glm::dvec3(g(rng), g(rng), g(rng)));
+        glm::dvec2 st;
+        const int face = lm::cubeFace(d, st);
+        ASSERT_GE(face, 0);
+        ASSERT_LT(face, 6);
+        ASSERT_GE(std::min(st.x, st.y), 0.0);
+        ASSERT_LE(std::max(st.x, st.y), 1.0);
+        ASSERT_LT(glm::length(lm::cubeDirection(face, st.x, st.y) - d), 1e-12) << k;
+        ASSERT_GT(glm::dot(d, axes[face]), 0.57) << "the face of the direction's largest component";
+    }
+}

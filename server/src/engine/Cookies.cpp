@@ -112,24 +112,24 @@ Result<Cookies::Environment> Cookies::environment(const Light& l) {
             src = std::move(img.value());
         }
         std::vector<EnvSun> suns = extractSuns(src);
-        const EnvLevels levels = prefilterEnvironment(src, int(ENV_LEVELS), ENV_PREFILTER_WIDTH);
+        // A cube map, faces a quarter of the lat-long base across (the same angle per texel
+        // at the equator), read with a direction (relight_env.frag prefiltered).
+        const EnvLevels levels = prefilterEnvironment(src, int(ENV_LEVELS), ENV_PREFILTER_WIDTH, ENV_PREFILTER_WIDTH / 4);
         // A few maps are kept (swapping back and forth costs no reload); the others go.
         constexpr size_t KEPT = 4;
         if (mEnvironments.size() >= KEPT) mEnvironments.clear();
         EnvEntry e;
         GLuint id = 0;
-        glCreateTextures(GL_TEXTURE_2D, 1, &id);
+        glCreateTextures(GL_TEXTURE_CUBE_MAP, 1, &id);
         e.texture = gl::Texture(id);
-        glTextureStorage2D(id, GLsizei(ENV_LEVELS), GL_RGBA32F, levels.widths[0], levels.widths[0] / 2);
+        glTextureStorage2D(id, GLsizei(ENV_LEVELS), GL_RGBA32F, levels.widths[0], levels.widths[0]);
         for (int k = 0; k < int(ENV_LEVELS); ++k) {
-            // Row 0 (the top, +Y) at t = 0: common_env.glsl's envLatLong reads v as t.
-            glTextureSubImage2D(id, k, 0, 0, levels.widths[size_t(k)], levels.widths[size_t(k)] / 2, GL_RGBA, GL_FLOAT,
-                                levels.rgba[size_t(k)].data());
+            // The six faces as layers 0..5 (+X, -X, +Y, -Y, +Z, -Z), as EnvLevels holds them.
+            const int size = levels.widths[size_t(k)];
+            glTextureSubImage3D(id, k, 0, 0, 0, size, size, 6, GL_RGBA, GL_FLOAT, levels.rgba[size_t(k)].data());
         }
         glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
         glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-        glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_REPEAT); // across the seam at u = 0 / 1
-        glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
         glTextureParameteri(id, GL_TEXTURE_MAX_LEVEL, GLint(ENV_LEVELS) - 1);
         e.sh = levels.sh;
         e.shWidth = levels.shWidth;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <thread>
 
 namespace dfb::engine {
@@ -82,41 +83,81 @@ glm::vec3 sampleAt(const std::vector<LatLong>& pyramid, const glm::dvec3& d, dou
 
 constexpr int PREFILTER_SAMPLES = 64;
 
-LatLong prefilterLevel(const std::vector<LatLong>& pyramid, int w, double roughness) {
-    const int h = w / 2;
-    LatLong out{w, h, std::vector<glm::vec3>(size_t(w) * size_t(h))};
-    const double alpha = std::max(roughness * roughness, 1e-3);
-    const double texelSolidAngle = 4 * lightmath::ENV_PI / (double(pyramid[0].w) * double(pyramid[0].h));
-    auto rows = [&](int first, int step) {
-        for (int j = first; j < h; j += step)
-            for (int i = 0; i < w; ++i) {
-                const glm::dvec3 N = lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h);
-                // Any orthonormal frame about N (Frisvad's; the lobe is symmetric about N).
-                const glm::dvec3 up = std::abs(N.y) < 0.999 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
-                const glm::dvec3 tx = glm::normalize(glm::cross(up, N)), ty = glm::cross(N, tx);
-                glm::dvec3 sum(0.0);
-                double weight = 0.0;
-                for (int s = 0; s < PREFILTER_SAMPLES; ++s) {
-                    const glm::dvec3 hl = lightmath::ggxHalfVector(lightmath::hammersley(uint32_t(s), PREFILTER_SAMPLES), alpha);
-                    const glm::dvec3 H = tx * hl.x + ty * hl.y + N * hl.z;
-                    const glm::dvec3 L = 2.0 * glm::dot(N, H) * H - N;
-                    const double NdotL = glm::dot(N, L);
-                    if (NdotL <= 0) continue;
-                    // pdf of L with N = v: D(h) h.z / (4 v.h) = D / 4; the sample stands for
-                    // 1 / (samples pdf) steradians.
-                    const double pdf = lightmath::distributionGGX(hl.z, alpha) / 4;
-                    const double lod = 0.5 * std::log2(1.0 / (PREFILTER_SAMPLES * pdf * texelSolidAngle)) + 1.0;
-                    sum += glm::dvec3(sampleAt(pyramid, L, lod)) * NdotL;
-                    weight += NdotL;
-                }
-                out.c[size_t(j) * size_t(w) + size_t(i)] = glm::vec3(weight > 0 ? sum / weight : sum);
-            }
-    };
+// The pyramid averaged over the GGX lobe of `alpha` about N with N = v = r: PREFILTER_SAMPLES
+// importance samples, each read at the lod of its solid angle (Colbert and Krivanek 2007).
+glm::vec3 prefilteredAt(const std::vector<LatLong>& pyramid, const glm::dvec3& N, double alpha, double texelSolidAngle) {
+    // Any orthonormal frame about N (the lobe is symmetric about N).
+    const glm::dvec3 up = std::abs(N.y) < 0.999 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
+    const glm::dvec3 tx = glm::normalize(glm::cross(up, N)), ty = glm::cross(N, tx);
+    glm::dvec3 sum(0.0);
+    double weight = 0.0;
+    for (int s = 0; s < PREFILTER_SAMPLES; ++s) {
+        const glm::dvec3 hl = lightmath::ggxHalfVector(lightmath::hammersley(uint32_t(s), PREFILTER_SAMPLES), alpha);
+        const glm::dvec3 H = tx * hl.x + ty * hl.y + N * hl.z;
+        const glm::dvec3 L = 2.0 * glm::dot(N, H) * H - N;
+        const double NdotL = glm::dot(N, L);
+        if (NdotL <= 0) continue;
+        // pdf of L with N = v: D(h) h.z / (4 v.h) = D / 4; the sample stands for
+        // 1 / (samples pdf) steradians.
+        const double pdf = lightmath::distributionGGX(hl.z, alpha) / 4;
+        const double lod = 0.5 * std::log2(1.0 / (PREFILTER_SAMPLES * pdf * texelSolidAngle)) + 1.0;
+        sum += glm::dvec3(sampleAt(pyramid, L, lod)) * NdotL;
+        weight += NdotL;
+    }
+    return glm::vec3(weight > 0 ? sum / weight : sum);
+}
+
+// Runs rows(first, step) on up to 8 threads, this one included.
+void onThreads(const std::function<void(int, int)>& rows) {
     const int threads = int(std::clamp(std::thread::hardware_concurrency(), 1u, 8u));
     std::vector<std::thread> pool;
     for (int t = 1; t < threads; ++t) pool.emplace_back(rows, t, threads);
     rows(0, threads);
     for (std::thread& t : pool) t.join();
+}
+
+LatLong prefilterLevel(const std::vector<LatLong>& pyramid, int w, double roughness) {
+    const int h = w / 2;
+    LatLong out{w, h, std::vector<glm::vec3>(size_t(w) * size_t(h))};
+    const double alpha = std::max(roughness * roughness, 1e-3);
+    const double texelSolidAngle = 4 * lightmath::ENV_PI / (double(pyramid[0].w) * double(pyramid[0].h));
+    onThreads([&](int first, int step) {
+        for (int j = first; j < h; j += step)
+            for (int i = 0; i < w; ++i)
+                out.c[size_t(j) * size_t(w) + size_t(i)] =
+                    prefilteredAt(pyramid, lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h), alpha, texelSolidAngle);
+    });
+    return out;
+}
+
+// Six faces of size^2 texels (EnvLevels' cube layout), RGBA: the pyramid prefiltered for
+// `roughness` about each texel's direction, or for roughness 0 read at the lod of the texel's
+// solid angle (a cube texel's is (2 / size)^2 / |(sc, tc, 1)|^3).
+std::vector<float> cubeLevel(const std::vector<LatLong>& pyramid, int size, double roughness, bool constant) {
+    std::vector<float> out(size_t(6) * size_t(size) * size_t(size) * 4, 1.f);
+    const double alpha = std::max(roughness * roughness, 1e-3);
+    const double texelSolidAngle = 4 * lightmath::ENV_PI / (double(pyramid[0].w) * double(pyramid[0].h));
+    onThreads([&](int first, int step) {
+        for (int row = first; row < 6 * size; row += step) {
+            const int face = row / size, j = row % size;
+            for (int i = 0; i < size; ++i) {
+                const double s = (i + 0.5) / size, t = (j + 0.5) / size;
+                const glm::dvec3 d = lightmath::cubeDirection(face, s, t);
+                glm::vec3 c;
+                if (constant) {
+                    c = pyramid[0].c[0];
+                } else if (roughness > 0.0) {
+                    c = prefilteredAt(pyramid, d, alpha, texelSolidAngle);
+                } else {
+                    const double sc = 2 * s - 1, tc = 2 * t - 1;
+                    const double omega = std::pow(2.0 / size, 2.0) / std::pow(sc * sc + tc * tc + 1, 1.5);
+                    c = sampleAt(pyramid, d, std::max(0.0, 0.5 * std::log2(omega / texelSolidAngle)));
+                }
+                float* o = &out[((size_t(face) * size_t(size) + size_t(j)) * size_t(size) + size_t(i)) * 4];
+                o[0] = c.x, o[1] = c.y, o[2] = c.z;
+            }
+        }
+    });
     return out;
 }
 
@@ -193,14 +234,21 @@ std::vector<EnvSun> extractSuns(ImageF& map) {
     return suns;
 }
 
-EnvLevels prefilterEnvironment(const ImageF& src, int levels, int baseWidth) {
+EnvLevels prefilterEnvironment(const ImageF& src, int levels, int baseWidth, int cubeSize) {
     EnvLevels out;
+    out.cube = cubeSize > 0;
     bool constant = true;
     for (size_t p = 4; p < src.rgba.size() && constant; p += 4)
         constant = src.rgba[p] == src.rgba[0] && src.rgba[p + 1] == src.rgba[1] && src.rgba[p + 2] == src.rgba[2];
     std::vector<LatLong> pyramid{resample(src, baseWidth, baseWidth / 2)};
     while (pyramid.back().w > 2) pyramid.push_back(halve(pyramid.back()));
     for (int k = 0; k < levels; ++k) {
+        if (out.cube) {
+            const int size = std::max(cubeSize >> k, 1);
+            out.widths.push_back(size);
+            out.rgba.push_back(cubeLevel(pyramid, size, double(k) / double(std::max(levels - 1, 1)), constant));
+            continue;
+        }
         const int w = std::max(baseWidth >> k, 2);
         out.widths.push_back(w);
         if (k == 0 || constant) {

@@ -27,6 +27,9 @@ Status GlEngine::init(const DeepBuffer& g, const ShadowGeometry& casters) {
     auto ctx = gl::Context::create();
     if (!ctx) return ctx.error();
     mContext = std::move(ctx.value());
+    // An environment's prefiltered map is a cube map, read across its faces' edges
+    // (relight_env.frag prefiltered).
+    glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
     mCameraPosition = g.camera.position();
     mCameraForward = g.camera.forward();
     mOrthographic = g.camera.orthographic;

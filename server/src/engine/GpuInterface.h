@@ -48,7 +48,7 @@
     X(TEX_SHADOW_ARRAY, 18, "DEPTH32F 2D array, raw depths: an area light's grid of shadow maps")        \
     X(TEX_LTC_MATRIX, 19, "RGBA32F LTC_SIZE^2: the fitted LTC's M^-1 (a, b, c, d) per (roughness, sqrt(1 - N.v)) (Ltc.h)") \
     X(TEX_LTC_AMPLITUDE, 20, "RG32F LTC_SIZE^2: the fitted lobe's norm and Schlick share (Ltc.h)")   \
-    X(TEX_ENV_PREFILTERED, 21, "RGBA32F lat-long, ENV_LEVELS mips: an environment light's map prefiltered by GGX roughness level / (ENV_LEVELS - 1)") \
+    X(TEX_ENV_PREFILTERED, 21, "RGBA32F cube map, ENV_LEVELS mips: an environment light's map prefiltered by GGX roughness level / (ENV_LEVELS - 1)") \
     X(TEX_ENV_DFG, 22, "RG32F ENV_DFG_SIZE^2: the split sum's (A, B) by (N.v, roughness) (Environment.h dfgTable)") \
     X(TEX_GBUFFER_ENV, 23, "RGBA16F 2D array: the baked environment transfer T_0..T_{n-1} (DeepBuffer::envTransfer, n = envBands^2) then the specular lobe (DeepBuffer::envLobe) u, v, share, four per layer") \
     X(TEX_ENV_IRRADIANCE, 26, "RGBA32F ENV_IRRADIANCE_WIDTH x /2 lat-long of normals in the map's frame: its exact E(N) / pi less the order-3 expansion (envIrradianceMap)") \

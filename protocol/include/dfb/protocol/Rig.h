@@ -44,8 +44,9 @@ constexpr int MAX_AREA_SHADOW_GRID = 16;
 
 /// The largest environment map a light may name, texels (a 32-bit float RGBA copy is 512 MiB).
 constexpr int MAX_ENV_MAP_WIDTH = 8192, MAX_ENV_MAP_HEIGHT = 4096;
-/// The prefiltered environment's top level, texels wide (twice its height), RGBA32F with its
-/// mip chain: what an environment light holds on the GPU besides its contribution.
+/// The prefiltered environment's lat-long base, texels wide (twice its height), from which it is
+/// prefiltered into a cube map of ENV_PREFILTER_WIDTH / 4 texels a face, RGBA32F with its mip
+/// chain: what an environment light holds on the GPU besides its contribution.
 constexpr int ENV_PREFILTER_WIDTH = 512;
 /// The shadow map's side of an environment map's sun (shaded as a directional light). 1024, not
 /// 2048 as before 2026-12-06: the map is re-rendered at every turn of the environment, and at

@@ -50,6 +50,42 @@ inline double envTexelSolidAngle(int j, int w, int h) {
     return (2 * ENV_PI / w) * (std::cos(t0) - std::cos(t1));
 }
 
+/// The unit direction of texture coordinate (s, t) in [0, 1]^2 on cube-map face `face` (0..5:
+/// +X, -X, +Y, -Y, +Z, -Z), the inverse of OpenGL's face selection (OpenGL 4.5 core
+/// specification, section 8.13, table 8.19: sc, tc against the major axis ma, s = (sc / |ma| +
+/// 1) / 2, t = (tc / |ma| + 1) / 2). The engine's prefiltered environment is a cube map
+/// (EnvironmentMap.h) read with a direction, so that the shader computes no latitude and
+/// longitude per read.
+inline glm::dvec3 cubeDirection(int face, double s, double t) {
+    const double sc = 2 * s - 1, tc = 2 * t - 1;
+    glm::dvec3 d;
+    switch (face) {
+    case 0: d = {1, -tc, -sc}; break;
+    case 1: d = {-1, -tc, sc}; break;
+    case 2: d = {sc, 1, tc}; break;
+    case 3: d = {sc, -1, -tc}; break;
+    case 4: d = {sc, -tc, 1}; break;
+    default: d = {-sc, -tc, -1}; break;
+    }
+    return glm::normalize(d);
+}
+
+/// OpenGL's selection for a direction (the table cubeDirection inverts): its face and (s, t).
+inline int cubeFace(const glm::dvec3& d, glm::dvec2& st) {
+    const glm::dvec3 a = glm::abs(d);
+    int face;
+    double sc, tc, ma;
+    if (a.x >= a.y && a.x >= a.z) {
+        face = d.x >= 0 ? 0 : 1, ma = a.x, sc = d.x >= 0 ? -d.z : d.z, tc = -d.y;
+    } else if (a.y >= a.z) {
+        face = d.y >= 0 ? 2 : 3, ma = a.y, sc = d.x, tc = d.y >= 0 ? d.z : -d.z;
+    } else {
+        face = d.z >= 0 ? 4 : 5, ma = a.z, sc = d.z >= 0 ? d.x : -d.x, tc = -d.y;
+    }
+    st = glm::dvec2(sc / ma + 1, tc / ma + 1) * 0.5;
+    return face;
+}
+
 /// L_0..L_24 (SphericalHarmonics.h: five bands, as many as a baked transfer holds; the
 /// irradiance reads the first nine) of an RGB(A) float map (`channels` floats per texel, row 0 at
 /// the top) turned by `rotation` (envRotation): the integral of the texel-constant function, each
