@@ -124,12 +124,17 @@ float ambientSpecularOcclusion(float NdotV, float visibility, float roughness) {
     return clamp(pow(NdotV + visibility, exp2(-16.0 * alpha - 1.0)) - 1.0 + visibility, 0.0, 1.0);
 }
 
+// The split sum's second factor (Karis 2013): F0 A + F90 B from the DFG table.
+vec3 splitSumScale(float NdotV, float roughness, vec3 f0, float f90) {
+    vec2 ab = texture(envDfg, vec2(NdotV, roughness)).rg;
+    return f0 * ab.x + vec3(f90 * ab.y);
+}
+
 // The split sum of a GGX lobe (Karis 2013): prefiltered radiance x (F0 A + F90 B), read towards
 // `d`: the lobe's dominant direction (dominantDirection), or for shadowed lights the baked
 // direction of its visible part (ENV_LOBE).
 vec3 specularLobe(vec3 d, float NdotV, float roughness, vec3 f0, float f90) {
-    vec2 ab = texture(envDfg, vec2(NdotV, roughness)).rg;
-    return prefiltered(d, roughness) * (f0 * ab.x + vec3(f90 * ab.y));
+    return prefiltered(d, roughness) * splitSumScale(NdotV, roughness, f0, f90);
 }
 
 #ifdef ENV_RINGS
@@ -145,8 +150,7 @@ vec3 ringsSpecular(ivec2 t, float NdotV, float roughness, vec3 f0, float f90) {
         vec4 ring = texelFetch(gEnv, ivec3(t, ENV_LAYERS + r), 0);
         sum += prefiltered(octDecode(ring.xy), ring.w) * ring.z;
     }
-    vec2 ab = texture(envDfg, vec2(NdotV, roughness)).rg;
-    return sum * (f0 * ab.x + vec3(f90 * ab.y));
+    return sum * splitSumScale(NdotV, roughness, f0, f90);
 }
 #endif
 

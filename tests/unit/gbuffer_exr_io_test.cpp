@@ -91,6 +91,23 @@ void addRandomEnvTransfer(DeepBuffer& b, uint32_t seed) {
     b.envBands = ENV_TRANSFER_BANDS;
 }
 
+// randomBuffer's flat 16x9 buffer (seed `seed`), or with `deep` a deep 12x7 one of 0..3 samples
+// per pixel (counts from seed - 1; coverage 0.2, normals up).
+DeepBuffer flatOrDeepBuffer(bool deep, uint32_t seed) {
+    DeepBuffer b = randomBuffer(16, 9, seed);
+    if (!deep) return b;
+    std::mt19937 rng(seed - 1);
+    std::vector<uint32_t> counts(size_t(12 * 7));
+    for (auto& c : counts) c = rng() % 4;
+    b.allocateSamples(12, 7, counts);
+    b.samplesPerPixel = 4;
+    for (size_t s = 0; s < b.sampleCount(); ++s) {
+        b.A[s] = 0.2f;
+        b.N[s * 3 + 1] = 1.f;
+    }
+    return b;
+}
+
 // A random specular lobe (octahedral coordinates in [-1, 1], shares in [0, 1]) on the covered
 // samples, zeros elsewhere, as the bake stores it.
 void addRandomEnvLobe(DeepBuffer& b, uint32_t seed) {
@@ -581,18 +598,7 @@ TEST(ExrIO, EnvLobeOutOfRangeOrPartialIsRefusedNamingTheChannel) {
 TEST(ExrIO, HorizonRoundTripsFlatAndDeepAndAVersion5FileLoadsWithoutIt) {
     for (bool deep : {false, true}) {
         SCOPED_TRACE(deep ? "deep" : "flat");
-        DeepBuffer b = randomBuffer(16, 9, 31);
-        if (deep) { // 0..3 samples per pixel
-            std::mt19937 rng(30);
-            std::vector<uint32_t> counts(size_t(12 * 7));
-            for (auto& c : counts) c = rng() % 4;
-            b.allocateSamples(12, 7, counts);
-            b.samplesPerPixel = 4;
-            for (size_t s = 0; s < b.sampleCount(); ++s) {
-                b.A[s] = 0.2f;
-                b.N[s * 3 + 1] = 1.f;
-            }
-        }
+        DeepBuffer b = flatOrDeepBuffer(deep, 31);
         addRandomHorizon(b, 32);
         b.horizon[0] = 1.f; // the range's ends survive half precision
         b.horizon[1] = 0.f;
@@ -673,18 +679,7 @@ TEST(ExrIO, HorizonOutOfRangeOrPartialIsRefusedNamingTheChannel) {
 TEST(ExrIO, EnvRingsRoundTripFlatAndDeepAndAVersion6FileLoadsWithoutThem) {
     for (bool deep : {false, true}) {
         SCOPED_TRACE(deep ? "deep" : "flat");
-        DeepBuffer b = randomBuffer(16, 9, 41);
-        if (deep) { // 0..3 samples per pixel
-            std::mt19937 rng(42);
-            std::vector<uint32_t> counts(size_t(12 * 7));
-            for (auto& c : counts) c = rng() % 4;
-            b.allocateSamples(12, 7, counts);
-            b.samplesPerPixel = 4;
-            for (size_t s = 0; s < b.sampleCount(); ++s) {
-                b.A[s] = 0.2f;
-                b.N[s * 3 + 1] = 1.f;
-            }
-        }
+        DeepBuffer b = flatOrDeepBuffer(deep, 41);
         addRandomEnvTransfer(b, 43);
         addRandomEnvLobe(b, 44);
         addRandomEnvRings(b, 45);

@@ -16,6 +16,7 @@
 // plus a row "direct": the same rays' own estimate of the integral against the small map (no
 // expansion), which bounds what any number of bands could reach with these rays.
 
+#include "LobeRays.h"
 #include "TransferBands.h"
 #include "engine/EnvironmentMap.h"
 
@@ -61,55 +62,24 @@ inline std::vector<ImageF> specularBandImages(const DeepBuffer& g, const Triangl
         std::vector<glm::dvec3> S(K);
         std::vector<double> Sw(K); // without the Fresnel factor: the scalar transfer
         double w[K];
+        LobeSample x;
+        x.bvh = &bvh, x.radius = radius, x.shadowed = shadowed;
         for (size_t s; (s = next.fetch_add(1)) < n;) {
-            if (g.A[s] <= 0.f) continue;
-            const glm::dvec3 P(g.position(s));
-            const glm::dvec3 N = glm::normalize(glm::dvec3(g.N[s * 3], g.N[s * 3 + 1], g.N[s * 3 + 2]));
-            const glm::dvec3 Ng = glm::normalize(glm::dvec3(g.Ng[s * 3], g.Ng[s * 3 + 1], g.Ng[s * 3 + 2]));
-            if (!std::isfinite(N.x) || !std::isfinite(Ng.x)) continue;
-            const glm::dvec3 V = g.camera.orthographic ? -glm::dvec3(g.camera.forward()) : glm::normalize(eye - P);
-            const double NdotV = std::max(glm::dot(N, V), lm::MIN_NDOTV);
-            const double roughness = g.brdf[s * 4 + 1];
-            const double alpha = std::max(roughness * roughness, lm::MIN_ALPHA);
-            const glm::dvec3 f0(g.albedo[s * 3], g.albedo[s * 3 + 1], g.albedo[s * 3 + 2]);
-            const glm::vec3 from = glm::vec3(P + Ng * (1e-5 * double(radius)));
-            auto visible = [&](const glm::dvec3& d) {
-                if (glm::dot(Ng, d) <= 0) return false;
-                return !shadowed || !bvh.occluded(from, from + glm::vec3(d) * (4.f * radius), 1e-6f);
-            };
-            const glm::dvec3 t = glm::normalize(glm::cross(N, std::abs(N.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0)));
-            const glm::dvec3 b = glm::cross(N, t);
+            if (!x.set(g, s, eye)) continue;
             std::fill(S.begin(), S.end(), glm::dvec3(0.0));
             std::fill(Sw.begin(), Sw.end(), 0.0);
             glm::dvec3 direct(0.0), fresnelSum(0.0);
             double weightSum = 0;
-            const double du = std::fmod(double(s) * 0.7548776662466927, 1.0), dv = std::fmod(double(s) * 0.5698402909980532, 1.0);
-            for (int k = 0; k < rays; ++k) {
-                const glm::dvec2 xi = lm::hammersley(uint32_t(k), uint32_t(rays));
-                const glm::dvec3 hl = lm::ggxHalfVector({std::fmod(xi.x + du, 1.0), std::fmod(xi.y + dv, 1.0)}, alpha);
-                const glm::dvec3 H = glm::normalize(t * hl.x + b * hl.y + N * hl.z);
-                const double VdotH = glm::dot(V, H);
-                const glm::dvec3 l = 2.0 * VdotH * H - V;
-                const double weight = lm::ggxLobeWeight(glm::dot(N, l), NdotV, hl.z, VdotH, alpha);
-                if (weight <= 0) continue;
-                const glm::dvec3 f = weight * lm::fresnelSchlick(f0, 1.0, VdotH) / double(rays);
+            x.forEachRay(s, rays, [&](const glm::dvec3& l, double weight, double VdotH, double, double) {
+                const glm::dvec3 f = weight * lm::fresnelSchlick(x.f0, 1.0, VdotH) / double(rays);
                 weightSum += weight / double(rays);
                 fresnelSum += f;
-                if (!visible(l)) continue;
+                if (!x.visible(l)) return;
                 lm::shEvaluateBands(l, lm::SH_MAX_BANDS, w);
                 for (int i = 0; i < K; ++i) S[size_t(i)] += f * w[i], Sw[size_t(i)] += weight / double(rays) * w[i];
                 direct += f * smallAt(l);
-            }
-            glm::dvec3 sunPart(0.0);
-            for (const engine::EnvSun& sun : suns) {
-                const glm::dvec3 l = glm::normalize(glm::dvec3(sun.direction));
-                const double NdotL = glm::dot(N, l);
-                if (NdotL <= 0 || !visible(l)) continue;
-                const glm::dvec3 H = glm::normalize(l + V);
-                const double D = lm::distributionGGX(glm::dot(N, H), alpha);
-                const double vis = lm::visibilitySmithGGX(NdotL, NdotV, alpha);
-                sunPart += glm::dvec3(sun.irradiance) * lm::fresnelSchlick(f0, 1.0, glm::dot(V, H)) * (D * vis * NdotL);
-            }
+            });
+            const glm::dvec3 sunPart = x.sunsSpecular(suns);
             // One scalar transfer per sample: the Fresnel factor as the lobe's mean, (F0 A + F90 B) /
             // (A + B) of the split sum, outside the integral.
             const glm::dvec3 meanFresnel = weightSum > 0 ? fresnelSum / weightSum : glm::dvec3(0.0);

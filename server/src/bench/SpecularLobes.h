@@ -14,6 +14,7 @@
 // the CPU for the metal shot (bench::variant "specular"), the map's suns exact (one ray each).
 // It chose the three polar rings of format version 7 (DeepBuffer::envRings; docs/operations.md).
 
+#include "LobeRays.h"
 #include "TransferBands.h"
 #include "engine/EnvironmentMap.h"
 
@@ -79,57 +80,27 @@ inline std::vector<ImageF> specularLobeImages(const DeepBuffer& g, const Triangl
         std::vector<glm::dvec3> dirs;
         std::vector<double> weights;
         std::vector<double> binU, binV;
+        LobeSample x;
+        x.bvh = &bvh, x.radius = radius, x.shadowed = shadowed;
         for (size_t s; (s = next.fetch_add(1)) < n;) {
-            if (g.A[s] <= 0.f) continue;
-            const glm::dvec3 P(g.position(s));
-            const glm::dvec3 N = glm::normalize(glm::dvec3(g.N[s * 3], g.N[s * 3 + 1], g.N[s * 3 + 2]));
-            const glm::dvec3 Ng = glm::normalize(glm::dvec3(g.Ng[s * 3], g.Ng[s * 3 + 1], g.Ng[s * 3 + 2]));
-            if (!std::isfinite(N.x) || !std::isfinite(Ng.x)) continue;
-            const glm::dvec3 V = g.camera.orthographic ? -glm::dvec3(g.camera.forward()) : glm::normalize(eye - P);
-            const double NdotV = std::max(glm::dot(N, V), lm::MIN_NDOTV);
-            const double roughness = g.brdf[s * 4 + 1];
-            const double alpha = std::max(roughness * roughness, lm::MIN_ALPHA);
-            const glm::dvec3 f0(g.albedo[s * 3], g.albedo[s * 3 + 1], g.albedo[s * 3 + 2]);
-            const glm::vec3 from = glm::vec3(P + Ng * (1e-5 * double(radius)));
-            auto visible = [&](const glm::dvec3& d) {
-                if (glm::dot(Ng, d) <= 0) return false;
-                return !shadowed || !bvh.occluded(from, from + glm::vec3(d) * (4.f * radius), 1e-6f);
-            };
-            const glm::dvec3 t = glm::normalize(glm::cross(N, std::abs(N.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0)));
-            const glm::dvec3 b = glm::cross(N, t);
+            if (!x.set(g, s, eye)) continue;
             dirs.clear();
             weights.clear();
             binU.clear();
             binV.clear();
             glm::dvec3 fresnelSum(0.0);
             double weightSum = 0;
-            const double du = std::fmod(double(s) * 0.7548776662466927, 1.0), dv = std::fmod(double(s) * 0.5698402909980532, 1.0);
-            for (int k = 0; k < rays; ++k) {
-                const glm::dvec2 xi = lm::hammersley(uint32_t(k), uint32_t(rays));
-                const glm::dvec3 hl = lm::ggxHalfVector({std::fmod(xi.x + du, 1.0), std::fmod(xi.y + dv, 1.0)}, alpha);
-                const glm::dvec3 H = glm::normalize(t * hl.x + b * hl.y + N * hl.z);
-                const double VdotH = glm::dot(V, H);
-                const glm::dvec3 l = 2.0 * VdotH * H - V;
-                const double weight = lm::ggxLobeWeight(glm::dot(N, l), NdotV, hl.z, VdotH, alpha) / double(rays);
-                if (weight <= 0) continue;
+            x.forEachRay(s, rays, [&](const glm::dvec3& l, double weight, double VdotH, double u, double v) {
+                weight /= double(rays);
                 weightSum += weight;
-                fresnelSum += weight * lm::fresnelSchlick(f0, 1.0, VdotH);
-                if (!visible(l)) continue;
+                fresnelSum += weight * lm::fresnelSchlick(x.f0, 1.0, VdotH);
+                if (!x.visible(l)) return;
                 dirs.push_back(l);
                 weights.push_back(weight);
-                binU.push_back(std::fmod(xi.x + du, 1.0));
-                binV.push_back(std::fmod(xi.y + dv, 1.0));
-            }
-            glm::dvec3 sunPart(0.0);
-            for (const engine::EnvSun& sun : suns) {
-                const glm::dvec3 l = glm::normalize(glm::dvec3(sun.direction));
-                const double NdotL = glm::dot(N, l);
-                if (NdotL <= 0 || !visible(l)) continue;
-                const glm::dvec3 H = glm::normalize(l + V);
-                const double D = lm::distributionGGX(glm::dot(N, H), alpha);
-                const double vis = lm::visibilitySmithGGX(NdotL, NdotV, alpha);
-                sunPart += glm::dvec3(sun.irradiance) * lm::fresnelSchlick(f0, 1.0, glm::dot(V, H)) * (D * vis * NdotL);
-            }
+                binU.push_back(u);
+                binV.push_back(v);
+            });
+            const glm::dvec3 sunPart = x.sunsSpecular(suns);
             const glm::dvec3 meanFresnel = weightSum > 0 ? fresnelSum / weightSum : glm::dvec3(0.0);
             const size_t m = dirs.size();
             glm::dvec3 all(0.0);
@@ -137,7 +108,7 @@ inline std::vector<ImageF> specularLobeImages(const DeepBuffer& g, const Triangl
             for (size_t j = 0; j < m; ++j) all += weights[j] * dirs[j], visibleWeight += weights[j];
             // The engine's formula on these rays: one read, the visible mean direction, the sample's roughness.
             if (visibleWeight > 0)
-                radiance[s * nb + nb - 1] = double(g.A[s]) * (meanFresnel * visibleWeight * pre(glm::normalize(all), roughness) + sunPart);
+                radiance[s * nb + nb - 1] = double(g.A[s]) * (meanFresnel * visibleWeight * pre(glm::normalize(all), x.roughness) + sunPart);
             else
                 radiance[s * nb + nb - 1] = double(g.A[s]) * sunPart;
             // Items: the rays themselves, or the sums of the rays of fixed bins of the sampling domain.

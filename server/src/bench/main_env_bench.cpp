@@ -190,6 +190,30 @@ int main(int argc, char** argv) {
                 }
             }
     }
+    // The map `map` as read (its suns in) and the reference of shot `v` under the light `l` with it,
+    // for the CPU models below; false (the error printed) when either fails.
+    auto mapAndReference = [&](const DeepBuffer& v, const Light& l, ImageF& image, ImageF& reference) {
+        auto img = readHdrImage((std::filesystem::path(mapDir) / l.envMap).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
+        if (!img) {
+            std::cerr << "dfb-env-bench: " << img.error().toString() << "\n";
+            return false;
+        }
+        auto ref = renderEnvironmentReference(v, l.shadow ? &bvh : nullptr, radius, l, mapDir, rays);
+        if (!ref) {
+            std::cerr << "dfb-env-bench: " << ref.error().toString() << "\n";
+            return false;
+        }
+        image = std::move(img.value());
+        reference = std::move(ref.value());
+        return true;
+    };
+    // One specular row of the CPU models: an image of the metal shot against its reference.
+    auto specularRow = [&](const std::string& map, const std::string& what, const ImageF& image, const ImageF& ref,
+                           const DeepBuffer& metal, bool shadow) {
+        const Figures f = compare(image, ref, metal);
+        std::printf("  %-14s %-34s %s  mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%\n", map.c_str(), what.c_str(),
+                    shadow ? "shadowed" : "open", 100 * f.mean, 100 * f.p95, 100 * f.aggregate);
+    };
     if (transferBands) {
         const std::vector<int> bands{3, 5, 7, 9};
         const DeepBuffer lambert = variant(g, "diffuse");
@@ -198,20 +222,12 @@ int main(int argc, char** argv) {
         std::printf(" the diffuse row with a transfer of more bands (the engine's formula on the CPU, the transfer on %d rays\n"
                     " per sample, against the reference): mean / p95 / aggregate\n", rays);
         for (const std::string& map : maps) {
-            auto img = readHdrImage((std::filesystem::path(mapDir) / map).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
-            if (!img) {
-                std::cerr << "dfb-env-bench: " << img.error().toString() << "\n";
-                return 2;
-            }
             shadowed.envMap = map;
-            auto ref = renderEnvironmentReference(lambert, &bvh, radius, shadowed, mapDir, rays);
-            if (!ref) {
-                std::cerr << "dfb-env-bench: " << ref.error().toString() << "\n";
-                return 1;
-            }
-            const auto images = bench::transferBandImages(lambert, bvh, radius, std::move(img.value()), rays, bands);
+            ImageF image, ref;
+            if (!mapAndReference(lambert, shadowed, image, ref)) return 1;
+            const auto images = bench::transferBandImages(lambert, bvh, radius, std::move(image), rays, bands);
             for (size_t i = 0; i < bands.size(); ++i) {
-                const Figures f = compare(images[i], ref.value(), lambert);
+                const Figures f = compare(images[i], ref, lambert);
                 std::printf("  %-14s %d bands (%2d coefficients)  mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%\n", map.c_str(), bands[i],
                             bands[i] * bands[i], 100 * f.mean, 100 * f.p95, 100 * f.aggregate);
             }
@@ -224,19 +240,11 @@ int main(int argc, char** argv) {
         std::printf(" the specular row with a baked specular transfer (on the CPU, %d GGX rays per sample, against the\n"
                     " reference): mean / p95 / aggregate; \"direct\": the rays' own estimate\n", rays);
         for (const std::string& map : maps) {
-            auto img = readHdrImage((std::filesystem::path(mapDir) / map).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
-            if (!img) {
-                std::cerr << "dfb-env-bench: " << img.error().toString() << "\n";
-                return 2;
-            }
             Light l = env;
             l.envMap = map;
-            auto ref = renderEnvironmentReference(metal, l.shadow ? &bvh : nullptr, radius, l, mapDir, rays);
-            if (!ref) {
-                std::cerr << "dfb-env-bench: " << ref.error().toString() << "\n";
-                return 1;
-            }
-            const auto images = bench::specularBandImages(metal, bvh, radius, std::move(img.value()), rays, bands, l.shadow);
+            ImageF image, ref;
+            if (!mapAndReference(metal, l, image, ref)) return 1;
+            const auto images = bench::specularBandImages(metal, bvh, radius, std::move(image), rays, bands, l.shadow);
             // The engine's split sum where the lobe is narrow, the transfer where it is wide.
             auto engine = Engine::create(metal, opened.casters);
             if (!engine) {
@@ -260,11 +268,7 @@ int main(int argc, char** argv) {
                 }
                 return out;
             };
-            auto row = [&](const std::string& what, const ImageF& image) {
-                const Figures f = compare(image, ref.value(), metal);
-                std::printf("  %-14s %-34s %s  mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%\n", map.c_str(), what.c_str(),
-                            l.shadow ? "shadowed" : "open", 100 * f.mean, 100 * f.p95, 100 * f.aggregate);
-            };
+            auto row = [&](const std::string& what, const ImageF& img) { specularRow(map, what, img, ref, metal, l.shadow); };
             row("engine (split sum)", fast.value());
             row("direct (the rays' own estimate)", images[bands.size()]);
             for (size_t i = 0; i < bands.size(); ++i) {
@@ -282,24 +286,12 @@ int main(int argc, char** argv) {
         std::printf(" the specular row with the visible lobe as K prefiltered reads (on the CPU, %d GGX rays per sample),\n"
                     " against the reference: mean / p95 / aggregate\n", lobeRays);
         for (const std::string& map : maps) {
-            auto img = readHdrImage((std::filesystem::path(mapDir) / map).string(), MAX_ENV_MAP_WIDTH, MAX_ENV_MAP_HEIGHT);
-            if (!img) {
-                std::cerr << "dfb-env-bench: " << img.error().toString() << "\n";
-                return 2;
-            }
             Light l = env;
             l.envMap = map;
-            auto ref = renderEnvironmentReference(metal, l.shadow ? &bvh : nullptr, radius, l, mapDir, rays);
-            if (!ref) {
-                std::cerr << "dfb-env-bench: " << ref.error().toString() << "\n";
-                return 1;
-            }
-            const auto images = bench::specularLobeImages(metal, bvh, radius, std::move(img.value()), lobeRays, clusters, l.shadow);
-            auto row = [&](const std::string& what, const ImageF& image) {
-                const Figures f = compare(image, ref.value(), metal);
-                std::printf("  %-14s %-34s %s  mean %6.2f%%  p95 %6.2f%%  aggregate %6.2f%%\n", map.c_str(), what.c_str(),
-                            l.shadow ? "shadowed" : "open", 100 * f.mean, 100 * f.p95, 100 * f.aggregate);
-            };
+            ImageF image, ref;
+            if (!mapAndReference(metal, l, image, ref)) return 1;
+            const auto images = bench::specularLobeImages(metal, bvh, radius, std::move(image), lobeRays, clusters, l.shadow);
+            auto row = [&](const std::string& what, const ImageF& img) { specularRow(map, what, img, ref, metal, l.shadow); };
             row("one read, the sample's roughness", images[clusters.size()]);
             for (size_t i = 0; i < clusters.size(); ++i) {
                 const int c = clusters[i], a = -c / 100, p = (-c / 10) % 10, k = -c % 10;
