@@ -325,10 +325,10 @@ int main(int argc, char** argv) {
             ms.push_back(msSince(t0));
         }
         if (ms.empty()) return;
-        std::printf("  %-30s first %7.1f ms, median %7.1f ms (%d edits; last: %d lights shaded, %d shadow maps: shadow %.1f, shade "
-                    "%.1f, composite %.1f, readback %.1f ms)\n",
-                    what, ms[0], median(ms), edits, st.lightsShaded, st.shadowMapsRendered, st.shadowMs, st.shadeMs, st.compositeMs,
-                    st.readbackMs);
+        std::printf("  %-30s first %7.1f ms, median %7.1f ms (%d edits; last: %d lights shaded, %d shadow maps of %ld caster "
+                    "triangles: shadow %.1f, shade %.1f, composite %.1f, readback %.1f ms)\n",
+                    what, ms[0], median(ms), edits, st.lightsShaded, st.shadowMapsRendered, st.shadowCasterTriangles, st.shadowMs,
+                    st.shadeMs, st.compositeMs, st.readbackMs);
     };
     std::printf(" edit -> frame at %dx%d (the default key and fill plus the environment):\n", g.width, g.height);
     timed("environment rotation (yaw)", [&](int i) { dome.envRotationDeg[0] = float(10 * (i + 1)); });

@@ -188,38 +188,41 @@ void Casters::upload(const ShadowGeometry& casters, const DeepBuffer& g) {
         else if (lo < -eps) mPlanesSkippable = false;
     }
     mVao = positionVao(mVbo, mIbo);
-    buildSoftCasters(casters);
+    mSoft = simplify(casters, SOFT_CASTER_ERROR);
+    mSun = simplify(casters, SUN_CASTER_ERROR);
 }
 
-// Area lights' casters (docs/lighting.md, "Area lights", Shadows): each of the three ranges
+// Simplified casters (area lights': docs/lighting.md, "Area lights", Shadows; the environment's
+// suns', within half a texel of their maps): each of the three ranges
 // (closed meshes, open meshes, open planar meshes) welded by position
 // (meshopt_generateShadowIndexBuffer: normals and seams do not matter to a depth pass) and
 // simplified (meshopt_simplify, quadric error, Garland and Heckbert 1997) within
-// SOFT_CASTER_ERROR of the scene's diagonal. A grid of m x n maps draws every caster m x n times,
+// `relativeError` of the scene's diagonal. A grid of m x n maps draws every caster m x n times,
 // and llvmpipe's cost per map is the triangles' (about 11 ms per 100k triangles), not the texels';
 // the grid's shadows are soft, so detail below the error does not show.
-void Casters::buildSoftCasters(const ShadowGeometry& casters) {
+Casters::Simplified Casters::simplify(const ShadowGeometry& casters, float relativeError) const {
     const auto t0 = std::chrono::steady_clock::now();
+    Simplified set;
     const float diagonal = glm::length(mScene.max - mScene.min);
     std::vector<uint32_t> out;
-    auto simplify = [&](size_t from, size_t to) {
+    auto range = [&](size_t from, size_t to) {
         if (to <= from || casters.positions.empty()) return;
         const size_t n = to - from;
         std::vector<uint32_t> welded(n), simplified(n);
         meshopt_generateShadowIndexBuffer(welded.data(), casters.indices.data() + from, n, casters.positions.data(), casters.positions.size(),
                                           sizeof(glm::vec3), sizeof(glm::vec3));
         const float scale = meshopt_simplifyScale(&casters.positions[0].x, casters.positions.size(), sizeof(glm::vec3));
-        const float error = scale > 0.f ? SOFT_CASTER_ERROR * diagonal / scale : 0.f;
+        const float error = scale > 0.f ? relativeError * diagonal / scale : 0.f;
         const size_t kept = meshopt_simplify(simplified.data(), welded.data(), n, &casters.positions[0].x, casters.positions.size(),
                                              sizeof(glm::vec3), 0, error);
         out.insert(out.end(), simplified.begin(), simplified.begin() + ptrdiff_t(kept / 3 * 3));
     };
-    simplify(0, size_t(mClosedIndexCount));
-    mSoftClosedCount = GLsizei(out.size());
-    simplify(size_t(mClosedIndexCount), size_t(mPlanarStart));
-    mSoftPlanarStart = GLsizei(out.size());
-    simplify(size_t(mPlanarStart), size_t(mIndexCount));
-    mSoftCount = GLsizei(out.size());
+    range(0, size_t(mClosedIndexCount));
+    set.closedCount = GLsizei(out.size());
+    range(size_t(mClosedIndexCount), size_t(mPlanarStart));
+    set.planarStart = GLsizei(out.size());
+    range(size_t(mPlanarStart), size_t(mIndexCount));
+    set.count = GLsizei(out.size());
     // Their own vertices, only those they use: a bent area light's interior lights deform every
     // vertex of their casters per map (BendyShadow), a few hundred instead of the scene's.
     std::vector<glm::vec3> positions;
@@ -231,28 +234,27 @@ void Casters::buildSoftCasters(const ShadowGeometry& casters) {
     }
     const uint32_t dummyIndex = 0;
     const glm::vec3 dummyVertex(0.f);
-    mSoftIbo = out.empty() ? gl::makeBuffer(&dummyIndex, sizeof dummyIndex) : gl::makeBuffer(out.data(), out.size() * sizeof(uint32_t));
-    mSoftVbo = positions.empty() ? gl::makeBuffer(&dummyVertex, sizeof dummyVertex)
-                                 : gl::makeBuffer(positions.data(), positions.size() * sizeof(glm::vec3));
-    mSoftVertexCount = GLuint(positions.size());
-    mSoftVao = positionVao(mSoftVbo, mSoftIbo);
-    mSoftBuildMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    set.ibo = out.empty() ? gl::makeBuffer(&dummyIndex, sizeof dummyIndex) : gl::makeBuffer(out.data(), out.size() * sizeof(uint32_t));
+    set.vbo = positions.empty() ? gl::makeBuffer(&dummyVertex, sizeof dummyVertex)
+                                : gl::makeBuffer(positions.data(), positions.size() * sizeof(glm::vec3));
+    set.vertexCount = GLuint(positions.size());
+    set.vao = positionVao(set.vbo, set.ibo);
+    set.buildMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return set;
 }
 
-GLsizei Casters::softIndicesFor(GLsizei fullCount) const { return fullCount >= mIndexCount ? mSoftCount : mSoftPlanarStart; }
-
-void Casters::drawSoft(GLsizei count, GLsizei instances) const {
-    glBindVertexArray(mSoftVao.id());
-    const GLsizei closed = std::min(count, mSoftClosedCount);
+void Casters::Simplified::draw(GLsizei n, GLsizei instances) const {
+    glBindVertexArray(vao.id());
+    const GLsizei closed = std::min(n, closedCount);
     if (closed > 0) {
         glEnable(GL_CULL_FACE);
         glCullFace(GL_FRONT);
         glDrawElementsInstanced(GL_TRIANGLES, closed, GL_UNSIGNED_INT, nullptr, instances);
         glDisable(GL_CULL_FACE);
     }
-    if (count > closed) {
-        glDrawElementsInstanced(GL_TRIANGLES, count - closed, GL_UNSIGNED_INT,
-                                reinterpret_cast<const void*>(size_t(closed) * sizeof(uint32_t)), instances);
+    if (n > closed) {
+        glDrawElementsInstanced(GL_TRIANGLES, n - closed, GL_UNSIGNED_INT, reinterpret_cast<const void*>(size_t(closed) * sizeof(uint32_t)),
+                                instances);
     }
 }
 

@@ -81,11 +81,13 @@ Status GlEngine::updateShadows(const Rig& rig, FrameStats& st) {
             for (size_t k = 0; k < env->suns.size(); ++k) {
                 const Light sun = environmentSun(l, env->suns[k].direction, int(k));
                 LightCache& s = c.interior[k];
+                s.sunCasters = true;
                 const bool first = s.params.name != sun.name;
                 if (sun.shadow && (first || !s.hasShadow || !sameShadowInputs(s.params, sun) || (!mPreview && s.previewShadow))) {
                     s.params = sun;
                     if (auto r = mShadows.render(s, mPreview, mSubdivisionLimit); !r) return r;
                     ++st.shadowMapsRendered;
+                    st.shadowCasterTriangles += s.casterIndexCount / 3;
                     c.hasContribution = false;
                 } else if (first || !sameShadowInputs(s.params, sun) || !sameShadingInputs(s.params, sun)) {
                     s.params = sun;

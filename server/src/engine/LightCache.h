@@ -58,6 +58,7 @@ struct LightCache {
     glm::ivec2 interiorGrid{0};
     bool emitterCosine = false; // an interior light: a Lambertian emitter's cell (relight_bendy.frag)
     bool softCasters = false;   // an interior light: its map from the simplified casters (BendyShadow)
+    bool sunCasters = false;    // an environment's sun: its map from the suns' simplified casters (Casters::drawSun)
 };
 
 /// The directional light standing for environment light l's sun number `index` (extractSuns;

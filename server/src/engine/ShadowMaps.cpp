@@ -152,7 +152,12 @@ Status ShadowMaps::renderPlanar(LightCache& c, int size, int subdivisionLimit) {
     } else {
         glUseProgram(mDepthProgram);
         c.casterIndexCount = mCasters.indicesFor(l, c.chain);
-        mCasters.draw(c.casterIndexCount, c.worldToLightClip);
+        if (c.sunCasters) {
+            c.casterIndexCount = mCasters.sunIndicesFor(c.casterIndexCount);
+            mCasters.drawSun(c.casterIndexCount);
+        } else {
+            mCasters.draw(c.casterIndexCount, c.worldToLightClip);
+        }
     }
     endDepthPass();
     return okStatus();
