@@ -653,10 +653,17 @@ try {
     const q = project(toNDC, cpWorld(key1, 2));
     const off = Math.hypot((q.ndc[0] + 1) * 160 - dropped.x, (1 - q.ndc[1]) * 90 - dropped.y);
     assert(off > 2, `cp[2] went all the way to the drop (${off.toFixed(2)} px from it): the drag did not fold?`);
-    // The page shows the point where it stopped: its handle is at the stopped point's projection.
-    const h = await center(a, '[data-handle="cp"][data-index="2"]');
-    const shown = await screenToImage(a, h.x, h.y);
-    assert(Math.hypot(shown.x - (q.ndc[0] + 1) * 160, shown.y - (1 - q.ndc[1]) * 90) < 1.5, "the handle is not where the point stopped");
+    // The page shows the point where it stopped: its handle is at the stopped point's projection
+    // once the page has the new rig (waitRig polls the server, which has it first: under a loaded
+    // CI machine the handle was read before the page had moved it), bounded by WAIT.
+    const handleOff = async () => {
+      const h = await center(a, '[data-handle="cp"][data-index="2"]');
+      const shown = await screenToImage(a, h.x, h.y);
+      return Math.hypot(shown.x - (q.ndc[0] + 1) * 160, shown.y - (1 - q.ndc[1]) * 90);
+    };
+    const handleEnd = Date.now() + WAIT.timeout;
+    while ((await handleOff()) >= 1.5 && Date.now() < handleEnd) await new Promise((r) => setTimeout(r, 50));
+    assert((await handleOff()) < 1.5, "the handle is not where the point stopped");
     console.log(`     stopped ${off.toFixed(1)} px short of the drop: ${await lastMessage(a)}`);
     await a.mouse.move(10, 10);
     await shot(a, "03b-bendy-fold-limited.png");
