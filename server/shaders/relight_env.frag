@@ -59,7 +59,8 @@ struct EnvSun {
     mat4 worldToLightClip; // its shadow map's projection
     vec4 toSun;            // xyz unit direction towards it, w = 1 / its map's size
     vec4 weight;           // rgb its irradiance at normal incidence
-    vec4 shadow;           // x = normal offset, y = lift towards it (world), z = 1 if it has a map
+    vec4 shadow;           // x = normal offset, y = lift towards it (world), z = 1 if it has a map,
+                           // w = its filter radius
 };
 layout(std140, binding = UBO_ENV_SUNS) uniform EnvSunBlock {
     EnvSun envSun[ENV_SUN_SLOTS];
@@ -76,6 +77,10 @@ layout(binding = TEX_ENV_SUN_MAPS + 2) uniform sampler2D envSunMap2;
 layout(binding = TEX_GBUFFER_NG) uniform sampler2D gNg;
 #ifndef ENV_SUNS
 #define ENV_SUNS envSunCount.x
+#endif
+// The suns' filter radius (engine environmentSun), a specialisation like ENV_SUNS.
+#ifndef ENV_SUN_FILTER
+#define ENV_SUN_FILTER int(envSun[0].shadow.w)
 #endif
 
 layout(location = OUT_COLOR) out vec4 oColor;
@@ -156,12 +161,12 @@ vec3 ringsSpecular(ivec2 t, float NdotV, float roughness, vec3 f0, float f90) {
 
 // Sun k's visibility at receiver point q of the sample at texel t (geometric normal Ng, highest
 // horizon sine `highest`), towards L: relight_spot.frag's shadowVisibility for a directional light
-// (dist 1), in the sun's own map and filter radius 1 (environmentSun's shadowFilter).
+// (dist 1), in the sun's own map and filter radius (ENV_SUN_FILTER: environmentSun's shadowFilter).
 float sunVisibility(int k, sampler2D map, ivec2 t, vec3 q, vec3 Ng, float highest, vec3 L) {
     vec3 biased;
     float lift;
     if (!nearFieldReceiver(t, q, Ng, highest, L, envSun[k].shadow.x, envSun[k].shadow.y, biased, lift)) return 0.0;
-    return planarShadow(map, envSun[k].worldToLightClip, envSun[k].toSun.w, 1, biased, Ng, L, lift);
+    return planarShadow(map, envSun[k].worldToLightClip, envSun[k].toSun.w, ENV_SUN_FILTER, biased, Ng, L, lift);
 }
 
 // Sun k's radiance at the sample (unit coverage; its map `map`), as relight_spot.frag shades a

@@ -167,7 +167,8 @@ struct EnvSunData {
     glm::vec4 toSun;            // xyz unit direction towards it, w = 1 / its shadow map's size
     glm::vec4 weight;           // rgb its irradiance at normal incidence (per unit radiance of the map)
     glm::vec4 shadow;           // x = normal offset, y = lift towards it (world; LightBlock's
-                                // lightShadow.w and lightCone.w), z = 1 if it has a shadow map
+                                // lightShadow.w and lightCone.w), z = 1 if it has a shadow map,
+                                // w = its filter radius (Light::shadowFilter)
 };
 static_assert(offsetof(EnvSunData, toSun) == 64);
 static_assert(offsetof(EnvSunData, weight) == 80);

@@ -319,7 +319,7 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         glBindBufferBase(GL_UNIFORM_BUFFER, UBO_AREA_LAYERS, c.areaLayers.id());
     }
     const bool environment = l.type == LightType::Environment;
-    int sunCount = 0;
+    int sunCount = 0, sunFilter = 0; // its suns, and their filter radius (environmentSun's shadowFilter)
     if (environment) {
         // The map's spherical harmonics, turned by the light's rotation: the map's own, projected
         // once, turned band by band (shRotate25: 0.04 ms, where projecting the turned map's small
@@ -354,7 +354,8 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
                 suns.sun[k].worldToLightClip = b.worldToLightClip;
                 suns.sun[k].toSun = glm::vec4(-glm::vec3(b.lightAxis), b.lightShadow.x);
                 suns.sun[k].weight = glm::vec4(env->suns[k].irradiance, 0.f);
-                suns.sun[k].shadow = glm::vec4(b.lightShadow.w, b.lightCone.w, sun.hasShadow ? 1.f : 0.f, 0.f);
+                suns.sun[k].shadow =
+                    glm::vec4(b.lightShadow.w, b.lightCone.w, sun.hasShadow ? 1.f : 0.f, float(sun.params.shadowFilter));
             }
             const bool map = used && c.interior[k].hasShadow && c.interior[k].shadowTarget == GL_TEXTURE_2D;
             glBindTextureUnit(TEX_ENV_SUN_MAPS + unsigned(k), map ? c.interior[k].shadowMap.id() : 0);
@@ -362,6 +363,7 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
         c.envSuns = gl::makeBuffer(&suns, sizeof suns);
         glBindBufferBase(GL_UNIFORM_BUFFER, UBO_ENV_SUNS, c.envSuns.id());
         sunCount = int(count);
+        if (count > 0) sunFilter = c.interior[0].params.shadowFilter;
     }
     mLight.upload(lightBlock(c, cookie != 0, pattern.mean));
 
@@ -393,7 +395,9 @@ Status LightShading::shadeInto(LightCache& c, LightCache& into, int output, bool
              : "") +
         (environment && mGBuffer.hasEnvLobe ? "#define ENV_LOBE 1\n" : "") +
         (environment && mGBuffer.hasEnvRings ? "#define ENV_RINGS 1\n" : "") +
-        (environment && !mShaders.generic() ? "#define ENV_SUNS " + std::to_string(sunCount) + "\n" : "") +
+        (environment && !mShaders.generic()
+             ? "#define ENV_SUNS " + std::to_string(sunCount) + "\n#define ENV_SUN_FILTER " + std::to_string(sunFilter) + "\n"
+             : "") +
         // Nor whether it holds the near-field horizon, which straight and bent lights' shadows
         // (and an environment's suns') read.
         (mGBuffer.hasHorizon && !area
