@@ -29,8 +29,8 @@ float horizonSine(ivec2 texel, vec3 n, vec3 L) {
     if (u < 0.0) u += float(HORIZON_AZIMUTH_COUNT);
     int k0 = int(u) % HORIZON_AZIMUTH_COUNT, k1 = (k0 + 1) % HORIZON_AZIMUTH_COUNT;
     float f = u - floor(u);
-    float h0 = texelFetch(gHorizon, ivec3(texel, k0 / 4), 0)[k0 % 4];
-    float h1 = texelFetch(gHorizon, ivec3(texel, k1 / 4), 0)[k1 % 4];
+    float h0 = texelAt(gHorizon, ivec3(texel, k0 / 4))[k0 % 4];
+    float h1 = texelAt(gHorizon, ivec3(texel, k1 / 4))[k1 % 4];
     return h0 + f * (h1 - h0);
 }
 

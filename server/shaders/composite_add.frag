@@ -11,5 +11,5 @@ layout(location = LOC_COMPOSITE_SCALE) uniform vec3 uScale;
 layout(location = LOC_COMPOSITE_PIXEL_STEP) uniform int uPixelStep;
 layout(location = OUT_COLOR) out vec4 oColor;
 void main() {
-    oColor = vec4(scaledContribution(texelFetch(uInput, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb, uScale), 0.0);
+    oColor = vec4(scaledContribution(texelAt(uInput, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep)).rgb, uScale), 0.0);
 }

@@ -20,9 +20,9 @@ vec3 filmic(vec3 x) {
     return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
 }
 void main() {
-    vec3 c = texelFetch(uInput, ivec2(gl_FragCoord.xy), 0).rgb;
+    vec3 c = texelAt(uInput, ivec2(gl_FragCoord.xy)).rgb;
 #ifdef TONEMAP_ADD_HOT
-    c += scaledContribution(texelFetch(uHot, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep), 0).rgb, uScale);
+    c += scaledContribution(texelAt(uHot, previewTexel(ivec2(gl_FragCoord.xy), uPixelStep)).rgb, uScale);
 #endif
     c *= uView.exposure.x;
     if (uView.exposure.y > 0.5) c = filmic(max(c, vec3(0.0)));

@@ -152,7 +152,7 @@ vec3 specularLobe(vec3 d, float NdotV, float roughness, vec3 f0, float f90) {
 vec3 ringsSpecular(ivec2 t, float NdotV, float roughness, vec3 f0, float f90) {
     vec3 sum = vec3(0.0);
     for (int r = 0; r < ENV_LOBE_RINGS; ++r) {
-        vec4 ring = texelFetch(gEnv, ivec3(t, ENV_LAYERS + r), 0);
+        vec4 ring = texelAt(gEnv, ivec3(t, ENV_LAYERS + r));
         sum += prefiltered(octDecode(ring.xy), ring.w) * ring.z;
     }
     return sum * splitSumScale(NdotV, roughness, f0, f90);
@@ -194,7 +194,7 @@ vec3 sunRadiance(int k, sampler2D map, ivec2 t, vec3 P, vec4 ng, mat2x3 fp, vec3
 // The suns' radiance at the sample (unit coverage): ENV_SUNS of them, a constant in the engine's
 // variants, so the calls past it compile out.
 vec3 sunsRadiance(ivec2 t, vec3 P, vec3 N, vec3 V, float coverage, vec3 albedo, vec4 brdf, vec4 sheen, vec2 coat) {
-    vec4 ng = texelFetch(gNg, t, 0);
+    vec4 ng = texelAt(gNg, t);
     mat2x3 fp = mat2x3(0.0);
     if (SHADE_SHADOWED && SHADE_FOOTPRINT_TAPS > 1) fp = pixelFootprint(P, normalize(ng.xyz), coverage);
     vec3 sum = vec3(0.0);
@@ -205,10 +205,10 @@ vec3 sunsRadiance(ivec2 t, vec3 P, vec3 N, vec3 V, float coverage, vec3 albedo, 
 }
 
 vec3 shadeSample(ivec2 t) {
-    vec4 pA = texelFetch(gP, t, 0);
+    vec4 pA = texelAt(gP, t);
     if (pA.w <= 0.0) return vec3(0.0);
     if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
-    vec3 N = normalize(texelFetch(gN, t, 0).xyz);
+    vec3 N = normalize(texelAt(gN, t).xyz);
     vec3 V = viewVector(pA.xyz);
     float visibility = 1.0;
 #ifdef ENV_TRANSFER
@@ -216,7 +216,7 @@ vec3 shadeSample(ivec2 t) {
     vec4 last = vec4(0.0); // the last layer: T_{n-1}, the specular lobe's u, v, share (ENV_LOBE)
     if (SHADE_SHADOWED) {
         for (int k = 0; k < ENV_LAYERS; ++k) {
-            vec4 v = texelFetch(gEnv, ivec3(t, k), 0);
+            vec4 v = texelAt(gEnv, ivec3(t, k));
             for (int c = 0; c < 4; ++c)
                 if (4 * k + c < ENV_COEFFS) T[4 * k + c] = v[c];
             last = v;
@@ -252,8 +252,8 @@ vec3 shadeSample(ivec2 t) {
     }
 #endif
 
-    vec3 albedo = texelFetch(gAlbedo, t, 0).rgb;
-    vec4 brdf = texelFetch(gBrdf, t, 0);
+    vec3 albedo = texelAt(gAlbedo, t).rgb;
+    vec4 brdf = texelAt(gBrdf, t);
     float metallic = brdf.x, roughness = brdf.y, specular = brdf.z;
     float NdotV = clamp(dot(N, V), 1e-4, 1.0);
     vec3 Fd = fresnelSchlick(vec3(0.08 * specular), min(2.0 * specular, 1.0), NdotV);
@@ -290,9 +290,9 @@ vec3 shadeSample(ivec2 t) {
     vec3 specularTerm = specularLobe(lobeDirection, NdotV, roughness, f0, f90) * occlusion;
 #endif
     vec3 base = diffuse + specularTerm;
-    vec4 sheen = texelFetch(gSheen, t, 0);
+    vec4 sheen = texelAt(gSheen, t);
     if (SHADE_SHEEN && any(greaterThan(sheen.rgb, vec3(0.0)))) base *= 1.0 - max(max(sheen.r, sheen.g), sheen.b);
-    vec2 coat = texelFetch(gCoat, t, 0).xy;
+    vec2 coat = texelAt(gCoat, t).xy;
     if (SHADE_COAT && coat.x > 0.0) {
         float Fc = 0.04 + 0.96 * pow(1.0 - NdotV, 5.0);
         float coatOcclusion = ambientSpecularOcclusion(NdotV, visibility, coat.y);

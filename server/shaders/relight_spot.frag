@@ -183,11 +183,11 @@ vec3 footprintLight(ivec2 t, vec3 P, vec3 Ng, float highest, float coverage, out
 
 // t: the sample's texel in the sample textures.
 vec3 shadeSample(ivec2 t) {
-    vec4 pA = texelFetch(gP, t, 0);
+    vec4 pA = texelAt(gP, t);
     if (pA.w <= 0.0) return vec3(0.0);
     if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 P = pA.xyz;
-    vec3 N = normalize(texelFetch(gN, t, 0).xyz);
+    vec3 N = normalize(texelAt(gN, t).xyz);
     vec3 L;
     float dist2, dist;
     vec3 spot = vec3(1.0);
@@ -212,19 +212,19 @@ vec3 shadeSample(ivec2 t) {
     if (SHADE_FOOTPRINT_TAPS > 1) {
         // Edges inside the pixel: cone, doors, cookie and visibility over the footprint's taps.
         float reach;
-        vec4 ng = texelFetch(gNg, t, 0);
+        vec4 ng = texelAt(gNg, t);
         spot = footprintLight(t, P, normalize(ng.xyz), ng.w, pA.w, vis, reach);
         if (reach <= 0.0) return vec3(0.0);
         if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
         vis = 1.0; // in spot
     } else if (SHADE_SHADOWED) {
-        vec4 ng = texelFetch(gNg, t, 0);
+        vec4 ng = texelAt(gNg, t);
         vis = shadowVisibility(t, P, normalize(ng.xyz), ng.w, L, dist);
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
-    vec3 f = evaluateLayeredBrdfCos(N, L, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
-                                    texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
+    vec3 f = evaluateLayeredBrdfCos(N, L, viewVector(P), texelAt(gAlbedo, t).rgb, texelAt(gBrdf, t),
+                                    texelAt(gSheen, t), texelAt(gCoat, t).xy);
     return f * spot * (vis * inverseSquare(dist2)) * pA.w;
 }
 
