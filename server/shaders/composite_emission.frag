@@ -9,14 +9,14 @@ layout(location = OUT_COLOR) out vec4 oColor;
 void main() {
 #ifdef DFB_FLAT_SAMPLES
     ivec2 t = ivec2(gl_FragCoord.xy);
-    oColor = vec4(texelFetch(gEmission, t, 0).rgb * texelFetch(gP, t, 0).w, 1.0);
+    oColor = vec4(texelAt(gEmission, t).rgb * texelAt(gP, t).w, 1.0);
     return;
 #endif
     uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
     vec3 sum = vec3(0.0);
     for (uint s = range.x; s < range.x + range.y; ++s) {
         ivec2 t = sampleTexel(s);
-        sum += texelFetch(gEmission, t, 0).rgb * texelFetch(gP, t, 0).w;
+        sum += texelAt(gEmission, t).rgb * texelAt(gP, t).w;
     }
     oColor = vec4(sum, 1.0);
 }

@@ -10,6 +10,6 @@ layout(location = OUT_COLOR) out vec4 oColor;
 void main() {
     uvec2 range = texelFetch(gPixelSamples, ivec2(gl_FragCoord.xy), 0).xy;
     vec3 sum = vec3(0.0);
-    for (uint s = range.x; s < range.x + range.y; ++s) sum += texelFetch(uSampleRadiance, sampleTexel(s), 0).rgb;
+    for (uint s = range.x; s < range.x + range.y; ++s) sum += texelAt(uSampleRadiance, sampleTexel(s)).rgb;
     oColor = vec4(sum, 1.0);
 }

@@ -188,24 +188,24 @@ float emitterFactor(vec3 p, vec3 t, out vec3 l) {
 }
 
 vec3 shadeSample(ivec2 t) {
-    vec4 pA = texelFetch(gP, t, 0);
+    vec4 pA = texelAt(gP, t);
     if (pA.w <= 0.0) return vec3(0.0);
     if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0);
     vec3 P = pA.xyz;
     if (dot(P - uLight.lightPosition.xyz, uLight.lightAxis.xyz) <= 0.0) return vec3(0.0); // one-sided
-    vec3 N = normalize(texelFetch(gN, t, 0).xyz);
+    vec3 N = normalize(texelAt(gN, t).xyz);
     float vis = 1.0;
     if (SHADE_SHADOWED) {
-        vis = areaVisibility(P, normalize(texelFetch(gNg, t, 0).xyz));
+        vis = areaVisibility(P, normalize(texelAt(gNg, t).xyz));
         if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
         if (vis <= 0.0) return vec3(0.0);
     } else if (SHADE_OUTPUT == 1) {
         return vec3(pA.w, pA.w, 0.0);
     }
     vec3 V = viewVector(P);
-    vec3 albedo = texelFetch(gAlbedo, t, 0).rgb;
-    vec4 brdf = texelFetch(gBrdf, t, 0), sheen = texelFetch(gSheen, t, 0);
-    vec2 coat = texelFetch(gCoat, t, 0).xy;
+    vec3 albedo = texelAt(gAlbedo, t).rgb;
+    vec4 brdf = texelAt(gBrdf, t), sheen = texelAt(gSheen, t);
+    vec2 coat = texelAt(gCoat, t).xy;
     vec3 sum = vec3(0.0);
 #ifdef AREA_REFERENCE
     int g = AREA_REFERENCE;

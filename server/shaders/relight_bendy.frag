@@ -137,7 +137,7 @@ float bendyFootprintLight(ivec2 t, TubeCoords c, float arc, vec3 P, vec3 Ng, flo
 
 // t: the sample's texel in the sample textures.
 vec3 shadeSample(ivec2 t) {
-    vec4 pA = texelFetch(gP, t, 0);
+    vec4 pA = texelAt(gP, t);
     if (pA.w <= 0.0) return vec3(0.0);
     if (SHADE_LINKED && !objectLinked(texelFetch(gId, t, 0).x)) return vec3(0.0); // light linking
     vec3 P = pA.xyz;
@@ -150,11 +150,11 @@ vec3 shadeSample(ivec2 t) {
     float dist = sqrt(dist2);
     float spot = SHADE_FOOTPRINT_TAPS > 1 ? 1.0 : spotCone(uLight.lightCone.xy, toSource / dist, uBendy.bendyAxisU.xyz);
     if (spot <= 0.0) return vec3(0.0);
-    vec3 N = normalize(texelFetch(gN, t, 0).xyz);
+    vec3 N = normalize(texelAt(gN, t).xyz);
     vec3 Li = lightDirection(c, P, BENDY_EXACT);
     if (dot(N, Li) <= 0.0) return vec3(0.0);
     float vis = 1.0;
-    vec4 ng = texelFetch(gNg, t, 0); // w: the highest horizon sine
+    vec4 ng = texelAt(gNg, t); // w: the highest horizon sine
     vec3 Ng = normalize(ng.xyz);
     if (SHADE_FOOTPRINT_TAPS > 1) {
         // Edges inside the pixel: cone and visibility over the footprint's taps.
@@ -170,8 +170,8 @@ vec3 shadeSample(ivec2 t) {
         if (vis <= 0.0 && SHADE_OUTPUT == 0) return vec3(0.0);
     }
     if (SHADE_OUTPUT == 1) return vec3(vis * pA.w, pA.w, 0.0);
-    vec3 f = evaluateLayeredBrdfCos(N, Li, viewVector(P), texelFetch(gAlbedo, t, 0).rgb, texelFetch(gBrdf, t, 0),
-                                    texelFetch(gSheen, t, 0), texelFetch(gCoat, t, 0).xy);
+    vec3 f = evaluateLayeredBrdfCos(N, Li, viewVector(P), texelAt(gAlbedo, t).rgb, texelAt(gBrdf, t),
+                                    texelAt(gSheen, t), texelAt(gCoat, t).xy);
     float emitter = BENDY_EMITTER_COSINE ? max(dot(toSource / dist, -uBendy.bendyAxisU.xyz), 0.0) : 1.0;
     return f * segmentColor(c.g, c.t) * (spot * vis * emitter * inverseSquare(dist2)) * pA.w;
 }

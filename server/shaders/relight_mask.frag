@@ -36,7 +36,7 @@ vec3 normal(ivec2 t) {
 #ifdef SHADE_BENDY
     return vec3(0.0);
 #else
-    return SHADE_KIND == 1 || SHADE_KIND == 3 ? vec3(0.0) : normalize(texelFetch(gN, t, 0).xyz);
+    return SHADE_KIND == 1 || SHADE_KIND == 3 ? vec3(0.0) : normalize(texelAt(gN, t).xyz);
 #endif
 }
 
@@ -77,7 +77,7 @@ bool reachable(vec3 P, vec3 N) {
 // wider than a pixel); point and directional lights' N . L > 0 is the same at every tap.
 bool reachableFootprint(vec3 P, vec3 N, ivec2 t, float coverage) {
     if (SHADE_FOOTPRINT_TAPS <= 1) return reachable(P, N);
-    mat2x3 fp = pixelFootprint(P, normalize(texelFetch(gNg, t, 0).xyz), coverage);
+    mat2x3 fp = pixelFootprint(P, normalize(texelAt(gNg, t).xyz), coverage);
 #ifdef SHADE_BENDY
     bool any = reachable(P, N);
     for (int c = 0; c < 4; ++c) any = reachable(P + fp * vec2((c & 1) == 0 ? -0.5 : 0.5, c < 2 ? -0.5 : 0.5), N) || any;
@@ -94,7 +94,7 @@ bool reachableFootprint(vec3 P, vec3 N, ivec2 t, float coverage) {
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy) * max(uPixelStep, 1);
 #ifdef DFB_FLAT_SAMPLES
-    vec4 pA = texelFetch(gP, pixel, 0);
+    vec4 pA = texelAt(gP, pixel);
     if (!(pA.w > 0.0 && reachableFootprint(pA.xyz, normal(pixel), pixel, pA.w))) discard;
 #ifdef SHADE_BENDY
     gl_FragDepth = multiple ? 0.75 : 0.25;
@@ -104,7 +104,7 @@ void main() {
     bool any = false;
     for (uint s = range.x; s < range.x + range.y; ++s) {
         ivec2 t = sampleTexel(s);
-        vec4 pA = texelFetch(gP, t, 0);
+        vec4 pA = texelAt(gP, t);
         any = any || (pA.w > 0.0 && reachableFootprint(pA.xyz, normal(t), t, pA.w));
     }
     if (!any) discard;
