@@ -105,30 +105,25 @@ std::vector<ChannelSpec> withHorizon(std::vector<ChannelSpec> rows) {
     return rows;
 }
 
-// The table's rows with the lobe's rings added (format version 7): env.ringR.u, .v, .share,
-// .roughness per ring R. Half: as the lobe's, octahedral coordinates in [-1, 1], the share and
-// the roughness in [0, 1].
-std::vector<ChannelSpec> withEnvRings(std::vector<ChannelSpec> rows) {
+// The rings' channel names in DeepBuffer::envRings' order: env.ringR.u, .v, .share, .roughness per
+// ring R (format version 7). Static: the table holds pointers to them.
+const std::vector<std::string>& ringChannelNames() {
     static const std::vector<std::string> names = [] {
         std::vector<std::string> n;
         for (int r = 0; r < ENV_LOBE_RINGS; ++r)
             for (const char* c : {"u", "v", "share", "roughness"}) n.push_back("env.ring" + std::to_string(r) + "." + c);
         return n;
-    }(); // outlives the table, which holds pointers to its names
-    for (int i = 0; i < ENV_RING_COMPONENTS; ++i)
-        rows.push_back({names[size_t(i)].c_str(), Imf::HALF, i, ENV_RING_COMPONENTS, false,
-                        [](DeepBuffer& b) { return reinterpret_cast<char*>(b.envRings.data()); }, OptionalLayer::EnvRings});
-    return rows;
+    }();
+    return names;
 }
 
-// The names of the rings' channels, in DeepBuffer::envRings' order.
-const std::string& ringChannelName(int i) {
-    static const std::vector<std::string> names = [] {
-        std::vector<std::string> n;
-        for (const ChannelSpec& c : withEnvRings({})) n.push_back(c.name);
-        return n;
-    }();
-    return names[size_t(i)];
+// The table's rows with the lobe's rings added (ringChannelNames). Half: as the lobe's, octahedral
+// coordinates in [-1, 1], the share and the roughness in [0, 1].
+std::vector<ChannelSpec> withEnvRings(std::vector<ChannelSpec> rows) {
+    for (int i = 0; i < ENV_RING_COMPONENTS; ++i)
+        rows.push_back({ringChannelNames()[size_t(i)].c_str(), Imf::HALF, i, ENV_RING_COMPONENTS, false,
+                        [](DeepBuffer& b) { return reinterpret_cast<char*>(b.envRings.data()); }, OptionalLayer::EnvRings});
+    return rows;
 }
 
 // The channel table of format v7 (docs/gbuffer-format.md). Positions and depth are float for
@@ -822,7 +817,7 @@ Result<DeepBuffer> readDeepBuffer(const std::string& path) {
                     const float v = b.envRings[size_t(s) * ENV_RING_COMPONENTS + size_t(i)];
                     const bool direction = i % 4 < 2;
                     if (!std::isfinite(v) || v < (direction ? -1.f : 0.f) || v > 1.f) {
-                        return makeError(ErrorCode::InvalidValue, path + ": channel '" + ringChannelName(i) + "' at pixel (" +
+                        return makeError(ErrorCode::InvalidValue, path + ": channel '" + ringChannelNames()[size_t(i)] + "' at pixel (" +
                                                                       std::to_string(x) + ", " + std::to_string(y) + ") is " +
                                                                       std::to_string(v) + ", outside [" + (direction ? "-1" : "0") +
                                                                       ", 1]");
