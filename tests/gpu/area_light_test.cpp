@@ -206,7 +206,7 @@ TEST(AreaLight, GridShadowsAgreeWithRayTracedVisibility) {
         }
 }
 
-// The default scene: its casters are simplified for area lights (Casters::buildSoftCasters, 104k
+// The default scene: its casters are simplified for area lights (Casters::simplify, 104k
 // -> about 1k triangles within 0.2 % of the diagonal); the reference rays hit the full meshes.
 TEST(AreaLight, SimplifiedCastersKeepTheTabletopsSoftShadows) {
     Shot shot;

@@ -92,7 +92,7 @@ private:
 };
 
 /// How far area lights' simplified casters may stray from the full ones: this fraction of the
-/// scene's diagonal (Casters::buildSoftCasters; measured in tests/gpu/area_light_test.cpp).
+/// scene's diagonal (Casters::simplify; measured in tests/gpu/area_light_test.cpp).
 constexpr float SOFT_CASTER_ERROR = 0.002f;
 /// How far the environment's suns' simplified casters may stray, as a fraction of the scene's
 /// diagonal: half a texel of their ENV_SUN_MAP_SIZE maps, which span at most the diagonal (the

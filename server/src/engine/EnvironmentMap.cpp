@@ -1,11 +1,11 @@
 #include "EnvironmentMap.h"
 
+#include "WorkerPool.h"
+
 #include <dfb/lightmath/Environment.h>
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
-#include <thread>
 
 namespace dfb::engine {
 
@@ -107,25 +107,16 @@ glm::vec3 prefilteredAt(const std::vector<LatLong>& pyramid, const glm::dvec3& N
     return glm::vec3(weight > 0 ? sum / weight : sum);
 }
 
-// Runs rows(first, step) on up to 8 threads, this one included.
-void onThreads(const std::function<void(int, int)>& rows) {
-    const int threads = int(std::clamp(std::thread::hardware_concurrency(), 1u, 8u));
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(rows, t, threads);
-    rows(0, threads);
-    for (std::thread& t : pool) t.join();
-}
-
 LatLong prefilterLevel(const std::vector<LatLong>& pyramid, int w, double roughness) {
     const int h = w / 2;
     LatLong out{w, h, std::vector<glm::vec3>(size_t(w) * size_t(h))};
     const double alpha = std::max(roughness * roughness, 1e-3);
     const double texelSolidAngle = 4 * lightmath::ENV_PI / (double(pyramid[0].w) * double(pyramid[0].h));
-    onThreads([&](int first, int step) {
-        for (int j = first; j < h; j += step)
-            for (int i = 0; i < w; ++i)
-                out.c[size_t(j) * size_t(w) + size_t(i)] =
-                    prefilteredAt(pyramid, lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h), alpha, texelSolidAngle);
+    // A row per piece on the process's workers.
+    WorkerPool::shared().run(h, [&](int j) {
+        for (int i = 0; i < w; ++i)
+            out.c[size_t(j) * size_t(w) + size_t(i)] =
+                prefilteredAt(pyramid, lightmath::envDirection((i + 0.5) / w, (j + 0.5) / h), alpha, texelSolidAngle);
     });
     return out;
 }
@@ -137,25 +128,23 @@ std::vector<float> cubeLevel(const std::vector<LatLong>& pyramid, int size, doub
     std::vector<float> out(size_t(6) * size_t(size) * size_t(size) * 4, 1.f);
     const double alpha = std::max(roughness * roughness, 1e-3);
     const double texelSolidAngle = 4 * lightmath::ENV_PI / (double(pyramid[0].w) * double(pyramid[0].h));
-    onThreads([&](int first, int step) {
-        for (int row = first; row < 6 * size; row += step) {
-            const int face = row / size, j = row % size;
-            for (int i = 0; i < size; ++i) {
-                const double s = (i + 0.5) / size, t = (j + 0.5) / size;
-                const glm::dvec3 d = lightmath::cubeDirection(face, s, t);
-                glm::vec3 c;
-                if (constant) {
-                    c = pyramid[0].c[0];
-                } else if (roughness > 0.0) {
-                    c = prefilteredAt(pyramid, d, alpha, texelSolidAngle);
-                } else {
-                    const double sc = 2 * s - 1, tc = 2 * t - 1;
-                    const double omega = std::pow(2.0 / size, 2.0) / std::pow(sc * sc + tc * tc + 1, 1.5);
-                    c = sampleAt(pyramid, d, std::max(0.0, 0.5 * std::log2(omega / texelSolidAngle)));
-                }
-                float* o = &out[((size_t(face) * size_t(size) + size_t(j)) * size_t(size) + size_t(i)) * 4];
-                o[0] = c.x, o[1] = c.y, o[2] = c.z;
+    WorkerPool::shared().run(6 * size, [&](int row) {
+        const int face = row / size, j = row % size;
+        for (int i = 0; i < size; ++i) {
+            const double s = (i + 0.5) / size, t = (j + 0.5) / size;
+            const glm::dvec3 d = lightmath::cubeDirection(face, s, t);
+            glm::vec3 c;
+            if (constant) {
+                c = pyramid[0].c[0];
+            } else if (roughness > 0.0) {
+                c = prefilteredAt(pyramid, d, alpha, texelSolidAngle);
+            } else {
+                const double sc = 2 * s - 1, tc = 2 * t - 1;
+                const double omega = std::pow(2.0 / size, 2.0) / std::pow(sc * sc + tc * tc + 1, 1.5);
+                c = sampleAt(pyramid, d, std::max(0.0, 0.5 * std::log2(omega / texelSolidAngle)));
             }
+            float* o = &out[((size_t(face) * size_t(size) + size_t(j)) * size_t(size) + size_t(i)) * 4];
+            o[0] = c.x, o[1] = c.y, o[2] = c.z;
         }
     });
     return out;
